@@ -1,0 +1,18 @@
+#pragma once
+// The Hamilton-Jacobi terms S_1..S_k of the paper's theorem "num_csq" (MATH.md section 5).
+#include "poisson/realisation.hpp"
+
+#include <vector>
+
+namespace pgi {
+
+/// The p-degree of alpha that S_1..S_k need: S_{i+1} reads alpha only up to degree i.
+inline std::size_t realisation_degree_for_order(std::size_t k) { return k == 0 ? 0 : k - 1; }
+
+/// Set the result to S_1..S_k (index 0 holds S_1): S_1 = H and
+/// S_{i+1} = 1/(i+1) [t^i] H(alpha(x, grad S_t^(i)(x))), S_t^(i) = sum_{j<=i} t^j S_j.
+/// Requires k >= 1 and r.degree >= k - 1 (std::invalid_argument otherwise); reads alpha only
+/// up to the degree each term needs.
+std::vector<Poly> hamilton_jacobi_terms(const PhaseSpace& M, const Realisation& r, const Poly& H, std::size_t k);
+
+}  // namespace pgi

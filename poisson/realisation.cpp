@@ -1,0 +1,202 @@
+#include "poisson/realisation.hpp"
+
+#include <stdexcept>
+
+namespace pgi {
+
+RealisationChoice parse_realisation_choice(std::string_view text) {
+    if (text == "auto") return RealisationChoice::automatic;
+    if (text == "closed-form") return RealisationChoice::closed_form;
+    if (text == "radial") return RealisationChoice::radial;
+    throw std::invalid_argument("realisation must be \"auto\", \"closed-form\" or \"radial\", not \"" + std::string(text) + "\"");
+}
+
+std::string to_string(RealisationChoice c) {
+    switch (c) {
+        case RealisationChoice::automatic: return "auto";
+        case RealisationChoice::closed_form: return "closed-form";
+        case RealisationChoice::radial: return "radial";
+    }
+    return "?";
+}
+
+bool has_closed_form(StructureClass c) { return c != StructureClass::general; }
+
+namespace {
+
+// beta(x, p) = alpha(x, -p): the part of degree m changes sign with m odd.
+std::vector<Series> reflect(const std::vector<Series>& alpha) {
+    std::vector<Series> beta = alpha;
+    for (auto& s : beta)
+        for (std::size_t m = 1; m < s.order(); m += 2) s[m] = -s[m];
+    return beta;
+}
+
+Realisation symmetric(std::string method, std::size_t D, std::vector<Series> alpha) {
+    std::vector<Series> beta = reflect(alpha);
+    return Realisation{std::move(method), D, std::move(alpha), std::move(beta)};
+}
+
+// alpha_i = x_i + O(p^{D+1}), to be completed by each construction.
+std::vector<Series> identity_map(const PhaseSpace& M, std::size_t D) {
+    std::vector<Series> a;
+    for (std::size_t i = 0; i < M.dim(); ++i) a.push_back(Series::constant(M.x_gen(i), D + 1));
+    return a;
+}
+
+// (pi(x) p)_i = sum_j pi_ij(x) p_j, or with y in place of x for a linear pi: (L(p) y)_i.
+std::vector<Poly> apply_L(const PoissonStructure& pi, const std::vector<Poly>& y) {
+    const PhaseSpace& M = pi.phase_space();
+    std::vector<Poly> out;
+    for (std::size_t i = 0; i < M.dim(); ++i) {
+        Poly r(M.ring());
+        for (std::size_t j = 0; j < M.dim(); ++j)
+            for (std::size_t k = 0; k < M.dim(); ++k) {
+                Poly c = derivative(pi(i, j), M.x(k));  // c_ij^k, a constant
+                if (!c.is_zero()) r += c * y[k] * M.p_gen(j);
+            }
+        out.push_back(std::move(r));
+    }
+    return out;
+}
+
+void require_class(const PoissonStructure& pi, StructureClass c, const char* what) {
+    if (pi.structure_class() != c)
+        throw std::invalid_argument(std::string(what) + " needs a " + to_string(c) + " structure, not a " +
+                                    to_string(pi.structure_class()) + " one");
+}
+
+}  // namespace
+
+Realisation constant_realisation(const PoissonStructure& pi, std::size_t D) {
+    require_class(pi, StructureClass::constant, "the constant realisation");
+    const PhaseSpace& M = pi.phase_space();
+    auto alpha = identity_map(M, D);
+    // alpha = x - (1/2) pi p
+    if (D >= 1)
+        for (std::size_t i = 0; i < M.dim(); ++i)
+            for (std::size_t j = 0; j < M.dim(); ++j) alpha[i][1] -= Rational(1, 2) * (pi(i, j) * M.p_gen(j));
+    return symmetric("constant", D, std::move(alpha));
+}
+
+Realisation lie_poisson_realisation(const PoissonStructure& pi, std::size_t D) {
+    require_class(pi, StructureClass::linear, "the Lie-Poisson realisation");
+    const PhaseSpace& M = pi.phase_space();
+    auto alpha = identity_map(M, D);
+    // alpha = sum_m B_m/m! L(p)^m x, with v_m = L(p)^m x homogeneous of degree m in p
+    std::vector<Poly> v;
+    for (std::size_t i = 0; i < M.dim(); ++i) v.push_back(M.x_gen(i));
+    for (std::size_t m = 1; m <= D; ++m) {
+        v = apply_L(pi, v);
+        Rational c = bernoulli(m) * inverse_factorial(m);
+        for (std::size_t i = 0; i < M.dim(); ++i) alpha[i][m] = c * v[i];
+    }
+    return symmetric("lie-poisson", D, std::move(alpha));
+}
+
+Realisation log_canonical_realisation(const PoissonStructure& pi, std::size_t D) {
+    require_class(pi, StructureClass::log_canonical, "the log-canonical realisation");
+    const PhaseSpace& M = pi.phase_space();
+    auto alpha = identity_map(M, D);
+    for (std::size_t j = 0; j < M.dim(); ++j) {
+        // u_j = (1/2) sum_i a_ij x_i p_i;  alpha_j = sum_m u_j^m/m! x_j
+        Poly u(M.ring());
+        for (std::size_t i = 0; i < M.dim(); ++i)
+            u += (Rational(1, 2) * pi.log_canonical_coefficient(i, j)) * (M.x_gen(i) * M.p_gen(i));
+        Poly um = M.x_gen(j);
+        for (std::size_t m = 1; m <= D; ++m) {
+            um = um * u;
+            alpha[j][m] = inverse_factorial(m) * um;
+        }
+    }
+    return symmetric("log-canonical", D, std::move(alpha));
+}
+
+Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
+    const PhaseSpace& M = pi.phase_space();
+    const std::size_t n = M.dim();
+    auto alpha = identity_map(M, D);
+    for (std::size_t m = 0; m < D; ++m) {
+        // [pi_ij(A_0 + ... + A_m)]_deg m: compose with alpha truncated after degree m
+        std::vector<std::optional<Series>> images(M.ring()->size());
+        for (std::size_t i = 0; i < n; ++i) images[M.x(i)] = alpha[i].truncated(m + 1);
+        for (std::size_t j = 0; j < n; ++j) {
+            Poly next(M.ring());
+            for (std::size_t i = 0; i < n; ++i) {
+                // R_ij = [pi_ij(A_0 + ... + A_m)]_deg m - sum_{a+b=m+1, 1<=a,b<=m} {A_a,i, A_b,j}_can
+                Poly R = pi(i, j).is_zero() ? Poly(M.ring()) : compose(pi(i, j), images, m + 1)[m];
+                for (std::size_t a = 1; a <= m; ++a) R -= canonical_bracket(M, alpha[i][a], alpha[j][m + 1 - a]);
+                next += M.p_gen(i) * R;
+            }
+            // A_{m+1,j} = 1/(m+2) sum_i p_i R_ij
+            alpha[j][m + 1] = Rational(1, static_cast<unsigned long>(m + 2)) * next;
+        }
+    }
+    return symmetric("radial", D, std::move(alpha));
+}
+
+Realisation build_realisation(const PoissonStructure& pi, RealisationChoice choice, std::size_t D) {
+    const StructureClass c = pi.structure_class();
+    if (choice == RealisationChoice::radial || (choice == RealisationChoice::automatic && !has_closed_form(c)))
+        return radial_realisation(pi, D);
+    switch (c) {
+        case StructureClass::constant: return constant_realisation(pi, D);
+        case StructureClass::linear: return lie_poisson_realisation(pi, D);
+        case StructureClass::log_canonical: return log_canonical_realisation(pi, D);
+        case StructureClass::general: break;
+    }
+    throw std::invalid_argument("realisation \"closed-form\" is not available for a general structure; use \"radial\" or \"auto\"");
+}
+
+Series canonical_bracket(const PhaseSpace& M, const Series& F, const Series& G) {
+    const std::size_t N = F.order();
+    if (G.order() != N || N == 0) throw std::invalid_argument("pgi::canonical_bracket: series orders differ or are zero");
+    Series r(M.ring(), N - 1);
+    // d_x keeps the p-degree, d_p lowers it by one: [F,G]_m = sum_{a+b=m+1} {F_a, G_b}_can
+    for (std::size_t m = 0; m + 1 < N; ++m)
+        for (std::size_t a = 0; a <= m + 1; ++a) r[m] += canonical_bracket(M, F[a], G[m + 1 - a]);
+    return r;
+}
+
+namespace {
+
+std::optional<RealisationDefect> first_defect(std::string identity, std::size_t i, std::size_t j, const Series& lhs,
+                                              const Series& rhs) {
+    for (std::size_t m = 0; m < lhs.order(); ++m)
+        if (!(lhs[m] == rhs[m])) return RealisationDefect{std::move(identity), i, j, m, lhs[m] - rhs[m]};
+    return std::nullopt;
+}
+
+// pi_ij(y) for p-graded y, truncated at order N.
+Series pi_at(const PoissonStructure& pi, std::size_t i, std::size_t j, const std::vector<Series>& y, std::size_t N) {
+    const PhaseSpace& M = pi.phase_space();
+    std::vector<std::optional<Series>> images(M.ring()->size());
+    for (std::size_t l = 0; l < M.dim(); ++l) images[M.x(l)] = y[l].truncated(N);
+    return compose(pi(i, j), images, N);
+}
+
+}  // namespace
+
+std::optional<RealisationDefect> realisation_defect(const PoissonStructure& pi, const Realisation& r) {
+    const PhaseSpace& M = pi.phase_space();
+    const std::size_t n = M.dim(), N = r.degree;  // the identities hold in degrees < D
+    if (N == 0) return std::nullopt;
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = 0; j < n; ++j) {
+            if (i < j) {
+                if (auto d = first_defect("{alpha_i, alpha_j} = pi_ij(alpha)", i, j,
+                                          canonical_bracket(M, r.alpha[i], r.alpha[j]), pi_at(pi, i, j, r.alpha, N)))
+                    return d;
+                if (auto d = first_defect("{beta_i, beta_j} = -pi_ij(beta)", i, j,
+                                          canonical_bracket(M, r.beta[i], r.beta[j]),
+                                          Rational(-1) * pi_at(pi, i, j, r.beta, N)))
+                    return d;
+            }
+            if (auto d = first_defect("{alpha_i, beta_j} = 0", i, j, canonical_bracket(M, r.alpha[i], r.beta[j]),
+                                      M.zero_series(N)))
+                return d;
+        }
+    return std::nullopt;
+}
+
+}  // namespace pgi

@@ -1,0 +1,53 @@
+#pragma once
+// Bi-realisations (alpha, beta) of pi on T*R^n as series in the momenta (MATH.md sections 2-4).
+#include "poisson/structure.hpp"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pgi {
+
+/// How to build the realisation: a closed form where the class has one, the radial recursion, or
+/// the closed form if there is one and the radial recursion otherwise.
+enum class RealisationChoice { automatic, closed_form, radial };
+RealisationChoice parse_realisation_choice(std::string_view text);  // "auto" | "closed-form" | "radial"
+std::string to_string(RealisationChoice c);
+
+/// alpha_i and beta_i as series graded by p-degree, truncated after degree D (order D + 1).
+struct Realisation {
+    std::string method;            // "constant", "lie-poisson", "log-canonical" or "radial"
+    std::size_t degree;            // D
+    std::vector<Series> alpha;     // alpha[i][m]: the part of alpha_i of degree m in p
+    std::vector<Series> beta;
+};
+
+/// Whether a closed form (MATH.md section 3) exists for this class.
+bool has_closed_form(StructureClass c);
+/// Set the result to the realisation of pi truncated at p-degree D, built as choice says.
+/// Requires: pi satisfies the Jacobi identity. Throws std::invalid_argument for closed_form on a general pi.
+Realisation build_realisation(const PoissonStructure& pi, RealisationChoice choice, std::size_t D);
+/// MATH.md section 3: alpha = x - (1/2) pi p.
+Realisation constant_realisation(const PoissonStructure& pi, std::size_t D);
+/// MATH.md section 3: alpha = g(L(p)) x, g(z) = z/(e^z - 1) = sum B_m z^m / m!, L(p) x = pi(x) p.
+Realisation lie_poisson_realisation(const PoissonStructure& pi, std::size_t D);
+/// MATH.md section 3: alpha_j = exp((1/2) sum_i a_ij x_i p_i) x_j.
+Realisation log_canonical_realisation(const PoissonStructure& pi, std::size_t D);
+/// MATH.md section 4: the radial recursion, for any polynomial Poisson structure.
+Realisation radial_realisation(const PoissonStructure& pi, std::size_t D);
+
+/// The canonical bracket of two p-graded series, truncated one degree lower (order N - 1).
+Series canonical_bracket(const PhaseSpace& M, const Series& F, const Series& G);
+
+/// A realisation identity of MATH.md section 2 that fails below degree D: which one, where, and the defect.
+struct RealisationDefect {
+    std::string identity;  // "{alpha_i, alpha_j} = pi_ij(alpha)", ...
+    std::size_t i, j;
+    std::size_t degree;    // p-degree of the first non-zero part of the defect
+    Poly defect;
+};
+/// Checks {alpha_i, alpha_j} = pi_ij(alpha), {beta_i, beta_j} = -pi_ij(beta), {alpha_i, beta_j} = 0
+/// exactly in every p-degree below D. Returns the first failure, if any.
+std::optional<RealisationDefect> realisation_defect(const PoissonStructure& pi, const Realisation& r);
+
+}  // namespace pgi

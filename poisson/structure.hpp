@@ -1,0 +1,58 @@
+#pragma once
+// PoissonStructure: a skew matrix pi(x) of polynomials, its class, its bracket and its checks (MATH.md section 1).
+#include "poisson/phase_space.hpp"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pgi {
+
+/// The classes that have a closed-form realisation (MATH.md section 3), and the rest.
+enum class StructureClass { constant, linear, log_canonical, general };
+std::string to_string(StructureClass c);
+
+/// The non-zero jacobiator of the first failing triple i < j < k.
+struct JacobiFailure {
+    std::size_t i, j, k;
+    Poly jacobiator;
+};
+
+/// A Casimir C with pi grad C != 0: the first non-zero component (pi grad C)_i.
+struct CasimirFailure {
+    std::size_t component;
+    Poly value;
+};
+
+class PoissonStructure {
+public:
+    /// pi[i][j] in the coordinates of M. Requires an n x n matrix with pi[i][i] = 0 and
+    /// pi[j][i] = -pi[i][j]: std::invalid_argument names the first (i, j) where this fails.
+    /// The Jacobi identity is not required here: check it with jacobi_failure().
+    PoissonStructure(PhaseSpace M, std::vector<std::vector<Poly>> pi);
+
+    const PhaseSpace& phase_space() const { return M_; }
+    std::size_t dim() const { return M_.dim(); }
+    const Poly& operator()(std::size_t i, std::size_t j) const { return pi_[i][j]; }
+    StructureClass structure_class() const { return class_; }
+    /// For a log-canonical structure, a_ij with pi_ij = a_ij x_i x_j.
+    Rational log_canonical_coefficient(std::size_t i, std::size_t j) const;
+
+    /// {f, g} = grad f^T pi grad g.
+    Poly bracket(const Poly& f, const Poly& g) const;
+    /// The Hamiltonian vector field pi grad H.
+    std::vector<Poly> hamiltonian_vector_field(const Poly& H) const;
+    /// sum_l pi_il d_l pi_jk + pi_jl d_l pi_ki + pi_kl d_l pi_ij.
+    Poly jacobiator(std::size_t i, std::size_t j, std::size_t k) const;
+    /// The first triple (in lexicographic order) where the Jacobi identity fails, if any.
+    std::optional<JacobiFailure> jacobi_failure() const;
+    /// Whether pi grad C = 0, exactly; the failing component if not.
+    std::optional<CasimirFailure> casimir_failure(const Poly& C) const;
+
+private:
+    PhaseSpace M_;
+    std::vector<std::vector<Poly>> pi_;
+    StructureClass class_;
+};
+
+}  // namespace pgi

@@ -1,0 +1,119 @@
+#pragma once
+// Ring and Poly: multivariate polynomials over Q as value types over FLINT's fmpq_mpoly.
+#include "series/rational.hpp"
+
+#include <flint/fmpq_mpoly.h>
+
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace pgi {
+
+/// Owns one fmpq_mpoly context and the names of its variables. Shared by its polynomials
+/// through RingPtr, never copied.
+class Ring {
+public:
+    /// Requires distinct, non-empty names made of letters, digits and '_', not starting with a digit.
+    /// Throws std::invalid_argument naming the offending name.
+    explicit Ring(std::vector<std::string> names);
+    ~Ring() { fmpq_mpoly_ctx_clear(ctx_); }
+    Ring(const Ring&) = delete;
+    Ring& operator=(const Ring&) = delete;
+
+    const fmpq_mpoly_ctx_struct* ctx() const { return ctx_; }
+    std::size_t size() const { return names_.size(); }
+    const std::vector<std::string>& names() const { return names_; }
+    /// Index of a variable, or -1.
+    long index_of(std::string_view name) const;
+
+private:
+    fmpq_mpoly_ctx_t ctx_;
+    std::vector<std::string> names_;
+};
+using RingPtr = std::shared_ptr<const Ring>;
+inline RingPtr make_ring(std::vector<std::string> names) { return std::make_shared<const Ring>(std::move(names)); }
+
+/// A polynomial of Q[ring variables]. Copy is a deep copy; move swaps with an empty poly.
+class Poly {
+public:
+    explicit Poly(RingPtr r) : ring_(std::move(r)) { fmpq_mpoly_init(p_, ctx()); }
+    Poly(const Poly& o) : Poly(o.ring_) { fmpq_mpoly_set(p_, o.p_, ctx()); }
+    Poly(Poly&& o) noexcept : Poly(o.ring_) { fmpq_mpoly_swap(p_, o.p_, ctx()); }
+    Poly& operator=(Poly o) noexcept {
+        std::swap(ring_, o.ring_);
+        fmpq_mpoly_swap(p_, o.p_, ctx());
+        return *this;
+    }
+    ~Poly() { fmpq_mpoly_clear(p_, ctx()); }
+
+    /// The generator number var of the ring.
+    static Poly gen(RingPtr r, std::size_t var);
+    static Poly constant(RingPtr r, const Rational& c);
+    /// Parses text in the ring's variable names: integers, rationals a/b, + - * / ^ and parentheses.
+    /// Throws ParseError naming the problem (unknown variable, syntax, division by zero or by a
+    /// non-constant, an exponent above max_exponent).
+    static Poly parse(RingPtr r, std::string_view text, unsigned long max_exponent = 1000);
+
+    const RingPtr& ring() const { return ring_; }
+    const fmpq_mpoly_ctx_struct* ctx() const { return ring_->ctx(); }
+    const fmpq_mpoly_struct* get() const { return p_; }
+    fmpq_mpoly_struct* get_mut() { return p_; }
+
+    std::size_t length() const { return static_cast<std::size_t>(fmpq_mpoly_length(p_, ctx())); }
+    bool is_zero() const { return fmpq_mpoly_is_zero(p_, ctx()); }
+    /// Total degree (-1 for zero).
+    long total_degree() const { return fmpq_mpoly_total_degree_si(p_, ctx()); }
+    /// Coefficient and exponent vector of term i (0 <= i < length()).
+    Rational term_coeff(std::size_t i) const;
+    std::vector<unsigned long> term_exponents(std::size_t i) const;
+    std::string to_string() const;
+
+    Poly& operator+=(const Poly& o);
+    Poly& operator-=(const Poly& o);
+    Poly& operator*=(const Rational& c);
+
+private:
+    RingPtr ring_;
+    fmpq_mpoly_t p_;
+};
+
+/// Thrown by Poly::parse; what() names the text and the problem.
+struct ParseError : std::invalid_argument {
+    using std::invalid_argument::invalid_argument;
+};
+
+bool operator==(const Poly& a, const Poly& b);
+Poly operator+(const Poly& a, const Poly& b);
+Poly operator-(const Poly& a, const Poly& b);
+Poly operator-(const Poly& a);
+Poly operator*(const Poly& a, const Poly& b);
+Poly operator*(const Rational& c, const Poly& a);
+/// Set the result to f^k. Throws std::overflow_error when an exponent overflows.
+Poly pow(const Poly& f, unsigned long k);
+/// d f / d x_var.
+Poly derivative(const Poly& f, std::size_t var);
+/// f with every variable v replaced by images[v] (all images in f's ring, one per variable).
+Poly substitute(const Poly& f, const std::vector<Poly>& images);
+/// The double value of f at a point (one coordinate per ring variable), for checks, not for speed.
+double evaluate(const Poly& f, std::span<const double> point);
+
+/// A set of variables by index, used to grade: "degree in the momenta".
+using VarMask = std::vector<bool>;
+/// Total degree of a monomial in the masked variables.
+unsigned long masked_degree(std::span<const unsigned long> exps, const VarMask& mask);
+/// The terms of f of degree exactly m (resp. at most m) in the masked variables.
+Poly homogeneous_part(const Poly& f, const VarMask& mask, unsigned long m);
+Poly truncate(const Poly& f, const VarMask& mask, unsigned long max_degree);
+/// Highest degree of f in the masked variables (-1 for zero).
+long masked_degree(const Poly& f, const VarMask& mask);
+
+}  // namespace pgi
+
+namespace pgi {
+/// f moved to another ring: variable v of f's ring becomes variable var_map[v] of target.
+Poly rename_variables(const Poly& f, RingPtr target, const std::vector<long>& var_map);
+}  // namespace pgi
