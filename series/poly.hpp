@@ -5,6 +5,7 @@
 #include <flint/fmpq_mpoly.h>
 
 #include <functional>
+#include <stdexcept>
 #include <memory>
 #include <span>
 #include <string>

@@ -2,6 +2,8 @@
 // Rational: an exact number of Q as a value type over FLINT's fmpq_t.
 #include <flint/fmpq.h>
 
+#include <stdexcept>
+
 #include <string>
 #include <string_view>
 

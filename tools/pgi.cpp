@@ -1,0 +1,85 @@
+// pgi: the command-line program. Exit codes: 0 success, 2 bad input (nothing on stdout), 1 internal error.
+#include "tools/commands.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <iostream>
+
+namespace {
+
+struct Options {
+    std::string scene;
+    bool json = false;
+    pgi::SceneOverrides overrides;
+    std::size_t degree = 0;
+};
+
+void scene_options(CLI::App* cmd, Options& o) {
+    cmd->add_option("scene", o.scene, "scene file (TOML)")->required();
+    cmd->add_flag("--json", o.json, "print JSON");
+    cmd->add_option("--order", o.overrides.order, "Hamilton-Jacobi order k (overrides integrator.order)");
+    cmd->add_option("--dt", o.overrides.dt, "time step, a decimal or a rational like 1/100");
+    cmd->add_option("--realisation", o.overrides.realisation, "auto | closed-form | radial");
+    cmd->add_option("--x0", o.overrides.x0, "initial state, comma-separated");
+    cmd->add_option("--t-end", o.overrides.t_end, "final time");
+}
+
+void emit(const Options& o, const nlohmann::json& report, const std::function<std::string(const nlohmann::json&)>& text) {
+    if (o.json) std::cout << report.dump(2) << "\n";
+    else std::cout << text(report);
+}
+
+int run_command(const std::string& name, const Options& o) {
+    pgi::Scene scene = pgi::load_scene(o.scene, o.overrides);
+    if (name == "check") {
+        auto report = pgi::check_report(scene);
+        emit(o, report, pgi::check_text);
+        if (!report["ok"]) {
+            std::cerr << "pgi: " << o.scene << ": a check fails (see the report)\n";
+            return 2;
+        }
+        return 0;
+    }
+    pgi::require_valid(scene);
+    if (name == "terms") emit(o, pgi::terms_report(scene), pgi::terms_text);
+    if (name == "realisation") emit(o, pgi::realisation_report(scene, o.degree), pgi::realisation_text);
+    if (name == "run") {
+        std::cout << pgi::check_text(pgi::check_report(scene)) << "\n" << pgi::terms_text(pgi::terms_report(scene));
+    }
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
+    app.require_subcommand(1);
+    Options o;
+    auto* check = app.add_subcommand("check", "class, Jacobi, Casimirs and realisation identities of a scene");
+    auto* terms = app.add_subcommand("terms", "the Hamilton-Jacobi terms S_1..S_k");
+    auto* realisation = app.add_subcommand("realisation", "alpha and beta truncated at a p-degree");
+    auto* run = app.add_subcommand("run", "the main job: checks, S_1..S_k");
+    for (auto* cmd : {check, terms, realisation, run}) scene_options(cmd, o);
+    realisation->add_option("--degree", o.degree, "total degree D in the momenta")->required();
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::Success& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        app.exit(e);
+        return 2;
+    }
+    try {
+        return run_command(app.get_subcommands().front()->get_name(), o);
+    } catch (const pgi::SceneError& e) {
+        std::cerr << "pgi: " << e.what() << "\n";
+        return 2;
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "pgi: " << o.scene << ": " << e.what() << "\n";
+        return 2;
+    } catch (const std::exception& e) {
+        std::cerr << "pgi: internal error: " << e.what() << "\n";
+        return 1;
+    }
+}

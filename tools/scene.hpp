@@ -1,0 +1,51 @@
+#pragma once
+// Scene: a TOML file read into exact objects (the only place that knows TOML).
+#include "poisson/realisation.hpp"
+
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace pgi {
+
+/// Bad input: what() reads "FILE: key: problem".
+class SceneError : public std::runtime_error {
+public:
+    SceneError(const std::filesystem::path& file, const std::string& key, const std::string& problem)
+        : std::runtime_error(file.string() + ": " + (key.empty() ? "" : key + ": ") + problem) {}
+};
+
+/// Command-line values that replace the scene's, in the scene's own forms ("1/10", "0.6,0.8,0.3").
+struct SceneOverrides {
+    std::optional<std::string> order, dt, realisation, x0, t_end;
+};
+
+struct Scene {
+    std::filesystem::path file;
+    std::string name;
+    PoissonStructure pi;
+    Poly H;
+    std::vector<Poly> casimirs;
+    std::size_t order = 2;                      // k
+    double dt = 0.1;
+    std::string dt_text = "1/10";               // as written, for reports
+    RealisationChoice realisation = RealisationChoice::automatic;
+    std::optional<std::vector<double>> x0;
+    std::optional<double> t_end;
+
+    const PhaseSpace& phase_space() const { return pi.phase_space(); }
+};
+
+/// Reads and checks a scene. Throws SceneError for anything malformed: syntax, missing keys, wrong
+/// types, polynomials that do not parse, brackets that are not skew or contradict each other,
+/// order < 1, dt <= 0, non-finite numbers, x0 of the wrong length. Does not check Jacobi or the
+/// Casimirs: require_valid() does, check_report() reports them.
+Scene load_scene(const std::filesystem::path& file, const SceneOverrides& overrides = {});
+
+/// Throws SceneError naming the triple and the jacobiator if pi fails Jacobi, or the Casimir and
+/// the non-zero component of pi grad C if a listed Casimir is not one.
+void require_valid(const Scene& scene);
+
+}  // namespace pgi
