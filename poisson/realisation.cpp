@@ -112,24 +112,53 @@ Realisation log_canonical_realisation(const PoissonStructure& pi, std::size_t D)
     return symmetric("log-canonical", D, std::move(alpha));
 }
 
+namespace {
+
+// The x- and p-gradients of one polynomial, kept so each bracket below costs products only.
+struct Gradient {
+    std::vector<Poly> dx, dp;
+    Gradient(const PhaseSpace& M, const Poly& f) {
+        for (std::size_t l = 0; l < M.dim(); ++l) {
+            dx.push_back(derivative(f, M.x(l)));
+            dp.push_back(derivative(f, M.p(l)));
+        }
+    }
+};
+
+// {F, G}_can from the gradients of F and G.
+Poly canonical_bracket(const PhaseSpace& M, const Gradient& F, const Gradient& G) {
+    Poly r(M.ring());
+    for (std::size_t l = 0; l < M.dim(); ++l) {
+        if (!F.dx[l].is_zero() && !G.dp[l].is_zero()) r += F.dx[l] * G.dp[l];
+        if (!F.dp[l].is_zero() && !G.dx[l].is_zero()) r -= F.dp[l] * G.dx[l];
+    }
+    return r;
+}
+
+}  // namespace
+
 Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
     const PhaseSpace& M = pi.phase_space();
     const std::size_t n = M.dim();
     auto alpha = identity_map(M, D);
+    std::vector<std::vector<Gradient>> grad(n);  // grad[i][a]: gradients of A_{a,i}, a >= 1
     for (std::size_t m = 0; m < D; ++m) {
         // [pi_ij(A_0 + ... + A_m)]_deg m: compose with alpha truncated after degree m
         std::vector<std::optional<Series>> images(M.ring()->size());
         for (std::size_t i = 0; i < n; ++i) images[M.x(i)] = alpha[i].truncated(m + 1);
+        std::vector<Poly> next(n, Poly(M.ring()));
         for (std::size_t j = 0; j < n; ++j) {
-            Poly next(M.ring());
             for (std::size_t i = 0; i < n; ++i) {
                 // R_ij = [pi_ij(A_0 + ... + A_m)]_deg m - sum_{a+b=m+1, 1<=a,b<=m} {A_a,i, A_b,j}_can
                 Poly R = pi(i, j).is_zero() ? Poly(M.ring()) : compose(pi(i, j), images, m + 1)[m];
-                for (std::size_t a = 1; a <= m; ++a) R -= canonical_bracket(M, alpha[i][a], alpha[j][m + 1 - a]);
-                next += M.p_gen(i) * R;
+                for (std::size_t a = 1; a <= m; ++a) R -= canonical_bracket(M, grad[i][a - 1], grad[j][m - a]);
+                next[j] += M.p_gen(i) * R;
             }
+        }
+        for (std::size_t j = 0; j < n; ++j) {
             // A_{m+1,j} = 1/(m+2) sum_i p_i R_ij
-            alpha[j][m + 1] = Rational(1, static_cast<unsigned long>(m + 2)) * next;
+            alpha[j][m + 1] = Rational(1, static_cast<unsigned long>(m + 2)) * next[j];
+            grad[j].emplace_back(M, alpha[j][m + 1]);
         }
     }
     return symmetric("radial", D, std::move(alpha));

@@ -1,5 +1,6 @@
 #include "series/series.hpp"
 
+#include <map>
 #include <stdexcept>
 
 namespace pgi {
@@ -82,25 +83,39 @@ Series compose(const Poly& f, const std::vector<std::optional<Series>>& images, 
     if (images.size() != nvars) throw std::invalid_argument("pgi::compose: need one (optional) image per variable");
     for (const auto& im : images)
         if (im && im->order() != N) throw std::invalid_argument("pgi::compose: an image has the wrong truncation order");
-    // powers[v][e] = images[v]^e, filled on demand.
-    std::vector<std::vector<Series>> powers(nvars);
-    auto power = [&](std::size_t v, unsigned long e) -> const Series& {
-        auto& pw = powers[v];
-        if (pw.empty()) pw.push_back(Series::constant(Poly::constant(f.ring(), 1), N));
-        while (pw.size() <= e) pw.push_back(mul_trunc(pw.back(), *images[v]));
-        return pw[e];
-    };
-    Series result(f.ring(), N);
+    // f = sum_e c_e(kept variables) * prod_{v substituted} v^{e_v}: group the terms by e first, so each
+    // product of powers is formed once per distinct exponent of the substituted variables.
+    std::map<std::vector<unsigned long>, Poly> groups;
     for (std::size_t t = 0; t < f.length(); ++t) {
         auto e = f.term_exponents(t);
-        // The kept variables and the coefficient form a monomial of degree 0.
-        Poly mono = Poly::constant(f.ring(), f.term_coeff(t));
+        Poly kept = Poly::constant(f.ring(), f.term_coeff(t));
+        for (std::size_t v = 0; v < nvars; ++v) {
+            if (images[v]) continue;
+            if (e[v] > 0) kept = kept * pow(Poly::gen(f.ring(), v), e[v]);
+            e[v] = 0;
+        }
+        auto [it, fresh] = groups.try_emplace(std::move(e), f.ring());
+        it->second += kept;
+    }
+    // powers[v][k] = images[v]^k, filled on demand.
+    std::vector<std::vector<Series>> powers(nvars);
+    auto power = [&](std::size_t v, unsigned long k) -> const Series& {
+        auto& pw = powers[v];
+        if (pw.empty()) pw.push_back(Series::constant(Poly::constant(f.ring(), 1), N));
+        while (pw.size() <= k) pw.push_back(mul_trunc(pw.back(), *images[v]));
+        return pw[k];
+    };
+    Series result(f.ring(), N);
+    for (const auto& [e, kept] : groups) {
+        std::optional<Series> product;
         for (std::size_t v = 0; v < nvars; ++v)
-            if (!images[v] && e[v] > 0) mono = mono * pow(Poly::gen(f.ring(), v), e[v]);
-        Series term = Series::constant(mono, N);
-        for (std::size_t v = 0; v < nvars; ++v)
-            if (images[v] && e[v] > 0) term = mul_trunc(term, power(v, e[v]));
-        result += term;
+            if (e[v] > 0) product = product ? mul_trunc(*product, power(v, e[v])) : power(v, e[v]);
+        if (!product) {
+            result[0] += kept;
+            continue;
+        }
+        for (std::size_t m = 0; m < N; ++m)
+            if (!(*product)[m].is_zero()) result[m] += kept * (*product)[m];
     }
     return result;
 }

@@ -170,8 +170,8 @@ private:
     double real(const std::string& key, const toml::node& n, std::string* text = nullptr) const {
         if (n.is_integer() || n.is_floating_point()) {
             double v = *n.value<double>();
-            if (text) *text = n.is_integer() ? std::to_string(*n.value<long>()) : Rational::from_double(v).to_string();
             if (!std::isfinite(v)) fail(key, "must be finite");
+            if (text) *text = n.is_integer() ? std::to_string(*n.value<long>()) : Rational::from_double(v).to_string();
             return v;
         }
         if (n.is_string()) return real(key, *n.value<std::string>(), text);
@@ -221,6 +221,9 @@ private:
                 fail(ov_.realisation ? "--realisation" : "integrator.realisation", e.what());
             }
         }
+        if (scene.realisation == RealisationChoice::closed_form && !has_closed_form(scene.pi.structure_class()))
+            fail(ov_.realisation ? "--realisation" : "integrator.realisation",
+                 "\"closed-form\" is not available for a general structure; use \"radial\" or \"auto\"");
     }
 
     void read_run(const toml::table& doc, Scene& scene) const {
@@ -269,9 +272,6 @@ void require_valid(const Scene& scene) {
             throw SceneError(scene.file, "hamiltonian.casimirs[" + std::to_string(c) + "]",
                              "'" + scene.casimirs[c].to_string() + "' is not a Casimir: (pi grad C)_" + names[f->component] +
                                  " = " + f->value.to_string());
-    if (scene.realisation == RealisationChoice::closed_form && !has_closed_form(scene.pi.structure_class()))
-        throw SceneError(scene.file, "integrator.realisation",
-                         "\"closed-form\" is not available for a general structure; use \"radial\" or \"auto\"");
 }
 
 }  // namespace pgi

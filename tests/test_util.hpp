@@ -1,0 +1,32 @@
+#pragma once
+// Helpers shared by the test suites: building structures from bracket strings and loading bundled scenes.
+#include "tools/scene.hpp"
+
+#include <string>
+#include <tuple>
+#include <vector>
+
+namespace pgi::test {
+
+/// pi from {x_i, x_j} strings, the rest zero.
+inline PoissonStructure structure(std::vector<std::string> coords,
+                                  const std::vector<std::tuple<int, int, std::string>>& brackets) {
+    PhaseSpace M(std::move(coords));
+    std::vector<std::vector<Poly>> pi(M.dim(), std::vector<Poly>(M.dim(), Poly(M.ring())));
+    for (const auto& [i, j, s] : brackets) {
+        pi[i][j] = M.parse(s);
+        pi[j][i] = -pi[i][j];
+    }
+    return PoissonStructure(M, pi);
+}
+
+inline std::string scene_path(const std::string& name) { return std::string(PGI_SCENES_DIR) + "/" + name + ".toml"; }
+inline Scene bundled(const std::string& name) { return load_scene(scene_path(name)); }
+
+inline const std::vector<std::string>& bundled_names() {
+    static const std::vector<std::string> names{"rigid_body", "lotka_volterra", "harmonic_oscillator", "henon_heiles",
+                                                "plane_quadratic", "nambu", "volterra_chain"};
+    return names;
+}
+
+}  // namespace pgi::test

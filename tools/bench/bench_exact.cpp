@@ -1,0 +1,55 @@
+// Times pgi's exact phase on the workloads of tools/bench/bench_exact.py and prints JSON:
+// {"seconds": median wall time, "repetitions": R, "result": [polynomials]} for one workload.
+#include "poisson/hamilton_jacobi.hpp"
+#include "tools/scene.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <iostream>
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::vector<std::string> strings(const std::vector<pgi::Poly>& v) {
+    std::vector<std::string> out;
+    for (const auto& p : v) out.push_back(p.to_string());
+    return out;
+}
+
+// workload(scene) -> polynomials, timed from the loaded scene on (parsing excluded, as in the sympy versions).
+std::vector<pgi::Poly> run(const std::string& kind, const pgi::Scene& s, std::size_t n) {
+    if (kind == "terms") {
+        auto r = pgi::build_realisation(s.pi, s.realisation, pgi::realisation_degree_for_order(n));
+        return pgi::hamilton_jacobi_terms(s.phase_space(), r, s.H, n);
+    }
+    auto r = pgi::build_realisation(s.pi, pgi::RealisationChoice::radial, n);
+    std::vector<pgi::Poly> alpha;
+    for (const auto& a : r.alpha) alpha.push_back(a.sum());
+    return alpha;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc != 4) {
+        std::cerr << "usage: pgi_bench_exact SCENE terms|radial N\n";
+        return 2;
+    }
+    pgi::Scene scene = pgi::load_scene(argv[1]);
+    const std::string kind = argv[2];
+    const std::size_t n = std::stoul(argv[3]);
+    std::vector<double> times;
+    std::vector<pgi::Poly> result;
+    const auto start = Clock::now();
+    while (times.size() < 5 || (Clock::now() - start < std::chrono::seconds(1) && times.size() < 1000)) {
+        auto t0 = Clock::now();
+        result = run(kind, scene, n);
+        times.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    }
+    std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
+    std::cout << nlohmann::json{{"seconds", times[times.size() / 2]}, {"repetitions", times.size()}, {"result", strings(result)}}.dump()
+              << "\n";
+}

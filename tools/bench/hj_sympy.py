@@ -1,0 +1,173 @@
+#!/usr/bin/env python3
+"""The exact phase of pgi written twice in sympy, as the baselines of tools/bench/bench_exact.py:
+- RingImpl: sympy's sparse polynomial rings (sympy.polys.rings.ring over QQ), the same graded
+  algorithm as pgi (truncated Cauchy products, composition by cached powers);
+- ExprImpl: plain sympy expressions (expand / subs / diff / coeff), grading by an auxiliary symbol.
+Both compute the Lie-Poisson closed form or the radial realisation (MATH.md 3-4) and the
+Hamilton-Jacobi terms (MATH.md 5). `--check-log-canonical` prints the independent derivation used in
+tests/poisson_hamilton_jacobi.cpp (exponential realisation expanded by sympy itself)."""
+import sys
+
+import sympy as sp
+from sympy import QQ
+from sympy.polys.rings import ring
+
+
+def bernoulli(m):
+    """B_m of z/(e^z - 1); sympy >= 1.12 returns B_1 = +1/2, the other convention."""
+    return sp.Rational(-1, 2) if m == 1 else sp.bernoulli(m)
+
+
+class RingImpl:
+    def __init__(self, coords, brackets):
+        self.n = n = len(coords)
+        self.R, *gens = ring(",".join(coords + ["p_" + c for c in coords]), QQ)
+        self.X, self.P = gens[:n], gens[n:]
+        self.symbols = {c: sp.Symbol(c) for c in coords}
+        self.pi = [[self.R.zero] * n for _ in range(n)]
+        for (i, j), s in brackets.items():
+            self.pi[i][j] = self.parse(s)
+            self.pi[j][i] = -self.pi[i][j]
+
+    def parse(self, text):
+        return self.R(sp.sympify(text, locals=self.symbols))
+
+    def mul_trunc(self, a, b):
+        N = len(a)
+        r = [self.R.zero] * N
+        for i in range(N):
+            if a[i]:
+                for j in range(N - i):
+                    if b[j]:
+                        r[i + j] += a[i] * b[j]
+        return r
+
+    def compose(self, f, images, N):
+        """f with variable v -> series images[v] (dict), O(e^N)."""
+        powers = {}
+        out = [self.R.zero] * N
+        for monom, c in f.items():
+            mono = self.R({tuple(e if v not in images else 0 for v, e in enumerate(monom)): c})
+            term = [mono] + [self.R.zero] * (N - 1)
+            for v, e in enumerate(monom):
+                if v in images and e:
+                    pw = powers.setdefault(v, [[self.R.one] + [self.R.zero] * (N - 1)])
+                    while len(pw) <= e:
+                        pw.append(self.mul_trunc(pw[-1], images[v]))
+                    term = self.mul_trunc(term, pw[e])
+            out = [a + b for a, b in zip(out, term)]
+        return out
+
+    def can(self, F, G):
+        return sum((F.diff(self.X[i]) * G.diff(self.P[i]) - F.diff(self.P[i]) * G.diff(self.X[i])
+                    for i in range(self.n)), self.R.zero)
+
+    def lie_poisson(self, D):
+        n = self.n
+        alpha = [[self.X[i]] + [self.R.zero] * D for i in range(n)]
+        v = list(self.X)
+        for m in range(1, D + 1):
+            v = [sum((self.pi[i][j].diff(self.X[k]) * v[k] * self.P[j] for j in range(n) for k in range(n)), self.R.zero)
+                 for i in range(n)]
+            c = QQ(bernoulli(m).p, bernoulli(m).q) / QQ(int(sp.factorial(m)))
+            for i in range(n):
+                alpha[i][m] = v[i] * c
+        return alpha
+
+    def radial(self, D):
+        n = self.n
+        alpha = [[self.X[i]] + [self.R.zero] * D for i in range(n)]
+        for m in range(D):
+            images = {l: alpha[l][: m + 1] for l in range(n)}
+            for j in range(n):
+                nxt = self.R.zero
+                for i in range(n):
+                    R = self.compose(self.pi[i][j], images, m + 1)[m] if self.pi[i][j] else self.R.zero
+                    for a in range(1, m + 1):
+                        R -= self.can(alpha[i][a], alpha[j][m + 1 - a])
+                    nxt += self.P[i] * R
+                alpha[j][m + 1] = nxt * QQ(1, m + 2)
+        return alpha
+
+    def hamilton_jacobi(self, alpha, H, k):
+        H = self.parse(H)
+        S = [H]
+        for i in range(1, k):
+            N = i + 1
+            images = {self.n + l: [self.R.zero] + [S[j - 1].diff(self.X[l]) for j in range(1, N)] for l in range(self.n)}
+            a = {l: self.compose(sum(alpha[l][: N], self.R.zero), images, N) for l in range(self.n)}
+            S.append(self.compose(H, a, N)[i] * QQ(1, i + 1))
+        return [str(s.as_expr()) for s in S]
+
+
+class ExprImpl:
+    def __init__(self, coords, brackets):
+        self.n = n = len(coords)
+        self.X = sp.symbols(coords)
+        self.P = sp.symbols(["p_" + c for c in coords])
+        self.t, self.e = sp.symbols("t_ e_")
+        self.pi = [[sp.Integer(0)] * n for _ in range(n)]
+        for (i, j), s in brackets.items():
+            self.pi[i][j] = sp.sympify(s, locals=dict(zip(coords, self.X)))
+            self.pi[j][i] = -self.pi[i][j]
+
+    def can(self, F, G):
+        return sp.expand(sum(sp.diff(F, self.X[i]) * sp.diff(G, self.P[i]) - sp.diff(F, self.P[i]) * sp.diff(G, self.X[i])
+                             for i in range(self.n)))
+
+    def lie_poisson(self, D):
+        n = self.n
+        alpha = [[self.X[i]] + [sp.Integer(0)] * D for i in range(n)]
+        v = list(self.X)
+        for m in range(1, D + 1):
+            v = [sp.expand(sum(sp.diff(self.pi[i][j], self.X[k]) * v[k] * self.P[j] for j in range(n) for k in range(n)))
+                 for i in range(n)]
+            for i in range(n):
+                alpha[i][m] = sp.expand(bernoulli(m) / sp.factorial(m) * v[i])
+        return alpha
+
+    def radial(self, D):
+        n, e = self.n, self.e
+        alpha = [[self.X[i]] + [sp.Integer(0)] * D for i in range(n)]
+        for m in range(D):
+            sub = {self.X[l]: sum(e ** a * alpha[l][a] for a in range(m + 1)) for l in range(n)}
+            for j in range(n):
+                nxt = 0
+                for i in range(n):
+                    R = sp.expand(self.pi[i][j].subs(sub, simultaneous=True)).coeff(e, m)
+                    R -= sum(self.can(alpha[i][a], alpha[j][m + 1 - a]) for a in range(1, m + 1))
+                    nxt += self.P[i] * R
+                alpha[j][m + 1] = sp.expand(nxt / (m + 2))
+        return alpha
+
+    def hamilton_jacobi(self, alpha, H, k):
+        t, n = self.t, self.n
+        H = sp.sympify(H, locals={str(x): x for x in self.X})
+        S = [H]
+        for i in range(1, k):
+            St = sum(t ** j * S[j - 1] for j in range(1, i + 1))
+            psub = {self.P[l]: sp.diff(St, self.X[l]) for l in range(n)}
+            a = [sp.expand(sum(alpha[l][: i + 1]).subs(psub, simultaneous=True)) for l in range(n)]
+            a = [sum(x.coeff(t, j) * t ** j for j in range(i + 1)) for x in a]
+            comp = sp.expand(H.subs(dict(zip(self.X, a)), simultaneous=True))
+            S.append(sp.expand(comp.coeff(t, i) / (i + 1)))
+        return [str(s) for s in S]
+
+
+def check_log_canonical():
+    x, y, t, px, py = sp.symbols("x y t p_x p_y")
+    a = [[0, 2], [-2, 0]]
+    X, P = [x, y], [px, py]
+    alpha = [sp.exp(sp.Rational(1, 2) * sum(a[i][j] * X[i] * P[i] for i in range(2))) * X[j] for j in range(2)]
+    H = lambda u: u[0] * u[1] + u[0]
+    S = [H(X)]
+    for i in range(1, 3):
+        St = sum(t ** (j + 1) * S[j] for j in range(i))
+        comp = H([al.subs({P[l]: sp.diff(St, X[l]) for l in range(2)}) for al in alpha])
+        S.append(sp.expand(sp.series(comp, t, 0, i + 1).removeO().coeff(t, i) / (i + 1)))
+    for j, s in enumerate(S):
+        print(f"S_{j + 1} = {s}")
+
+
+if __name__ == "__main__" and "--check-log-canonical" in sys.argv:
+    check_log_canonical()

@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Installs the Debian packages pgi builds with, if any is missing. Idempotent; needs root or sudo.
+set -euo pipefail
+packages=(build-essential cmake pkg-config libflint-dev libmpfr-dev libgmp-dev libeigen3-dev doctest-dev
+          libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libfmt-dev)
+missing=()
+for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+    echo "pgi: installing ${missing[*]}" >&2
+    sudo_cmd=()
+    [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
+    "${sudo_cmd[@]}" apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
