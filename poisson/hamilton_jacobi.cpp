@@ -17,9 +17,9 @@ std::vector<Series> alpha_along_gradient(const PhaseSpace& M, const Realisation&
         for (std::size_t j = 1; j <= i; ++j) grad[j] = derivative(S[j - 1], M.x(l));
         images[M.p(l)] = std::move(grad);
     }
-    std::vector<Series> out;
-    for (std::size_t l = 0; l < M.dim(); ++l) out.push_back(compose(r.alpha[l].truncated(N).sum(), images, N));
-    return out;
+    std::vector<Poly> alpha;
+    for (std::size_t l = 0; l < M.dim(); ++l) alpha.push_back(r.alpha[l].truncated(N).sum());
+    return compose(alpha, images, N);
 }
 
 }  // namespace

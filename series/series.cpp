@@ -78,46 +78,73 @@ Series mul_trunc(const Series& a, const Series& b) {
     return r;
 }
 
-Series compose(const Poly& f, const std::vector<std::optional<Series>>& images, std::size_t N) {
-    const std::size_t nvars = f.ring()->size();
+namespace {
+
+// Products prod_v images[v]^{e_v} over the substituted variables, memoised by exponent vector:
+// each new monomial costs one truncated product, from a monomial of one degree less.
+class MonomialProducts {
+public:
+    MonomialProducts(const RingPtr& r, const std::vector<std::optional<Series>>& images, std::size_t N)
+        : images_(images), one_(Series::constant(Poly::constant(r, 1), N)) {}
+
+    const Series& operator()(const std::vector<unsigned long>& e) {
+        if (auto it = cache_.find(e); it != cache_.end()) return it->second;
+        std::size_t v = 0;
+        while (v < e.size() && e[v] == 0) ++v;
+        if (v == e.size()) return one_;
+        std::vector<unsigned long> lower = e;
+        --lower[v];
+        Series product = mul_trunc((*this)(lower), *images_[v]);
+        return cache_.emplace(e, std::move(product)).first->second;
+    }
+
+private:
+    const std::vector<std::optional<Series>>& images_;
+    Series one_;
+    std::map<std::vector<unsigned long>, Series> cache_;
+};
+
+void check_images(std::size_t nvars, const std::vector<std::optional<Series>>& images, std::size_t N) {
     if (images.size() != nvars) throw std::invalid_argument("pgi::compose: need one (optional) image per variable");
     for (const auto& im : images)
         if (im && im->order() != N) throw std::invalid_argument("pgi::compose: an image has the wrong truncation order");
-    // f = sum_e c_e(kept variables) * prod_{v substituted} v^{e_v}: group the terms by e first, so each
-    // product of powers is formed once per distinct exponent of the substituted variables.
-    std::map<std::vector<unsigned long>, Poly> groups;
-    for (std::size_t t = 0; t < f.length(); ++t) {
-        auto e = f.term_exponents(t);
-        Poly kept = Poly::constant(f.ring(), f.term_coeff(t));
-        for (std::size_t v = 0; v < nvars; ++v) {
-            if (images[v]) continue;
-            if (e[v] > 0) kept = kept * pow(Poly::gen(f.ring(), v), e[v]);
-            e[v] = 0;
+}
+
+}  // namespace
+
+std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::optional<Series>>& images, std::size_t N) {
+    std::vector<Series> out;
+    if (fs.empty()) return out;
+    const RingPtr& ring = fs.front().ring();
+    const std::size_t nvars = ring->size();
+    check_images(nvars, images, N);
+    MonomialProducts products(ring, images, N);
+    for (const Poly& f : fs) {
+        // f = sum_e c_e(kept variables) * prod_{v substituted} v^{e_v}: group the terms by e first.
+        std::map<std::vector<unsigned long>, Poly> groups;
+        for (std::size_t t = 0; t < f.length(); ++t) {
+            auto e = f.term_exponents(t);
+            Poly kept = Poly::constant(ring, f.term_coeff(t));
+            for (std::size_t v = 0; v < nvars; ++v) {
+                if (images[v]) continue;
+                if (e[v] > 0) kept = kept * pow(Poly::gen(ring, v), e[v]);
+                e[v] = 0;
+            }
+            groups.try_emplace(std::move(e), ring).first->second += kept;
         }
-        auto [it, fresh] = groups.try_emplace(std::move(e), f.ring());
-        it->second += kept;
-    }
-    // powers[v][k] = images[v]^k, filled on demand.
-    std::vector<std::vector<Series>> powers(nvars);
-    auto power = [&](std::size_t v, unsigned long k) -> const Series& {
-        auto& pw = powers[v];
-        if (pw.empty()) pw.push_back(Series::constant(Poly::constant(f.ring(), 1), N));
-        while (pw.size() <= k) pw.push_back(mul_trunc(pw.back(), *images[v]));
-        return pw[k];
-    };
-    Series result(f.ring(), N);
-    for (const auto& [e, kept] : groups) {
-        std::optional<Series> product;
-        for (std::size_t v = 0; v < nvars; ++v)
-            if (e[v] > 0) product = product ? mul_trunc(*product, power(v, e[v])) : power(v, e[v]);
-        if (!product) {
-            result[0] += kept;
-            continue;
+        Series result(ring, N);
+        for (const auto& [e, kept] : groups) {
+            const Series& product = products(e);
+            for (std::size_t m = 0; m < N; ++m)
+                if (!product[m].is_zero()) result[m] += kept * product[m];
         }
-        for (std::size_t m = 0; m < N; ++m)
-            if (!(*product)[m].is_zero()) result[m] += kept * (*product)[m];
+        out.push_back(std::move(result));
     }
-    return result;
+    return out;
+}
+
+Series compose(const Poly& f, const std::vector<std::optional<Series>>& images, std::size_t N) {
+    return std::move(compose(std::vector<Poly>{f}, images, N).front());
 }
 
 }  // namespace pgi

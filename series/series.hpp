@@ -46,5 +46,7 @@ Series mul_trunc(const Series& a, const Series& b);
 /// f with the variable v replaced by images[v] where images[v] is set, + O(e^N); the other variables
 /// stay as they are and count as degree 0. Every image must have order N.
 Series compose(const Poly& f, const std::vector<std::optional<Series>>& images, std::size_t N);
+/// The same for several polynomials at once, sharing the products of the images (all in one ring).
+std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::optional<Series>>& images, std::size_t N);
 
 }  // namespace pgi
