@@ -4,6 +4,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
+#include <optional>
+
 namespace pgi {
 
 /// Class, skew and Jacobi verdicts, each Casimir's verdict, and the realisation identities through
@@ -14,7 +17,27 @@ nlohmann::json terms_report(const Scene& scene);
 /// alpha and beta truncated at p-degree D.
 nlohmann::json realisation_report(const Scene& scene, std::size_t D);
 
+/// Thrown when a run stops on a failed step (exit code 3): what() says which step, t, the residual and why.
+class NumericalFailure : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+/// Where integrate writes its trajectory (optional) and how it reports progress.
+struct IntegrateOptions {
+    std::optional<std::filesystem::path> csv;
+    std::size_t every = 1;            // one CSV row every this many steps
+    bool progress = false;            // a progress line on stderr for runs longer than a second or two
+};
+
+/// One step from x0: {"x", "newton_iterations", "residual", ...}. Throws NumericalFailure.
+nlohmann::json step_report(const Scene& scene);
+/// The whole run: {"steps", "t", "x", "energy_error_max", "casimir_error_max", "newton_iterations_mean",
+/// "wall_seconds", ...}. Throws NumericalFailure after keeping the CSV written so far, marked incomplete.
+nlohmann::json integrate_report(const Scene& scene, const IntegrateOptions& options);
+
 std::string check_text(const nlohmann::json& report);
+std::string integrate_text(const nlohmann::json& report);
 std::string terms_text(const nlohmann::json& report);
 std::string realisation_text(const nlohmann::json& report);
 

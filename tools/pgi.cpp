@@ -1,4 +1,5 @@
-// pgi: the command-line program. Exit codes: 0 success, 2 bad input (nothing on stdout), 1 internal error.
+// pgi: the command-line program. Exit codes: 0 success, 2 bad input (nothing on stdout), 3 a step failed
+// (Newton did not converge or the state overflowed), 1 internal error.
 #include "tools/commands.hpp"
 
 #include <CLI/CLI.hpp>
@@ -13,6 +14,8 @@ struct Options {
     bool json = false;
     pgi::SceneOverrides overrides;
     std::size_t degree = 0;
+    pgi::IntegrateOptions integrate;
+    std::string csv;
 };
 
 void scene_options(CLI::App* cmd, Options& o) {
@@ -44,8 +47,15 @@ int run_command(const std::string& name, const Options& o) {
     pgi::require_valid(scene);
     if (name == "terms") emit(o, pgi::terms_report(scene), pgi::terms_text);
     if (name == "realisation") emit(o, pgi::realisation_report(scene, o.degree), pgi::realisation_text);
+    if (name == "step") emit(o, pgi::step_report(scene), [](const nlohmann::json& r) { return r.dump(2) + "\n"; });
+    pgi::IntegrateOptions io = o.integrate;
+    if (!o.csv.empty()) io.csv = o.csv;
+    io.progress = !o.json;
+    if (name == "integrate") emit(o, pgi::integrate_report(scene, io), pgi::integrate_text);
     if (name == "run") {
-        std::cout << pgi::check_text(pgi::check_report(scene)) << "\n" << pgi::terms_text(pgi::terms_report(scene));
+        std::cout << pgi::check_text(pgi::check_report(scene)) << "\n" << pgi::terms_text(pgi::terms_report(scene)) << "\n"
+                  << std::flush;
+        if (scene.x0 && scene.t_end) std::cout << pgi::integrate_text(pgi::integrate_report(scene, io));
     }
     return 0;
 }
@@ -59,8 +69,14 @@ int main(int argc, char** argv) {
     auto* check = app.add_subcommand("check", "class, Jacobi, Casimirs and realisation identities of a scene");
     auto* terms = app.add_subcommand("terms", "the Hamilton-Jacobi terms S_1..S_k");
     auto* realisation = app.add_subcommand("realisation", "alpha and beta truncated at a p-degree");
-    auto* run = app.add_subcommand("run", "the main job: checks, S_1..S_k");
-    for (auto* cmd : {check, terms, realisation, run}) scene_options(cmd, o);
+    auto* step = app.add_subcommand("step", "one step from x0 (JSON)");
+    auto* integrate = app.add_subcommand("integrate", "integrate from x0 to t_end");
+    auto* run = app.add_subcommand("run", "the main job: checks, S_1..S_k, and the integration when the scene has [run]");
+    for (auto* cmd : {check, terms, realisation, step, integrate, run}) scene_options(cmd, o);
+    for (auto* cmd : {integrate, run}) {
+        cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
+        cmd->add_option("--every", o.integrate.every, "one CSV row every M steps")->check(CLI::PositiveNumber);
+    }
     realisation->add_option("--degree", o.degree, "total degree D in the momenta")->required();
     try {
         app.parse(argc, argv);
@@ -72,6 +88,9 @@ int main(int argc, char** argv) {
     }
     try {
         return run_command(app.get_subcommands().front()->get_name(), o);
+    } catch (const pgi::NumericalFailure& e) {
+        std::cerr << "pgi: " << o.scene << ": " << e.what() << "\n";
+        return 3;
     } catch (const pgi::SceneError& e) {
         std::cerr << "pgi: " << e.what() << "\n";
         return 2;

@@ -1,0 +1,44 @@
+#pragma once
+// The driver, apart from the stepper (odeint's integrate_const beside do_step): N steps of size dt,
+// compensated summation of the increments, an observer after every step.
+#include "poisson/newton_step.hpp"
+
+namespace pgi {
+
+struct IntegrationSummary {
+    std::size_t steps = 0;               // steps completed
+    StepStatus status = StepStatus::ok;  // of the step that stopped the run, ok if none did
+    double mean_iterations = 0;
+};
+
+/// Advances x by N steps (in place), calling observe(n, t, x) at n = 0 and after each step with
+/// t = n dt, and stop = observe(...) returning true ends the run early (still ok). The increments
+/// are added with Kahan compensation, so the round-off of long runs does not grow like N eps.
+/// Stops at the first step that fails; the summary says which (steps) and why (status).
+template <class Observer>
+IntegrationSummary integrate_steps(NewtonStepper& stepper, Eigen::VectorXd& x, std::size_t N, Observer&& observe) {
+    IntegrationSummary summary;
+    Eigen::VectorXd increment = Eigen::VectorXd::Zero(x.size()), compensation = increment, y = increment, sum = increment;
+    long iterations = 0;
+    if (observe(std::size_t{0}, 0.0, x)) return summary;
+    for (std::size_t n = 1; n <= N; ++n) {
+        summary.status = stepper.step(x, increment);
+        iterations += stepper.last_iterations();
+        if (summary.status != StepStatus::ok) break;
+        // Kahan: y = increment - c; s = x + y; c = (s - x) - y; x = s
+        y = increment - compensation;
+        sum = x + y;
+        compensation = (sum - x) - y;
+        x = sum;
+        summary.steps = n;
+        summary.mean_iterations = double(iterations) / double(n);
+        if (!x.allFinite()) {
+            summary.status = StepStatus::non_finite;
+            break;
+        }
+        if (observe(n, double(n) * stepper.dt(), x)) break;
+    }
+    return summary;
+}
+
+}  // namespace pgi

@@ -1,0 +1,220 @@
+#include "poisson/newton_step.hpp"
+
+#include "poisson/base_point.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace pgi {
+
+std::string to_string(StepStatus s) {
+    switch (s) {
+        case StepStatus::ok: return "ok";
+        case StepStatus::newton_not_converged: return "Newton did not converge";
+        case StepStatus::non_finite: return "non-finite state";
+    }
+    return "?";
+}
+
+namespace {
+
+constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
+
+std::vector<double> phase_point(const Eigen::VectorXd& x, const Eigen::VectorXd& p) {
+    std::vector<double> point(x.data(), x.data() + x.size());
+    point.insert(point.end(), p.data(), p.data() + p.size());
+    return point;
+}
+
+// |A_m(x, p)|_inf / |x|_inf for m = 0..D (slow, exact-coefficient evaluation: build time only).
+std::vector<double> component_sizes(const Realisation& r, const std::vector<double>& point, double scale) {
+    std::vector<double> a(r.degree + 1, 0.0);
+    for (std::size_t m = 0; m <= r.degree; ++m)
+        for (const auto& s : r.alpha) a[m] = std::max(a[m], std::abs(evaluate(s[m], point)) / scale);
+    return a;
+}
+
+// S_dt = sum_j dt^j S_j, exactly in the double dt.
+Poly hamilton_jacobi_sum(const std::vector<Poly>& S, const Rational& dt) {
+    Poly sum(S.front().ring());
+    Rational power = dt;
+    for (const auto& Sj : S) {
+        sum += power * Sj;
+        power = power * dt;
+    }
+    return sum;
+}
+
+}  // namespace
+
+NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
+                                   const Eigen::VectorXd& x_typical) {
+    const PhaseSpace& M = pi.phase_space();
+    const std::size_t n = M.dim();
+    if (opt.k < 1) throw std::invalid_argument("NewtonStepper: the order k must be at least 1");
+    if (!(opt.dt > 0) || !std::isfinite(opt.dt)) throw std::invalid_argument("NewtonStepper: dt must be positive and finite");
+    if (static_cast<std::size_t>(x_typical.size()) != n || !x_typical.allFinite())
+        throw std::invalid_argument("NewtonStepper: the typical state must have " + std::to_string(n) + " finite values");
+
+    NewtonStepper s;
+    s.k_ = opt.k;
+    s.dt_ = opt.dt;
+    s.opt_ = opt;
+    const Rational dt = Rational::from_double(opt.dt);
+    const StructureClass cls = pi.structure_class();
+    const bool closed = opt.realisation != RealisationChoice::radial && has_closed_form(cls);
+    const std::size_t P = std::max<std::size_t>(opt.k + 1, 3);  // predictor order
+    s.info_.predictor_order = P;
+
+    // S_1..S_k need the realisation through degree k - 1, the predictor through degree P.
+    const std::size_t D_min = std::max<std::size_t>(realisation_degree_for_order(opt.k), 1);
+    std::size_t probe_degree = std::max(D_min, P) + 2;
+    Realisation probe = build_realisation(pi, opt.realisation, probe_degree);
+    auto S = hamilton_jacobi_terms(M, probe, H, opt.k);
+    Poly S_dt = hamilton_jacobi_sum(S, dt);
+
+    // p at the typical state, to size the realisation's terms there.
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n));
+    Eigen::VectorXd p0(static_cast<Eigen::Index>(n));
+    for (std::size_t l = 0; l < n; ++l)
+        p0[static_cast<Eigen::Index>(l)] = evaluate(derivative(S_dt, M.x(l)), phase_point(x_typical, zero));
+    const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
+    const auto point = phase_point(x_typical, p0);
+
+    if (closed && cls == StructureClass::log_canonical) {
+        s.info_ = {probe.method + " (closed form)", 0, true, 0.0, P};
+        s.realisation_ = RealisationEvaluator::log_canonical(pi);
+    } else {
+        // The smallest D >= D_min whose neglected terms (two degrees at least, for the parity of
+        // symmetric realisations) are below round-off at the typical state; deepen the probe until
+        // one is found or max_degree is reached.
+        const double target = unit_roundoff / 4;
+        std::size_t D = opt.max_degree;
+        for (;;) {
+            auto a = component_sizes(probe, point, scale);
+            std::size_t found = 0;
+            for (std::size_t d = probe.degree - 2; d >= D_min && found == 0; --d) {
+                bool tail_small = true;
+                for (std::size_t m = d + 1; m <= probe.degree; ++m) tail_small = tail_small && a[m] <= target;
+                if (!tail_small) break;
+                if (d == D_min || a[d] > target) found = d;
+                if (d == D_min) break;
+            }
+            if (found) {
+                D = found;
+                s.info_.truncation_estimate = a[D + 1];
+                break;
+            }
+            if (probe.degree >= opt.max_degree + 1) {
+                s.info_.truncation_estimate = a[opt.max_degree + 1];
+                break;
+            }
+            probe = build_realisation(pi, opt.realisation, probe.degree + 2);
+        }
+        Realisation used = build_realisation(pi, opt.realisation, D);
+        s.info_.method = used.method;
+        s.info_.degree = D;
+        s.info_.exact_realisation = cls == StructureClass::constant && closed;
+        s.info_.predictor_order = P;
+        s.realisation_ = closed && cls == StructureClass::linear ? RealisationEvaluator::lie_poisson(pi, D)
+                                                                 : RealisationEvaluator::polynomial(pi, used);
+    }
+
+    // grad S_dt and its Hessian, column-major.
+    std::vector<Poly> g;
+    for (std::size_t l = 0; l < n; ++l) g.push_back(derivative(S_dt, M.x(l)));
+    for (std::size_t c = 0; c < n; ++c)
+        for (std::size_t r = 0; r < n; ++r) g.push_back(derivative(g[c], M.x(r)));
+    std::vector<std::size_t> xs;
+    for (std::size_t i = 0; i < n; ++i) xs.push_back(M.x(i));
+    s.gradient_ = CompiledMap::build(g, xs);
+
+    // xb = x + sum_m dt^m u_m, from the exact series of the base point.
+    auto u = base_point_series(M, probe, S, P);
+    std::vector<Poly> xb;
+    for (std::size_t l = 0; l < n; ++l) {
+        Poly y = M.x_gen(l);
+        Rational power = dt;
+        for (std::size_t m = 0; m < P; ++m, power = power * dt) y += power * u[m][l];
+        xb.push_back(std::move(y));
+    }
+    s.predictor_ = CompiledMap::build(xb, xs);
+
+    const auto N = static_cast<Eigen::Index>(n);
+    s.v_ = RealisationValues(n);
+    s.xb_.setZero(N);
+    s.p_.setZero(N);
+    s.r_.setZero(N);
+    s.dx_.setZero(N);
+    s.gh_.setZero(N + N * N);
+    s.hess_.setZero(N, N);
+    s.J_.setZero(N, N);
+    s.D_.setZero(N, N);
+    s.lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(N);
+    return s;
+}
+
+void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
+    const auto n = xb.size();
+    gradient_.eval(xb.data(), gh_.data());
+    p_ = gh_.head(n);
+    hess_ = Eigen::Map<const Eigen::MatrixXd>(gh_.data() + n, n, n);
+    realisation_.eval(xb, p_, v_);
+}
+
+bool NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
+    const double scale = x.lpNorm<Eigen::Infinity>();
+    for (int it = 1; it <= opt_.newton_max_iter; ++it) {
+        evaluate_at(xb_);
+        // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
+        r_ = v_.alpha - x;
+        residual_ = r_.lpNorm<Eigen::Infinity>();
+        if (!std::isfinite(residual_) || !v_.delta.allFinite()) return false;
+        J_ = v_.alpha_x;
+        J_.noalias() += v_.alpha_p * hess_;
+        lu_.compute(J_);
+        dx_ = lu_.solve(r_);
+        xb_ -= dx_;
+        iterations_ = it;
+        correction_ = dx_.lpNorm<Eigen::Infinity>();
+        if (!std::isfinite(correction_)) return false;
+        if (correction_ <= opt_.newton_tol * scale) {
+            // delta at the corrected base point, to first order: the remainder is O(|dx|^2)
+            D_ = v_.delta_x;
+            D_.noalias() += v_.delta_p * hess_;
+            increment = v_.delta;
+            increment.noalias() -= D_ * dx_;
+            return increment.allFinite();
+        }
+    }
+    return false;
+}
+
+StepStatus NewtonStepper::step(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
+    iterations_ = 0;
+    if (!x.allFinite()) return StepStatus::non_finite;
+    predictor_.eval(x.data(), xb_.data());
+    if (newton(x, increment)) return StepStatus::ok;
+    // NOTE: far outside the predictor's range (stiff steps), Newton may still converge from xb = x.
+    const int first = iterations_;
+    xb_ = x;
+    const bool ok = newton(x, increment);
+    iterations_ += first;
+    if (ok) return StepStatus::ok;
+    return std::isfinite(residual_) ? StepStatus::newton_not_converged : StepStatus::non_finite;
+}
+
+Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
+    Eigen::VectorXd inc(x.size());
+    if (step(x, inc) != StepStatus::ok) throw std::runtime_error("NewtonStepper::tangent_map: the step failed");
+    evaluate_at(xb_);
+    J_ = v_.alpha_x;
+    J_.noalias() += v_.alpha_p * hess_;
+    D_ = v_.delta_x;
+    D_.noalias() += v_.delta_p * hess_;
+    // x = alpha(xb(x)) gives dxb/dx = J^{-1}; x_new = beta(xb) = alpha + delta, so Dphi = (J + D) J^{-1}
+    return Eigen::MatrixXd::Identity(x.size(), x.size()) + D_ * J_.inverse();
+}
+
+}  // namespace pgi

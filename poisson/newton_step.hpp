@@ -1,0 +1,75 @@
+#pragma once
+// NewtonStepper: the paper's Poisson integrator of order k (MATH.md 6): solve alpha(xb, grad S_dt(xb)) = x
+// for xb, then x_new = beta(xb, grad S_dt(xb)), written as x_new = x + (beta - alpha)(xb, grad S_dt(xb)).
+#include "poisson/hamilton_jacobi.hpp"
+#include "poisson/realisation_eval.hpp"
+
+#include <Eigen/Dense>
+
+#include <string>
+
+namespace pgi {
+
+enum class StepStatus { ok, newton_not_converged, non_finite };
+std::string to_string(StepStatus s);
+
+struct StepOptions {
+    std::size_t k = 2;                    // Hamilton-Jacobi order
+    double dt = 0.1;
+    RealisationChoice realisation = RealisationChoice::automatic;
+    std::size_t max_degree = 24;          // cap on the p-degree D of a truncated realisation
+    int newton_max_iter = 20;
+    double newton_tol = 1e-9;             // stop once |dx| <= tol |x|: the next correction is ~|dx|^2
+};
+
+/// How the step was built: the realisation's method and degree, and the size of the neglected
+/// terms at the typical state (zero for exact closed forms).
+struct StepInfo {
+    std::string method;
+    std::size_t degree = 0;               // D (0 for the log-canonical closed form, which has no truncation)
+    bool exact_realisation = false;
+    double truncation_estimate = 0;       // |A_{D+1}(x, grad S_dt(x))|_inf / |x|_inf at the typical state
+    std::size_t predictor_order = 0;      // the base point is predicted by its exact series in dt to this order
+};
+
+class NewtonStepper {
+public:
+    /// Slow, exact: S_1..S_k, the realisation to the degree dt needs (chosen so the truncated terms
+    /// are below round-off at x_typical), the series of the base point, all compiled to double.
+    /// Requires pi to satisfy Jacobi. Throws std::invalid_argument on k < 1, dt <= 0 or a bad x_typical.
+    static NewtonStepper build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
+                               const Eigen::VectorXd& x_typical);
+
+    /// Fast: increment = phi_dt(x) - x. Allocates nothing, throws nothing.
+    [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, Eigen::VectorXd& increment);
+    /// Dphi_dt(x) by implicit differentiation: I + (delta_x + delta_p Hess S) J^{-1} at the solution.
+    Eigen::MatrixXd tangent_map(const Eigen::VectorXd& x);
+
+    int last_iterations() const { return iterations_; }
+    double last_residual() const { return residual_; }   // |alpha(xb, p) - x|_inf at the last evaluation
+    double last_correction() const { return correction_; }  // |dx|_inf of the last Newton update
+    std::size_t order() const { return 2 * ((k_ + 1) / 2); }  // odeint's Stepper::order()
+    double dt() const { return dt_; }
+    std::size_t dim() const { return static_cast<std::size_t>(xb_.size()); }
+    const StepInfo& info() const { return info_; }
+
+private:
+    bool newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment);
+    void evaluate_at(const Eigen::VectorXd& xb);
+
+    std::size_t k_ = 1;
+    double dt_ = 0;
+    StepOptions opt_;
+    StepInfo info_;
+    RealisationEvaluator realisation_;
+    CompiledMap gradient_;                // x -> grad S_dt (n), Hess S_dt (n x n, column-major)
+    CompiledMap predictor_;               // x -> xb, the base point's series in dt
+    RealisationValues v_;
+    Eigen::VectorXd xb_, p_, r_, dx_, gh_;
+    Eigen::MatrixXd hess_, J_, D_;
+    Eigen::PartialPivLU<Eigen::MatrixXd> lu_;
+    int iterations_ = 0;
+    double residual_ = 0, correction_ = 0;
+};
+
+}  // namespace pgi

@@ -1,0 +1,169 @@
+#include "poisson/realisation_eval.hpp"
+
+#include <cmath>
+
+namespace pgi {
+
+RealisationValues::RealisationValues(std::size_t n)
+    : alpha(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n))),
+      delta(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n))),
+      alpha_x(Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n))),
+      alpha_p(alpha_x), delta_x(alpha_x), delta_p(alpha_x) {}
+
+RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi, const Realisation& r) {
+    const PhaseSpace& M = pi.phase_space();
+    const std::size_t n = M.dim();
+    std::vector<Poly> alpha, delta;
+    for (std::size_t i = 0; i < n; ++i) {
+        alpha.push_back(r.alpha[i].sum());
+        delta.push_back(r.beta[i].sum() - alpha.back());  // the odd part, times -2: its own expression
+    }
+    std::vector<Poly> outputs = alpha;
+    outputs.insert(outputs.end(), delta.begin(), delta.end());
+    // derivative blocks, column-major like Eigen: entry (i, l) at l * n + i
+    for (const auto* f : {&alpha, &delta})
+        for (bool wrt_p : {false, true})
+            for (std::size_t l = 0; l < n; ++l)
+                for (std::size_t i = 0; i < n; ++i) outputs.push_back(derivative((*f)[i], wrt_p ? M.p(l) : M.x(l)));
+    std::vector<std::size_t> inputs;
+    for (std::size_t i = 0; i < n; ++i) inputs.push_back(M.x(i));
+    for (std::size_t i = 0; i < n; ++i) inputs.push_back(M.p(i));
+    RealisationEvaluator e;
+    e.n_ = n;
+    e.form_ = Form::polynomial;
+    e.map_ = CompiledMap::build(outputs, inputs);
+    e.in_.resize(static_cast<Eigen::Index>(2 * n));
+    e.out_.resize(static_cast<Eigen::Index>(outputs.size()));
+    return e;
+}
+
+RealisationEvaluator RealisationEvaluator::log_canonical(const PoissonStructure& pi) {
+    RealisationEvaluator e;
+    const auto n = static_cast<Eigen::Index>(pi.dim());
+    e.n_ = pi.dim();
+    e.form_ = Form::log_canonical;
+    e.a_.resize(n, n);
+    for (Eigen::Index i = 0; i < n; ++i)
+        for (Eigen::Index j = 0; j < n; ++j)
+            e.a_(i, j) = pi.log_canonical_coefficient(static_cast<std::size_t>(i), static_cast<std::size_t>(j)).to_double();
+    e.u_.resize(n);
+    return e;
+}
+
+RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& pi, std::size_t D) {
+    const PhaseSpace& M = pi.phase_space();
+    const auto n = static_cast<Eigen::Index>(pi.dim());
+    RealisationEvaluator e;
+    e.n_ = pi.dim();
+    e.form_ = Form::lie_poisson;
+    for (Eigen::Index j = 0; j < n; ++j) {
+        Eigen::MatrixXd C = Eigen::MatrixXd::Zero(n, n);
+        for (Eigen::Index i = 0; i < n; ++i)
+            for (Eigen::Index k = 0; k < n; ++k) {
+                Poly c = derivative(pi(static_cast<std::size_t>(i), static_cast<std::size_t>(j)), M.x(static_cast<std::size_t>(k)));
+                if (!c.is_zero()) C(i, k) = c.term_coeff(0).to_double();
+            }
+        e.C_.push_back(std::move(C));
+    }
+    for (std::size_t m = 0; m <= D; ++m) e.b_.push_back((bernoulli(m) * inverse_factorial(m)).to_double());
+    e.v_prev_.resize(n);
+    e.v_next_.resize(n);
+    e.L_.resize(n, n);
+    e.W_prev_.resize(n, n);
+    e.W_next_.resize(n, n);
+    e.power_.resize(n, n);
+    e.tmp_.resize(n, n);
+    return e;
+}
+
+void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
+    switch (form_) {
+        case Form::log_canonical: eval_log_canonical(x, p, v); return;
+        case Form::lie_poisson: eval_lie_poisson(x, p, v); return;
+        case Form::polynomial: break;
+    }
+    const auto n = static_cast<Eigen::Index>(n_);
+    in_.head(n) = x;
+    in_.tail(n) = p;
+    map_.eval(in_.data(), out_.data());
+    v.alpha = out_.segment(0, n);
+    v.delta = out_.segment(n, n);
+    const Eigen::Index nn = n * n;
+    v.alpha_x = Eigen::Map<const Eigen::MatrixXd>(out_.data() + 2 * n, n, n);
+    v.alpha_p = Eigen::Map<const Eigen::MatrixXd>(out_.data() + 2 * n + nn, n, n);
+    v.delta_x = Eigen::Map<const Eigen::MatrixXd>(out_.data() + 2 * n + 2 * nn, n, n);
+    v.delta_p = Eigen::Map<const Eigen::MatrixXd>(out_.data() + 2 * n + 3 * nn, n, n);
+}
+
+namespace {
+
+// y = A x for small column-major A (n x n): plain loops, as Eigen's dynamic kernels cost more than
+// the arithmetic at n = 3..10.
+inline void matvec(const double* A, const double* x, double* y, Eigen::Index n) {
+    for (Eigen::Index i = 0; i < n; ++i) y[i] = 0.0;
+    for (Eigen::Index k = 0; k < n; ++k) {
+        const double xk = x[k];
+        const double* col = A + k * n;
+        for (Eigen::Index i = 0; i < n; ++i) y[i] += col[i] * xk;
+    }
+}
+
+}  // namespace
+
+void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
+    const auto n = static_cast<Eigen::Index>(n_);
+    // L(p) = sum_j p_j C_j, so L(p) x = pi(x) p
+    L_.setZero();
+    for (Eigen::Index j = 0; j < n; ++j) L_ += p[j] * C_[static_cast<std::size_t>(j)];
+    // v_m = L^m x; W_m = d v_m / dp, column j = C_j v_{m-1} + L (column j of W_{m-1}); power = L^m
+    v_prev_ = x;
+    W_prev_.setZero();
+    power_.setIdentity();
+    v.alpha = b_[0] * x;
+    v.alpha_x = b_[0] * power_;
+    v.alpha_p.setZero();
+    for (std::size_t m = 1; m < b_.size(); ++m) {
+        matvec(L_.data(), v_prev_.data(), v_next_.data(), n);
+        for (Eigen::Index j = 0; j < n; ++j) {
+            matvec(L_.data(), W_prev_.col(j).data(), W_next_.col(j).data(), n);
+            matvec(C_[static_cast<std::size_t>(j)].data(), v_prev_.data(), tmp_.col(j).data(), n);
+        }
+        W_next_ += tmp_;
+        for (Eigen::Index j = 0; j < n; ++j) matvec(L_.data(), power_.col(j).data(), tmp_.col(j).data(), n);
+        power_.swap(tmp_);
+        if (b_[m] != 0) {
+            v.alpha += b_[m] * v_next_;
+            v.alpha_x += b_[m] * power_;
+            v.alpha_p += b_[m] * W_next_;
+        }
+        v_prev_.swap(v_next_);
+        W_prev_.swap(W_next_);
+    }
+    // delta = beta - alpha = -2 sum_{m odd} B_m/m! L^m x = L(p) x: B_1 = -1/2 and B_3 = B_5 = ... = 0
+    matvec(L_.data(), x.data(), v.delta.data(), n);
+    v.delta_x = L_;
+    for (Eigen::Index j = 0; j < n; ++j) matvec(C_[static_cast<std::size_t>(j)].data(), x.data(), v.delta_p.col(j).data(), n);
+}
+
+void RealisationEvaluator::eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
+    const auto n = static_cast<Eigen::Index>(n_);
+    {
+        // u_j = (1/2) sum_i a_ij x_i p_i; alpha_j = x_j e^{u_j}; delta_j = x_j (e^{-u_j} - e^{u_j}) = -2 x_j sinh u_j
+        u_.noalias() = 0.5 * a_.transpose() * x.cwiseProduct(p);
+        for (Eigen::Index j = 0; j < n; ++j) {
+            const double e = std::exp(u_[j]), s = -2.0 * std::sinh(u_[j]), c = -2.0 * std::cosh(u_[j]);
+            v.alpha[j] = x[j] * e;
+            v.delta[j] = x[j] * s;
+            for (Eigen::Index l = 0; l < n; ++l) {
+                // du_j/dx_l = a_lj p_l / 2, du_j/dp_l = a_lj x_l / 2
+                const double ux = 0.5 * a_(l, j) * p[l], up = 0.5 * a_(l, j) * x[l];
+                v.alpha_x(j, l) = x[j] * e * ux + (j == l ? e : 0.0);
+                v.alpha_p(j, l) = x[j] * e * up;
+                v.delta_x(j, l) = x[j] * c * ux + (j == l ? s : 0.0);
+                v.delta_p(j, l) = x[j] * c * up;
+            }
+        }
+    }
+}
+
+}  // namespace pgi

@@ -1,0 +1,92 @@
+#include "series/compile.hpp"
+
+#include <algorithm>
+#include <map>
+#include <stdexcept>
+
+namespace pgi {
+
+namespace {
+
+using Exponent = std::vector<unsigned long>;  // one entry per input
+
+// Total degree first, so a monomial's parent (one degree less) is always numbered before it.
+struct DegreeOrder {
+    bool operator()(const Exponent& a, const Exponent& b) const {
+        unsigned long da = 0, db = 0;
+        for (auto e : a) da += e;
+        for (auto e : b) db += e;
+        return da != db ? da < db : a < b;
+    }
+};
+
+}  // namespace
+
+CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vector<std::size_t>& inputs) {
+    CompiledMap c;
+    c.num_inputs_ = inputs.size();
+    if (outputs.empty()) return c;
+    const RingPtr& ring = outputs.front().ring();
+    std::vector<long> slot(ring->size(), -1);  // ring variable -> input position
+    for (std::size_t i = 0; i < inputs.size(); ++i) slot.at(inputs[i]) = static_cast<long>(i);
+
+    // Every monomial the outputs use, closed under "remove one unit of the first variable".
+    std::map<Exponent, std::uint32_t, DegreeOrder> index;
+    std::vector<std::vector<std::pair<Exponent, double>>> rows(outputs.size());
+    for (std::size_t o = 0; o < outputs.size(); ++o) {
+        const Poly& f = outputs[o];
+        for (std::size_t t = 0; t < f.length(); ++t) {
+            auto e = f.term_exponents(t);
+            Exponent x(inputs.size(), 0);
+            for (std::size_t v = 0; v < e.size(); ++v) {
+                if (e[v] == 0) continue;
+                if (slot[v] < 0)
+                    throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " reads '" + ring->names()[v] +
+                                                "', which is not an input");
+                x[static_cast<std::size_t>(slot[v])] = e[v];
+            }
+            rows[o].emplace_back(x, f.term_coeff(t).to_double());
+            for (Exponent y = x; index.emplace(y, 0).second;) {
+                auto v = std::find_if(y.begin(), y.end(), [](unsigned long k) { return k > 0; });
+                if (v == y.end()) break;
+                --*v;
+            }
+        }
+    }
+    index.emplace(Exponent(inputs.size(), 0), 0);
+    std::uint32_t next = 0;
+    for (auto& [e, id] : index) {
+        id = next++;
+        if (id == 0) continue;  // the constant monomial
+        Exponent parent = e;
+        auto v = std::find_if(parent.begin(), parent.end(), [](unsigned long k) { return k > 0; });
+        --*v;
+        c.parent_.push_back(index.at(parent));
+        c.var_.push_back(static_cast<std::uint32_t>(v - parent.begin()));
+    }
+    c.row_start_.push_back(0);
+    for (const auto& row : rows) {
+        for (const auto& [e, coeff] : row) {
+            c.term_monomial_.push_back(index.at(e));
+            c.term_coeff_.push_back(coeff);
+        }
+        c.row_start_.push_back(static_cast<std::uint32_t>(c.term_coeff_.size()));
+    }
+    c.mono_.assign(c.num_monomials(), 0.0);
+    return c;
+}
+
+void CompiledMap::eval(const double* in, double* out) const {
+    double* mono = mono_.data();
+    mono[0] = 1.0;
+    const std::size_t M = parent_.size();
+    for (std::size_t m = 0; m < M; ++m) mono[m + 1] = mono[parent_[m]] * in[var_[m]];
+    const std::size_t O = num_outputs();
+    for (std::size_t o = 0; o < O; ++o) {
+        double s = 0.0;
+        for (std::uint32_t t = row_start_[o]; t < row_start_[o + 1]; ++t) s += term_coeff_[t] * mono[term_monomial_[t]];
+        out[o] = s;
+    }
+}
+
+}  // namespace pgi

@@ -1,0 +1,38 @@
+#pragma once
+// CompiledMap: polynomials compiled once to a floating-point evaluator (heyoka's "build once, step fast").
+#include "series/poly.hpp"
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace pgi {
+
+/// Several polynomials evaluated together in double: every monomial is formed once, from a monomial
+/// of one degree less times one input, and shared by all outputs; coefficients are rounded once
+/// (correctly) at build time. eval() runs no FLINT code and allocates nothing.
+class CompiledMap {
+public:
+    CompiledMap() = default;
+    /// outputs are polynomials of one ring reading only the ring variables listed in inputs (which
+    /// fixes the order of eval's input array). Throws std::invalid_argument naming a variable that
+    /// an output reads but inputs does not list.
+    static CompiledMap build(const std::vector<Poly>& outputs, const std::vector<std::size_t>& inputs);
+
+    std::size_t num_inputs() const { return num_inputs_; }
+    std::size_t num_outputs() const { return row_start_.empty() ? 0 : row_start_.size() - 1; }
+    std::size_t num_monomials() const { return parent_.size() + 1; }
+    std::size_t num_terms() const { return term_coeff_.size(); }
+
+    /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch).
+    void eval(const double* in, double* out) const;
+
+private:
+    std::size_t num_inputs_ = 0;
+    std::vector<std::uint32_t> parent_, var_;       // monomial m+1 = monomial[parent_[m]] * in[var_[m]]
+    std::vector<std::uint32_t> row_start_, term_monomial_;
+    std::vector<double> term_coeff_;
+    mutable std::vector<double> mono_;
+};
+
+}  // namespace pgi

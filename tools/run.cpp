@@ -1,0 +1,163 @@
+// pgi step and pgi integrate: a scene's numerical run, observed and summarised.
+#include "tools/atomic_file.hpp"
+#include "tools/commands.hpp"
+
+#include "poisson/integrate.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+#include <iostream>
+
+namespace pgi {
+
+using nlohmann::json;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+const std::vector<double>& require_x0(const Scene& scene) {
+    if (!scene.x0) throw SceneError(scene.file, "run.x0", "missing: give [run] x0 or --x0");
+    return *scene.x0;
+}
+
+Eigen::VectorXd to_vector(const std::vector<double>& v) { return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())); }
+std::vector<double> to_std(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
+
+NewtonStepper build_stepper(const Scene& scene) {
+    StepOptions opt;
+    opt.k = scene.order;
+    opt.dt = scene.dt;
+    opt.realisation = scene.realisation;
+    return NewtonStepper::build(scene.pi, scene.H, opt, to_vector(require_x0(scene)));
+}
+
+json stepper_info(const NewtonStepper& s) {
+    return {{"realisation", s.info().method}, {"degree", s.info().degree}, {"exact_realisation", s.info().exact_realisation},
+            {"truncation_estimate", s.info().truncation_estimate}, {"order", s.order()}};
+}
+
+// H and the Casimirs compiled over the coordinates, for the observer.
+CompiledMap invariants(const Scene& scene) {
+    std::vector<Poly> f{scene.H};
+    f.insert(f.end(), scene.casimirs.begin(), scene.casimirs.end());
+    std::vector<std::size_t> xs;
+    for (std::size_t i = 0; i < scene.phase_space().dim(); ++i) xs.push_back(scene.phase_space().x(i));
+    return CompiledMap::build(f, xs);
+}
+
+double relative_error(double value, double initial) {
+    const double d = std::abs(value - initial);
+    return initial != 0 ? d / std::abs(initial) : d;
+}
+
+std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus status) {
+    return fmt::format("step {} (t = {:.17g}) failed: {} after {} Newton iterations, residual {:.3g}, last correction {:.3g}",
+                       step, double(step) * s.dt(), to_string(status), s.last_iterations(), s.last_residual(),
+                       s.last_correction());
+}
+
+// A one-line progress indication on a terminal, for runs longer than about a second and a half.
+class Progress {
+public:
+    Progress(bool enabled, std::size_t total) : enabled_(enabled && ::isatty(2)), total_(total), start_(Clock::now()) {}
+    ~Progress() {
+        if (shown_) std::cerr << "\r\033[K" << std::flush;
+    }
+    void update(std::size_t n) {
+        if (!enabled_ || (n & 1023) != 0) return;
+        auto now = Clock::now();
+        if (now - start_ < std::chrono::milliseconds(1500) || now - last_ < std::chrono::milliseconds(250)) return;
+        last_ = now;
+        shown_ = true;
+        std::cerr << fmt::format("\rpgi: step {} of {} ({:.0f}%)", n, total_, 100.0 * double(n) / double(total_)) << std::flush;
+    }
+
+private:
+    bool enabled_, shown_ = false;
+    std::size_t total_;
+    Clock::time_point start_, last_{};
+};
+
+}  // namespace
+
+json step_report(const Scene& scene) {
+    NewtonStepper s = build_stepper(scene);
+    Eigen::VectorXd x = to_vector(require_x0(scene)), increment(x.size());
+    StepStatus status = s.step(x, increment);
+    if (status != StepStatus::ok) throw NumericalFailure(failure_message(s, 1, status));
+    json r{{"x", to_std(x + increment)}, {"newton_iterations", s.last_iterations()}, {"residual", s.last_residual()},
+           {"correction", s.last_correction()}, {"dt", scene.dt}};
+    r.update(stepper_info(s));
+    return r;
+}
+
+json integrate_report(const Scene& scene, const IntegrateOptions& options) {
+    if (!scene.t_end) throw SceneError(scene.file, "run.t_end", "missing: give [run] t_end or --t-end");
+    const auto built = Clock::now();
+    NewtonStepper s = build_stepper(scene);
+    const double build_seconds = std::chrono::duration<double>(Clock::now() - built).count();
+    const auto N = static_cast<std::size_t>(std::ceil(*scene.t_end / scene.dt - 1e-9));  // whole steps reaching t_end
+    CompiledMap inv = invariants(scene);
+    std::vector<double> values(inv.num_outputs()), initial(inv.num_outputs()), worst(inv.num_outputs(), 0.0);
+    std::optional<AtomicFile> csv;
+    if (options.csv) {
+        csv.emplace(*options.csv);
+        csv->stream() << "t";
+        for (const auto& c : scene.phase_space().coordinates()) csv->stream() << "," << c;
+        csv->stream() << ",H";
+        for (std::size_t c = 0; c < scene.casimirs.size(); ++c) csv->stream() << ",C" << c + 1;
+        csv->stream() << "\n";
+    }
+    Progress progress(options.progress, N);
+    Eigen::VectorXd x = to_vector(require_x0(scene));
+    const auto start = Clock::now();
+    auto summary = integrate_steps(s, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& y) {
+        inv.eval(y.data(), values.data());
+        if (n == 0) initial = values;
+        for (std::size_t i = 0; i < values.size(); ++i) worst[i] = std::max(worst[i], relative_error(values[i], initial[i]));
+        if (csv && (n % options.every == 0 || n == N)) {
+            csv->stream() << fmt::format("{:.17g}", t);
+            for (Eigen::Index i = 0; i < y.size(); ++i) csv->stream() << fmt::format(",{:.17g}", y[i]);
+            for (double v : values) csv->stream() << fmt::format(",{:.17g}", v);
+            csv->stream() << "\n";
+        }
+        progress.update(n);
+        return false;
+    });
+    const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+    if (summary.status != StepStatus::ok) {
+        std::string message = failure_message(s, summary.steps + 1, summary.status);
+        if (csv) {
+            csv->stream() << "# INCOMPLETE: " << message << "\n";
+            csv->commit();
+        }
+        throw NumericalFailure(message);
+    }
+    if (csv) csv->commit();
+    std::vector<double> casimir_errors(worst.begin() + 1, worst.end());
+    json r{{"steps", summary.steps}, {"t", double(summary.steps) * scene.dt}, {"x", to_std(x)},
+           {"energy_error_max", worst[0]}, {"casimir_error_max", casimir_errors},
+           {"newton_iterations_mean", summary.mean_iterations}, {"wall_seconds", wall}, {"build_seconds", build_seconds},
+           {"ns_per_step", wall / double(std::max<std::size_t>(summary.steps, 1)) * 1e9}, {"dt", scene.dt}};
+    r.update(stepper_info(s));
+    return r;
+}
+
+std::string integrate_text(const json& r) {
+    std::string out = fmt::format(
+        "integrated {} steps of dt = {} to t = {} (order {}, {} realisation, degree {}):\n", r["steps"].get<std::size_t>(),
+        r["dt"].get<double>(), r["t"].get<double>(), r["order"].get<std::size_t>(), r["realisation"].get<std::string>(),
+        r["degree"].get<std::size_t>());
+    out += fmt::format("  x(t) = ({:.17g})\n", fmt::join(r["x"].get<std::vector<double>>(), ", "));
+    out += fmt::format("  max relative energy error: {:.3e}\n", r["energy_error_max"].get<double>());
+    for (const auto& c : r["casimir_error_max"]) out += fmt::format("  max relative Casimir error: {:.3e}\n", c.get<double>());
+    out += fmt::format("  Newton iterations per step: {:.3f}; {:.0f} ns per step; exact phase {:.3f} s\n",
+                       r["newton_iterations_mean"].get<double>(), r["ns_per_step"].get<double>(),
+                       r["build_seconds"].get<double>());
+    return out;
+}
+
+}  // namespace pgi
