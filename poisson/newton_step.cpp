@@ -46,6 +46,26 @@ Poly hamilton_jacobi_sum(const std::vector<Poly>& S, const Rational& dt) {
     return sum;
 }
 
+// The degree of the next probe: where the terms' geometric decay, fitted on the last four, reaches
+// the target, plus two for the parity of symmetric realisations; at least two more than now.
+std::size_t deeper_probe(const std::vector<double>& a, double target, std::size_t max_degree) {
+    const std::size_t top = a.size() - 1, lo = top >= 4 ? top - 3 : 1;
+    std::size_t next = top + 2;
+    if (a[lo] > 0 && a[top] > 0 && a[top] < a[lo]) {
+        const double rho = std::pow(a[top] / a[lo], 1.0 / double(top - lo));
+        next = std::max(next, top + static_cast<std::size_t>(std::ceil(std::log(target / a[top]) / std::log(rho))) + 2);
+    }
+    return std::min(next, max_degree + 1);
+}
+
+// The same realisation through degree D <= r.degree.
+Realisation truncated(const Realisation& r, std::size_t D) {
+    Realisation t{r.method, D, {}, {}};
+    for (const auto& s : r.alpha) t.alpha.push_back(s.truncated(D + 1));
+    for (const auto& s : r.beta) t.beta.push_back(s.truncated(D + 1));
+    return t;
+}
+
 }  // namespace
 
 NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
@@ -110,9 +130,9 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
                 s.info_.truncation_estimate = a[opt.max_degree + 1];
                 break;
             }
-            probe = build_realisation(pi, opt.realisation, probe.degree + 2);
+            probe = build_realisation(pi, opt.realisation, deeper_probe(a, target, opt.max_degree));
         }
-        Realisation used = build_realisation(pi, opt.realisation, D);
+        Realisation used = truncated(probe, D);
         s.info_.method = used.method;
         s.info_.degree = D;
         s.info_.exact_realisation = cls == StructureClass::constant && closed;

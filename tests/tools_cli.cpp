@@ -156,3 +156,73 @@ TEST_CASE("cli: check passes on every bundled scene and reports a failing Jacobi
     CHECK(j["jacobi"]["triple"] == nlohmann::json({"x1", "x2", "x3"}));
     CHECK(j["jacobi"]["jacobiator"] == "x1*x2");
 }
+
+TEST_CASE("cli: step --json gives the state after one step, the Newton iterations and the residual") {
+    const std::string lv = test::scene_path("lotka_volterra");
+    Run r = pgi_run({"step", lv, "--x0", "1,2,1/2", "--dt", "1/20", "--order", "4", "--json"});
+    REQUIRE(r.exit_code == 0);
+    auto j = nlohmann::json::parse(r.out);
+    REQUIRE(j["x"].size() == 3);
+    CHECK(j["newton_iterations"].get<int>() >= 1);
+    CHECK(j["newton_iterations"].get<int>() <= 2);
+    CHECK(j["residual"].get<double>() < 1e-12);
+    // the Casimir x1 x2 x3 = 1 is kept by the step
+    CHECK(j["x"][0].get<double>() * j["x"][1].get<double>() * j["x"][2].get<double>() == doctest::Approx(1.0).epsilon(1e-14));
+    Run nan = pgi_run({"step", lv, "--x0", "1,inf,2", "--json"});
+    CHECK(nan.exit_code == 2);
+    CHECK(nan.out.empty());
+}
+
+TEST_CASE("cli: integrate --json --csv writes the summary and the trajectory") {
+    const fs::path csv = fs::temp_directory_path() / ("pgi_test_" + std::to_string(::getpid()) + ".csv");
+    Run r = pgi_run({"integrate", test::scene_path("nambu"), "--t-end", "10", "--csv", csv.string(), "--every", "50", "--json"});
+    REQUIRE(r.exit_code == 0);
+    auto j = nlohmann::json::parse(r.out);
+    CHECK(j["steps"] == 200);
+    CHECK(j["t"].get<double>() == doctest::Approx(10.0));
+    CHECK(j["casimir_error_max"][0].get<double>() <= 1e-13);
+    CHECK(j["energy_error_max"].get<double>() < 1e-6);
+    CHECK(j["newton_iterations_mean"].get<double>() <= 2.0);
+    CHECK(j["wall_seconds"].get<double>() >= 0.0);
+    std::string text = slurp(csv);
+    CHECK(text.rfind("t,x1,x2,x3,H,C1\n", 0) == 0);
+    CHECK(std::count(text.begin(), text.end(), '\n') == 1 + 5);  // header, t = 0, 2.5, 5, 7.5, 10
+    fs::remove(csv);
+}
+
+TEST_CASE("cli: a step that does not converge stops the run with exit 3, naming step, t and residual; the CSV is kept, marked") {
+    const fs::path csv = fs::temp_directory_path() / ("pgi_test_fail_" + std::to_string(::getpid()) + ".csv");
+    Run r = pgi_run({"integrate", test::scene_path("rigid_body"), "--dt", "5", "--order", "2", "--csv", csv.string()});
+    CHECK(r.exit_code == 3);
+    CHECK(r.out.empty());
+    CHECK_MESSAGE(r.err.find("step 1 (from t = 0) failed: Newton did not converge after") != std::string::npos, r.err);
+    CHECK(r.err.find("residual") != std::string::npos);
+    std::string text = slurp(csv);
+    CHECK(text.find("# INCOMPLETE: step 1") != std::string::npos);
+    fs::remove(csv);
+}
+
+TEST_CASE("cli: an output path in a missing directory exits 2 and writes nothing") {
+    Run r = pgi_run({"integrate", test::scene_path("rigid_body"), "--csv", "/nonexistent-dir/out.csv"});
+    CHECK(r.exit_code == 2);
+    CHECK(r.out.empty());
+    CHECK(r.err.find("/nonexistent-dir/out.csv: cannot write: directory '/nonexistent-dir' does not exist") != std::string::npos);
+    CHECK_FALSE(fs::exists("/nonexistent-dir/out.csv"));
+}
+
+TEST_CASE("cli: step and integrate need x0 and t_end, and say which is missing") {
+    const fs::path scene = fs::temp_directory_path() / ("pgi_test_norun_" + std::to_string(::getpid()) + ".toml");
+    {
+        std::ofstream out(scene);
+        out << "name = \"no run\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = \"q^2/2 + p^2/2\"\n";
+    }
+    Run step = pgi_run({"step", scene.string(), "--json"});
+    CHECK(step.exit_code == 2);
+    CHECK(step.err == "pgi: " + scene.string() + ": run.x0: missing: give [run] x0 or --x0\n");
+    Run integrate = pgi_run({"integrate", scene.string(), "--x0", "1,0"});
+    CHECK(integrate.exit_code == 2);
+    CHECK(integrate.err == "pgi: " + scene.string() + ": run.t_end: missing: give [run] t_end or --t-end\n");
+    Run ok = pgi_run({"integrate", scene.string(), "--x0", "1,0", "--t-end", "1", "--json"});
+    CHECK(ok.exit_code == 0);
+    fs::remove(scene);
+}

@@ -31,7 +31,13 @@ NewtonStepper build_stepper(const Scene& scene) {
     opt.k = scene.order;
     opt.dt = scene.dt;
     opt.realisation = scene.realisation;
-    return NewtonStepper::build(scene.pi, scene.H, opt, to_vector(require_x0(scene)));
+    NewtonStepper s = NewtonStepper::build(scene.pi, scene.H, opt, to_vector(require_x0(scene)));
+    // NOTE: said on stderr, never silently: past the series' range the step is not Poisson to round-off.
+    if (s.info().truncation_estimate > 1e-15)
+        std::cerr << fmt::format("pgi: {}: warning: the {} realisation truncated at p-degree {} leaves terms of relative size "
+                                 "{:.1e} at x0: the step is Poisson only to that accuracy (reduce dt)\n",
+                                 scene.file.string(), s.info().method, s.info().degree, s.info().truncation_estimate);
+    return s;
 }
 
 json stepper_info(const NewtonStepper& s) {
@@ -54,8 +60,8 @@ double relative_error(double value, double initial) {
 }
 
 std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus status) {
-    return fmt::format("step {} (t = {:.17g}) failed: {} after {} Newton iterations, residual {:.3g}, last correction {:.3g}",
-                       step, double(step) * s.dt(), to_string(status), s.last_iterations(), s.last_residual(),
+    return fmt::format("step {} (from t = {:.17g}) failed: {} after {} Newton iterations, residual {:.3g}, last correction {:.3g}",
+                       step, double(step - 1) * s.dt(), to_string(status), s.last_iterations(), s.last_residual(),
                        s.last_correction());
 }
 
