@@ -84,7 +84,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     const Rational dt = Rational::from_double(opt.dt);
     const StructureClass cls = pi.structure_class();
     const bool closed = opt.realisation != RealisationChoice::radial && has_closed_form(cls);
-    const std::size_t P = std::max<std::size_t>(opt.k + 1, 3);  // predictor order
+    const std::size_t P = opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 6);
     s.info_.predictor_order = P;
 
     // S_1..S_k need the realisation through degree k - 1, the predictor through degree P.
@@ -183,18 +183,24 @@ void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
     realisation_.eval(xb, p_, v_);
 }
 
+const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
+    evaluate_at(xb);
+    J_ = v_.alpha_x;
+    J_.noalias() += v_.alpha_p * hess_;
+    return J_;
+}
+
 bool NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
     const double scale = x.lpNorm<Eigen::Infinity>();
     for (int it = 1; it <= opt_.newton_max_iter; ++it) {
         evaluate_at(xb_);
         // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
+        newton_system(xb_);
         r_ = v_.alpha - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
         if (!std::isfinite(residual_) || !v_.delta.allFinite()) return false;
-        J_ = v_.alpha_x;
-        J_.noalias() += v_.alpha_p * hess_;
         lu_.compute(J_);
-        dx_ = lu_.solve(r_);
+        dx_.noalias() = lu_.solve(r_);
         xb_ -= dx_;
         iterations_ = it;
         correction_ = dx_.lpNorm<Eigen::Infinity>();
@@ -228,9 +234,7 @@ StepStatus NewtonStepper::step(const Eigen::VectorXd& x, Eigen::VectorXd& increm
 Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
     Eigen::VectorXd inc(x.size());
     if (step(x, inc) != StepStatus::ok) throw std::runtime_error("NewtonStepper::tangent_map: the step failed");
-    evaluate_at(xb_);
-    J_ = v_.alpha_x;
-    J_.noalias() += v_.alpha_p * hess_;
+    newton_system(xb_);
     D_ = v_.delta_x;
     D_.noalias() += v_.delta_p * hess_;
     // x = alpha(xb(x)) gives dxb/dx = J^{-1}; x_new = beta(xb) = alpha + delta, so Dphi = (J + D) J^{-1}

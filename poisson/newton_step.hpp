@@ -20,6 +20,7 @@ struct StepOptions {
     std::size_t max_degree = 24;          // cap on the p-degree D of a truncated realisation
     int newton_max_iter = 20;
     double newton_tol = 1e-9;             // stop once |dx| <= tol |x|: the next correction is ~|dx|^2
+    std::size_t predictor_order = 0;      // P of the base point's series; 0 chooses max(k + 1, 6)
 };
 
 /// How the step was built: the realisation's method and degree, and the size of the neglected
@@ -44,6 +45,10 @@ public:
     [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, Eigen::VectorXd& increment);
     /// Dphi_dt(x) by implicit differentiation: I + (delta_x + delta_p Hess S) J^{-1} at the solution.
     Eigen::MatrixXd tangent_map(const Eigen::VectorXd& x);
+
+    /// One evaluation of the Newton system at xb: F = alpha(xb, grad S_dt(xb)) and its Jacobian J.
+    /// What one Newton iteration costs before the LU solve (the benchmarks' unit of work).
+    const Eigen::MatrixXd& newton_system(const Eigen::VectorXd& xb);
 
     int last_iterations() const { return iterations_; }
     double last_residual() const { return residual_; }   // |alpha(xb, p) - x|_inf at the last evaluation

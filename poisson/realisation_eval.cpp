@@ -115,32 +115,47 @@ void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eige
     // L(p) = sum_j p_j C_j, so L(p) x = pi(x) p
     L_.setZero();
     for (Eigen::Index j = 0; j < n; ++j) L_ += p[j] * C_[static_cast<std::size_t>(j)];
-    // v_m = L^m x; W_m = d v_m / dp, column j = C_j v_{m-1} + L (column j of W_{m-1}); power = L^m
-    v_prev_ = x;
-    W_prev_.setZero();
-    power_.setIdentity();
-    v.alpha = b_[0] * x;
-    v.alpha_x = b_[0] * power_;
-    v.alpha_p.setZero();
+    // v_m = L^m x; W_m = d v_m / dp, column j = C_j v_{m-1} + L (column j of W_{m-1}); power = L^m.
+    // NOTE: plain loops on the raw columns: at n = 3..10 Eigen's dynamic-size kernels cost more than
+    // the arithmetic.
+    const double* L = L_.data();
+    double* vp = v_prev_.data();
+    double* vn = v_next_.data();
+    double* Wp = W_prev_.data();
+    double* Wn = W_next_.data();
+    double* P = power_.data();
+    double* T = tmp_.data();
+    double* ax = v.alpha_x.data();
+    double* ap = v.alpha_p.data();
+    for (Eigen::Index i = 0; i < n; ++i) {
+        vp[i] = x[i];
+        v.alpha[i] = b_[0] * x[i];
+    }
+    for (Eigen::Index e = 0; e < n * n; ++e) Wp[e] = 0.0, P[e] = 0.0, ax[e] = 0.0, ap[e] = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i) P[i * n + i] = 1.0, ax[i * n + i] = b_[0];
     for (std::size_t m = 1; m < b_.size(); ++m) {
-        matvec(L_.data(), v_prev_.data(), v_next_.data(), n);
+        matvec(L, vp, vn, n);
         for (Eigen::Index j = 0; j < n; ++j) {
-            matvec(L_.data(), W_prev_.col(j).data(), W_next_.col(j).data(), n);
-            matvec(C_[static_cast<std::size_t>(j)].data(), v_prev_.data(), tmp_.col(j).data(), n);
+            matvec(L, Wp + j * n, Wn + j * n, n);
+            const double* C = C_[static_cast<std::size_t>(j)].data();
+            for (Eigen::Index k = 0; k < n; ++k) {
+                const double vk = vp[k];
+                if (vk == 0.0) continue;
+                for (Eigen::Index i = 0; i < n; ++i) Wn[j * n + i] += C[k * n + i] * vk;
+            }
+            matvec(L, P + j * n, T + j * n, n);
         }
-        W_next_ += tmp_;
-        for (Eigen::Index j = 0; j < n; ++j) matvec(L_.data(), power_.col(j).data(), tmp_.col(j).data(), n);
-        power_.swap(tmp_);
-        if (b_[m] != 0) {
-            v.alpha += b_[m] * v_next_;
-            v.alpha_x += b_[m] * power_;
-            v.alpha_p += b_[m] * W_next_;
+        std::swap(P, T);
+        const double b = b_[m];
+        if (b != 0) {
+            for (Eigen::Index i = 0; i < n; ++i) v.alpha[i] += b * vn[i];
+            for (Eigen::Index e = 0; e < n * n; ++e) ax[e] += b * P[e], ap[e] += b * Wn[e];
         }
-        v_prev_.swap(v_next_);
-        W_prev_.swap(W_next_);
+        std::swap(vp, vn);
+        std::swap(Wp, Wn);
     }
     // delta = beta - alpha = -2 sum_{m odd} B_m/m! L^m x = L(p) x: B_1 = -1/2 and B_3 = B_5 = ... = 0
-    matvec(L_.data(), x.data(), v.delta.data(), n);
+    matvec(L, x.data(), v.delta.data(), n);
     v.delta_x = L_;
     for (Eigen::Index j = 0; j < n; ++j) matvec(C_[static_cast<std::size_t>(j)].data(), x.data(), v.delta_p.col(j).data(), n);
 }
@@ -149,9 +164,15 @@ void RealisationEvaluator::eval_log_canonical(const Eigen::VectorXd& x, const Ei
     const auto n = static_cast<Eigen::Index>(n_);
     {
         // u_j = (1/2) sum_i a_ij x_i p_i; alpha_j = x_j e^{u_j}; delta_j = x_j (e^{-u_j} - e^{u_j}) = -2 x_j sinh u_j
-        u_.noalias() = 0.5 * a_.transpose() * x.cwiseProduct(p);
         for (Eigen::Index j = 0; j < n; ++j) {
-            const double e = std::exp(u_[j]), s = -2.0 * std::sinh(u_[j]), c = -2.0 * std::cosh(u_[j]);
+            double u = 0;
+            for (Eigen::Index i = 0; i < n; ++i) u += a_(i, j) * x[i] * p[i];
+            u_[j] = 0.5 * u;
+        }
+        for (Eigen::Index j = 0; j < n; ++j) {
+            // one transcendental: e^u - 1 keeps sinh u accurate for small u
+            const double em1 = std::expm1(u_[j]), e = 1.0 + em1;
+            const double s = -(em1 + em1 / e), c = -(e + 1.0 / e);  // -2 sinh u, -2 cosh u
             v.alpha[j] = x[j] * e;
             v.delta[j] = x[j] * s;
             for (Eigen::Index l = 0; l < n; ++l) {
