@@ -231,6 +231,11 @@ StepStatus NewtonStepper::step(const Eigen::VectorXd& x, Eigen::VectorXd& increm
     return std::isfinite(residual_) ? StepStatus::newton_not_converged : StepStatus::non_finite;
 }
 
+double NewtonStepper::residual_at_solution(const Eigen::VectorXd& x) {
+    evaluate_at(xb_);
+    return (v_.alpha - x).lpNorm<Eigen::Infinity>();
+}
+
 Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
     Eigen::VectorXd inc(x.size());
     if (step(x, inc) != StepStatus::ok) throw std::runtime_error("NewtonStepper::tangent_map: the step failed");

@@ -51,7 +51,9 @@ public:
     const Eigen::MatrixXd& newton_system(const Eigen::VectorXd& xb);
 
     int last_iterations() const { return iterations_; }
-    double last_residual() const { return residual_; }   // |alpha(xb, p) - x|_inf at the last evaluation
+    double last_residual() const { return residual_; }   // |alpha(xb, p) - x|_inf before the last correction
+    /// |alpha(xb, grad S_dt(xb)) - x|_inf at the base point the last step ended with (one more evaluation).
+    double residual_at_solution(const Eigen::VectorXd& x);
     double last_correction() const { return correction_; }  // |dx|_inf of the last Newton update
     std::size_t order() const { return 2 * ((k_ + 1) / 2); }  // odeint's Stepper::order()
     double dt() const { return dt_; }

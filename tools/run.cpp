@@ -94,8 +94,10 @@ json step_report(const Scene& scene) {
     Eigen::VectorXd x = to_vector(require_x0(scene)), increment(x.size());
     StepStatus status = s.step(x, increment);
     if (status != StepStatus::ok) throw NumericalFailure(failure_message(s, 1, status));
-    json r{{"x", to_std(x + increment)}, {"newton_iterations", s.last_iterations()}, {"residual", s.last_residual()},
-           {"correction", s.last_correction()}, {"dt", scene.dt}};
+    const int iterations = s.last_iterations();
+    const double correction = s.last_correction();
+    json r{{"x", to_std(x + increment)}, {"newton_iterations", iterations}, {"residual", s.residual_at_solution(x)},
+           {"correction", correction}, {"dt", scene.dt}};
     r.update(stepper_info(s));
     return r;
 }
