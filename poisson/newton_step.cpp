@@ -1,6 +1,6 @@
 #include "poisson/newton_step.hpp"
 
-#include "poisson/base_point.hpp"
+#include "poisson/bisection.hpp"
 
 #include <cmath>
 #include <limits>

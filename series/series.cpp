@@ -147,4 +147,38 @@ Series compose(const Poly& f, const std::vector<std::optional<Series>>& images, 
     return std::move(compose(std::vector<Poly>{f}, images, N).front());
 }
 
+std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std::optional<Series>>& images, std::size_t N) {
+    std::vector<Series> out;
+    if (fs.empty()) return out;
+    const RingPtr& ring = fs.front().ring();
+    // all coefficients at once, so they share the products of the images
+    std::vector<Poly> coefficients;
+    for (const auto& f : fs)
+        for (std::size_t m = 0; m < std::min(f.order(), N); ++m) coefficients.push_back(f[m]);
+    const auto composed = compose(coefficients, images, N);
+    std::size_t next = 0;
+    for (const auto& f : fs) {
+        Series r(ring, N);
+        for (std::size_t m = 0; m < std::min(f.order(), N); ++m, ++next)
+            for (std::size_t d = 0; m + d < N; ++d) r[m + d] += composed[next][d];
+        out.push_back(std::move(r));
+    }
+    return out;
+}
+
+std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars, std::size_t N) {
+    if (u.size() != vars.size()) throw std::invalid_argument("pgi::inverse_near_identity: one displacement per variable");
+    if (u.empty()) return {};
+    const RingPtr& ring = u.front().ring();
+    std::vector<Series> v(u.size(), Series(ring, N));
+    for (std::size_t sweep = 1; sweep < N; ++sweep) {
+        // v <- -u(id + v)
+        std::vector<std::optional<Series>> images(ring->size());
+        for (std::size_t i = 0; i < vars.size(); ++i) images[vars[i]] = Series::constant(Poly::gen(ring, vars[i]), N) + v[i];
+        v = compose(u, images, N);
+        for (auto& s : v) s *= Rational(-1);
+    }
+    return v;
+}
+
 }  // namespace pgi

@@ -48,5 +48,10 @@ Series mul_trunc(const Series& a, const Series& b);
 Series compose(const Poly& f, const std::vector<std::optional<Series>>& images, std::size_t N);
 /// The same for several polynomials at once, sharing the products of the images (all in one ring).
 std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::optional<Series>>& images, std::size_t N);
+/// sum_m e^m f_m(images) + O(e^N): a series whose coefficients are themselves composed (images of order N).
+std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std::optional<Series>>& images, std::size_t N);
+/// v with (id + u) o (id + v) = id + O(e^N), for u = O(e) given on the listed variables (u[i] displaces
+/// variable vars[i]; all of order N). Each of the N - 1 sweeps v <- -u(id + v) gains one order.
+std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars, std::size_t N);
 
 }  // namespace pgi
