@@ -27,6 +27,27 @@ Poly PhaseSpace::parse(std::string_view text) const {
     return rename_variables(f, ring_, map);
 }
 
+Series PhaseSpace::parse_in_time(std::string_view text) const {
+    std::vector<std::string> names = coordinates_;
+    names.push_back("t");
+    const auto with_t = make_ring(names);
+    const Poly f = Poly::parse(with_t, text);
+    VarMask t_only(names.size(), false);
+    t_only.back() = true;
+    const long degree = std::max(masked_degree(f, t_only), 0L);
+    std::vector<long> map(names.size());
+    for (std::size_t i = 0; i < dim(); ++i) map[i] = static_cast<long>(x(i));
+    map.back() = 0;  // t is gone from every coefficient below
+    Series s(ring_, static_cast<std::size_t>(degree) + 1);
+    for (long m = 0; m <= degree; ++m) {
+        // the coefficient of t^m: (d/dt)^m of the part homogeneous of degree m in t, over m!
+        Poly c = homogeneous_part(f, t_only, static_cast<unsigned long>(m));
+        for (long d = 0; d < m; ++d) c = derivative(c, names.size() - 1);
+        s[static_cast<std::size_t>(m)] = rename_variables(inverse_factorial(static_cast<unsigned long>(m)) * c, ring_, map);
+    }
+    return s;
+}
+
 Poly canonical_bracket(const PhaseSpace& M, const Poly& F, const Poly& G) {
     Poly r(M.ring());
     for (std::size_t i = 0; i < M.dim(); ++i) {

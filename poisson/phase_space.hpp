@@ -25,6 +25,9 @@ public:
     const VarMask& momenta() const { return momenta_; }
     /// Parses a polynomial in the coordinates only (a momentum name is an unknown variable).
     Poly parse(std::string_view text) const;
+    /// Parses a polynomial in the coordinates and the reserved time variable t, as a t-series whose
+    /// order is one more than the degree in t.
+    Series parse_in_time(std::string_view text) const;
     /// A series graded by p-degree in this phase space, O(p^N).
     Series zero_series(std::size_t N) const { return Series(ring_, N); }
 

@@ -1,5 +1,7 @@
 #include "tools/commands.hpp"
 
+#include "magnus/magnus.hpp"
+#include "magnus/modified_hamiltonian.hpp"
 #include "poisson/hamilton_jacobi.hpp"
 
 #include <fmt/format.h>
@@ -81,6 +83,30 @@ json realisation_report(const Scene& scene, std::size_t D) {
     return {{"coordinates", M.coordinates()}, {"momenta", momenta_names(M)},
             {"class", to_string(scene.pi.structure_class())}, {"realisation", real.method}, {"degree", D},
             {"alpha", strings(sums(real.alpha))}, {"beta", strings(sums(real.beta))}};
+}
+
+json magnus_report(const Scene& scene, std::size_t m) {
+    if (!scene.magnus_h) throw SceneError(scene.file, "magnus.h", "missing: the scene has no [magnus] h");
+    Series M = magnus_series(scene.pi, *scene.magnus_h, m);
+    std::vector<Poly> terms;
+    for (std::size_t j = 0; j <= m; ++j) terms.push_back(M[j]);
+    return {{"coordinates", scene.phase_space().coordinates()}, {"magnus", strings(terms)}};
+}
+
+json modified_report(const Scene& scene, std::size_t m) {
+    return {{"coordinates", scene.phase_space().coordinates()}, {"order", scene.order},
+            {"modified", strings(modified_hamiltonian(scene.pi, scene.H, scene.order, scene.realisation, m))}};
+}
+
+std::string series_text(const json& r) {
+    const bool magnus = r.contains("magnus");
+    const auto& terms = magnus ? r["magnus"] : r["modified"];
+    std::string out = magnus ? "Magnus series M_eps = sum_j eps^j M_j:\n"
+                             : fmt::format("modified Hamiltonian of the order-{} scheme, Htilde = sum_j dt^j H_j:\n",
+                                           r["order"].get<std::size_t>());
+    for (std::size_t j = 0; j < terms.size(); ++j)
+        out += fmt::format("{}_{} = {}\n", magnus ? "M" : "H", j, terms[j].get<std::string>());
+    return out;
 }
 
 std::string check_text(const json& r) {

@@ -36,7 +36,13 @@ nlohmann::json step_report(const Scene& scene);
 /// "wall_seconds", ...}. Throws NumericalFailure after keeping the CSV written so far, marked incomplete.
 nlohmann::json integrate_report(const Scene& scene, const IntegrateOptions& options);
 
+/// M_0..M_m of the Magnus series of the scene's [magnus] h: {"coordinates", "magnus"}.
+nlohmann::json magnus_report(const Scene& scene, std::size_t m);
+/// H_0..H_m of the modified Hamiltonian of the order-k scheme: {"coordinates", "order", "modified"}.
+nlohmann::json modified_report(const Scene& scene, std::size_t m);
+
 std::string check_text(const nlohmann::json& report);
+std::string series_text(const nlohmann::json& report);
 std::string integrate_text(const nlohmann::json& report);
 std::string terms_text(const nlohmann::json& report);
 std::string realisation_text(const nlohmann::json& report);

@@ -14,6 +14,7 @@ struct Options {
     bool json = false;
     pgi::SceneOverrides overrides;
     std::size_t degree = 0;
+    std::size_t upto = 4;
     pgi::IntegrateOptions integrate;
     std::string csv;
 };
@@ -47,6 +48,8 @@ int run_command(const std::string& name, const Options& o) {
     pgi::require_valid(scene);
     if (name == "terms") emit(o, pgi::terms_report(scene), pgi::terms_text);
     if (name == "realisation") emit(o, pgi::realisation_report(scene, o.degree), pgi::realisation_text);
+    if (name == "magnus") emit(o, pgi::magnus_report(scene, o.upto), pgi::series_text);
+    if (name == "modified") emit(o, pgi::modified_report(scene, o.upto), pgi::series_text);
     if (name == "step") emit(o, pgi::step_report(scene), [](const nlohmann::json& r) { return r.dump(2) + "\n"; });
     pgi::IntegrateOptions io = o.integrate;
     if (!o.csv.empty()) io.csv = o.csv;
@@ -72,7 +75,11 @@ int main(int argc, char** argv) {
     auto* step = app.add_subcommand("step", "one step from x0 (JSON)");
     auto* integrate = app.add_subcommand("integrate", "integrate from x0 to t_end");
     auto* run = app.add_subcommand("run", "the main job: checks, S_1..S_k, and the integration when the scene has [run]");
-    for (auto* cmd : {check, terms, realisation, step, integrate, run}) scene_options(cmd, o);
+    auto* magnus = app.add_subcommand("magnus", "the Magnus series of the scene's [magnus] h");
+    auto* modified = app.add_subcommand("modified", "the modified Hamiltonian of the order-k scheme");
+    for (auto* cmd : {check, terms, realisation, step, integrate, run, magnus, modified}) scene_options(cmd, o);
+    magnus->add_option("--upto", o.upto, "last power of eps (default 4)");
+    modified->add_option("--upto", o.upto, "last power of dt (default 4)");
     for (auto* cmd : {integrate, run}) {
         cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
         cmd->add_option("--every", o.integrate.every, "one CSV row every M steps")->check(CLI::PositiveNumber);

@@ -39,9 +39,10 @@ public:
                 casimirs.push_back(poly(M, key, *s));
             }
         }
-        Scene scene{file_, name, std::move(pi), std::move(H), std::move(casimirs), 2, 0.1, "1/10", RealisationChoice::automatic, std::nullopt, std::nullopt};
+        Scene scene{file_, name, std::move(pi), std::move(H), std::move(casimirs), 2, 0.1, "1/10", RealisationChoice::automatic, std::nullopt, std::nullopt, std::nullopt};
         read_integrator(doc, scene);
         read_run(doc, scene);
+        read_magnus(doc, scene);
         return scene;
     }
 
@@ -249,6 +250,18 @@ private:
         if (ov_.t_end) scene.t_end = real("--t-end", *ov_.t_end);
         else if (const toml::node* node = t.get("t_end")) scene.t_end = real("run.t_end", *node);
         if (scene.t_end && !(*scene.t_end > 0)) fail(ov_.t_end ? "--t-end" : "run.t_end", "must be positive");
+    }
+
+    void read_magnus(const toml::table& doc, Scene& scene) const {
+        const toml::table& t = table_at(doc, "magnus", false);
+        check_keys(t, "magnus", {"h"});
+        if (auto h = string_at(t, "h", false, "magnus.")) {
+            try {
+                scene.magnus_h = scene.phase_space().parse_in_time(*h);
+            } catch (const std::exception& e) {
+                fail("magnus.h", e.what());
+            }
+        }
     }
 
     std::filesystem::path file_;

@@ -34,6 +34,7 @@ struct Scene {
     RealisationChoice realisation = RealisationChoice::automatic;
     std::optional<std::vector<double>> x0;
     std::optional<double> t_end;
+    std::optional<Series> magnus_h;             // [magnus] h, a t-series
 
     const PhaseSpace& phase_space() const { return pi.phase_space(); }
 };

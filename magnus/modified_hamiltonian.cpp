@@ -1,0 +1,39 @@
+#include "magnus/modified_hamiltonian.hpp"
+
+#include "magnus/magnus.hpp"
+#include "poisson/bisection.hpp"
+#include "poisson/hamilton_jacobi.hpp"
+
+#include <stdexcept>
+
+namespace pgi {
+
+Series variation_functions(const PhaseSpace& M, const Realisation& r, const std::vector<Poly>& S, std::size_t N) {
+    std::vector<std::size_t> xs;
+    for (std::size_t i = 0; i < M.dim(); ++i) xs.push_back(M.x(i));
+    // Phi_t^{-1} = id + v
+    auto v = inverse_near_identity(bisection_displacement(M, r, Side::beta, S, N), xs, N);
+    std::vector<std::optional<Series>> images(M.ring()->size());
+    for (std::size_t i = 0; i < M.dim(); ++i) images[M.x(i)] = Series::constant(M.x_gen(i), N) + v[i];
+    // d/dt S_t = sum_j j t^{j-1} S_j
+    Series dS(M.ring(), N);
+    for (std::size_t j = 1; j <= S.size() && j <= N; ++j) dS[j - 1] = Rational(static_cast<long>(j)) * S[j - 1];
+    return compose(std::vector<Series>{dS}, images, N).front();
+}
+
+std::vector<Poly> modified_hamiltonian(const PoissonStructure& pi, const Poly& H, std::size_t k, RealisationChoice choice,
+                                       std::size_t m) {
+    if (k < 1) throw std::invalid_argument("modified_hamiltonian: the order k must be at least 1");
+    const PhaseSpace& M = pi.phase_space();
+    // h through t^m needs beta through p-degree m, and S_1..S_k need alpha through degree k - 1
+    Realisation r = build_realisation(pi, choice, std::max(m, realisation_degree_for_order(k)));
+    auto S = hamilton_jacobi_terms(M, r, H, k);
+    Series h = variation_functions(M, r, S, m + 1);
+    Series Me = magnus_series(pi, h, m + 1);
+    // Htilde = M_dt / dt: H_j = M_{j+1}
+    std::vector<Poly> Ht;
+    for (std::size_t j = 0; j <= m; ++j) Ht.push_back(Me[j + 1]);
+    return Ht;
+}
+
+}  // namespace pgi
