@@ -25,7 +25,7 @@ inline Scene bundled(const std::string& name) { return load_scene(scene_path(nam
 
 inline const std::vector<std::string>& bundled_names() {
     static const std::vector<std::string> names{"rigid_body", "lotka_volterra", "harmonic_oscillator", "henon_heiles",
-                                                "plane_quadratic", "nambu", "volterra_chain"};
+                                                "plane_quadratic", "nambu", "volterra_chain", "kahan_lotka_volterra"};
     return names;
 }
 

@@ -227,3 +227,57 @@ TEST_CASE("cli: step and integrate need x0 and t_end, and say which is missing")
     CHECK(ok.exit_code == 0);
     fs::remove(scene);
 }
+
+TEST_CASE("cli: magnus --json prints M_0..M_m of the scene's [magnus] h; without one it exits 2") {
+    Run r = pgi_run({"magnus", test::scene_path("kahan_lotka_volterra"), "--upto", "5", "--json"});
+    REQUIRE(r.exit_code == 0);
+    auto j = nlohmann::json::parse(r.out);
+    CHECK(j["coordinates"] == nlohmann::json({"x1", "x2", "x3"}));
+    REQUIRE(j["magnus"].size() == 6);
+    Scene s = test::bundled("kahan_lotka_volterra");
+    const auto& M = s.phase_space();
+    CHECK(j["magnus"][0] == "0");
+    CHECK(M.parse(j["magnus"][1].get<std::string>()) == s.H);
+    CHECK(M.parse(j["magnus"][3].get<std::string>()) == Rational(1, 36) * pow(s.H, 3));
+    CHECK(M.parse(j["magnus"][5].get<std::string>()) == Rational(1, 400) * pow(s.H, 5));
+    Run missing = pgi_run({"magnus", test::scene_path("rigid_body")});
+    CHECK(missing.exit_code == 2);
+    CHECK(missing.err == "pgi: " + test::scene_path("rigid_body") + ": magnus.h: missing: the scene has no [magnus] h\n");
+}
+
+TEST_CASE("cli: modified --json prints H_0..H_m of the order-k scheme") {
+    Run r = pgi_run({"modified", test::scene_path("harmonic_oscillator"), "--order", "1", "--upto", "4", "--json"});
+    REQUIRE(r.exit_code == 0);
+    auto j = nlohmann::json::parse(r.out);
+    CHECK(j["order"] == 1);
+    CHECK(j["modified"] == nlohmann::json({"1/2*q^2 + 1/2*p^2", "0", "-1/24*q^2 - 1/24*p^2", "0", "1/160*q^2 + 1/160*p^2"}));
+}
+
+TEST_CASE("cli: report writes Markdown, JSON and LaTeX atomically, and the LaTeX compiles with pdflatex") {
+    const fs::path dir = fs::temp_directory_path() / ("pgi_test_report_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    const std::string scene = test::scene_path("rigid_body");
+    Run md = pgi_run({"report", scene, "--order", "2", "--out", (dir / "r.md").string()});
+    REQUIRE(md.exit_code == 0);
+    CHECK(md.out.empty());
+    const std::string text = slurp(dir / "r.md");
+    for (const char* section : {"# free rigid body", "## Poisson structure", "## Integrator", "## Modified Hamiltonian", "## Numerical check"})
+        CHECK_MESSAGE(text.find(section) != std::string::npos, section);
+    CHECK(text.find("- `H_2 = -1/64*x1^2*x2^2 - 1/24*x1^2*x3^2 - 1/192*x2^2*x3^2`") != std::string::npos);
+    Run js = pgi_run({"report", scene, "--format", "json"});
+    REQUIRE(js.exit_code == 0);
+    auto j = nlohmann::json::parse(js.out);
+    CHECK(j["run"]["modified_energy_error_max"].get<double>() < j["run"]["energy_error_max"].get<double>());
+    CHECK(j["check"]["ok"] == true);
+    Run tex = pgi_run({"report", scene, "--format", "latex", "--out", (dir / "r.tex").string()});
+    REQUIRE(tex.exit_code == 0);
+    const int rc = std::system(("cd '" + dir.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error r.tex > r.log 2>&1").c_str());
+    CHECK_MESSAGE(rc == 0, slurp(dir / "r.log"));
+    CHECK(fs::exists(dir / "r.pdf"));
+    Run bad = pgi_run({"report", scene, "--out", "/nonexistent-dir/r.md"});
+    CHECK(bad.exit_code == 2);
+    CHECK(bad.out.empty());
+    Run bad_format = pgi_run({"report", scene, "--format", "docx"});
+    CHECK(bad_format.exit_code == 2);
+    fs::remove_all(dir);
+}

@@ -28,6 +28,7 @@ struct IntegrateOptions {
     std::optional<std::filesystem::path> csv;
     std::size_t every = 1;            // one CSV row every this many steps
     bool progress = false;            // a progress line on stderr for runs longer than a second or two
+    std::optional<Poly> modified;     // also track this (a truncated modified Hamiltonian) along the run
 };
 
 /// One step from x0: {"x", "newton_iterations", "residual", ...}. Throws NumericalFailure.
@@ -40,6 +41,12 @@ nlohmann::json integrate_report(const Scene& scene, const IntegrateOptions& opti
 nlohmann::json magnus_report(const Scene& scene, std::size_t m);
 /// H_0..H_m of the modified Hamiltonian of the order-k scheme: {"coordinates", "order", "modified"}.
 nlohmann::json modified_report(const Scene& scene, std::size_t m);
+
+/// The whole story of a scene: structure and checks, realisation, S_1..S_k, the modified Hamiltonian
+/// through dt^m, and (with [run]) a run comparing the conservation of H and of the truncated Htilde.
+nlohmann::json report_data(const Scene& scene, std::size_t m);
+std::string report_markdown(const nlohmann::json& report);
+std::string report_latex(const nlohmann::json& report);
 
 std::string check_text(const nlohmann::json& report);
 std::string series_text(const nlohmann::json& report);

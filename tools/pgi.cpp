@@ -1,5 +1,6 @@
 // pgi: the command-line program. Exit codes: 0 success, 2 bad input (nothing on stdout), 3 a step failed
 // (Newton did not converge or the state overflowed), 1 internal error.
+#include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
 
 #include <CLI/CLI.hpp>
@@ -15,6 +16,7 @@ struct Options {
     pgi::SceneOverrides overrides;
     std::size_t degree = 0;
     std::size_t upto = 4;
+    std::string format = "markdown", out;
     pgi::IntegrateOptions integrate;
     std::string csv;
 };
@@ -50,6 +52,17 @@ int run_command(const std::string& name, const Options& o) {
     if (name == "realisation") emit(o, pgi::realisation_report(scene, o.degree), pgi::realisation_text);
     if (name == "magnus") emit(o, pgi::magnus_report(scene, o.upto), pgi::series_text);
     if (name == "modified") emit(o, pgi::modified_report(scene, o.upto), pgi::series_text);
+    if (name == "report") {
+        auto data = pgi::report_data(scene, o.upto);
+        std::string text = o.format == "json" ? data.dump(2) + "\n" : o.format == "latex" ? pgi::report_latex(data) : pgi::report_markdown(data);
+        if (o.out.empty()) {
+            std::cout << text;
+        } else {
+            pgi::AtomicFile file(o.out);
+            file.stream() << text;
+            file.commit();
+        }
+    }
     if (name == "step") emit(o, pgi::step_report(scene), [](const nlohmann::json& r) { return r.dump(2) + "\n"; });
     pgi::IntegrateOptions io = o.integrate;
     if (!o.csv.empty()) io.csv = o.csv;
@@ -77,7 +90,11 @@ int main(int argc, char** argv) {
     auto* run = app.add_subcommand("run", "the main job: checks, S_1..S_k, and the integration when the scene has [run]");
     auto* magnus = app.add_subcommand("magnus", "the Magnus series of the scene's [magnus] h");
     auto* modified = app.add_subcommand("modified", "the modified Hamiltonian of the order-k scheme");
-    for (auto* cmd : {check, terms, realisation, step, integrate, run, magnus, modified}) scene_options(cmd, o);
+    auto* report = app.add_subcommand("report", "one document: structure, checks, S_1..S_k, modified Hamiltonian, a run");
+    for (auto* cmd : {check, terms, realisation, step, integrate, run, magnus, modified, report}) scene_options(cmd, o);
+    report->add_option("--format", o.format, "markdown | latex | json")->check(CLI::IsMember({"markdown", "latex", "json"}));
+    report->add_option("--out", o.out, "write to this file (atomically) instead of stdout");
+    report->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian (default 4)");
     magnus->add_option("--upto", o.upto, "last power of eps (default 4)");
     modified->add_option("--upto", o.upto, "last power of dt (default 4)");
     for (auto* cmd : {integrate, run}) {
