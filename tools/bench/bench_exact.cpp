@@ -1,5 +1,6 @@
-// Times pgi's exact phase on the workloads of tools/bench/bench_exact.py and prints JSON:
+// Times pgi's exact phase on the workloads of tools/bench/bench_exact.py and bench_modified.py, prints JSON:
 // {"seconds": median wall time, "repetitions": R, "result": [polynomials]} for one workload.
+#include "magnus/modified_hamiltonian.hpp"
 #include "poisson/hamilton_jacobi.hpp"
 #include "tools/scene.hpp"
 
@@ -20,7 +21,8 @@ std::vector<std::string> strings(const std::vector<pgi::Poly>& v) {
 }
 
 // workload(scene) -> polynomials, timed from the loaded scene on (parsing excluded, as in the sympy versions).
-std::vector<pgi::Poly> run(const std::string& kind, const pgi::Scene& s, std::size_t n) {
+std::vector<pgi::Poly> run(const std::string& kind, const pgi::Scene& s, std::size_t n, std::size_t k) {
+    if (kind == "modified") return pgi::modified_hamiltonian(s.pi, s.H, k, s.realisation, n);
     if (kind == "terms") {
         auto r = pgi::build_realisation(s.pi, s.realisation, pgi::realisation_degree_for_order(n));
         return pgi::hamilton_jacobi_terms(s.phase_space(), r, s.H, n);
@@ -34,19 +36,19 @@ std::vector<pgi::Poly> run(const std::string& kind, const pgi::Scene& s, std::si
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 4) {
-        std::cerr << "usage: pgi_bench_exact SCENE terms|radial N\n";
+    if (argc != 4 && argc != 5) {
+        std::cerr << "usage: pgi_bench_exact SCENE terms|radial|modified N [K]\n";
         return 2;
     }
     pgi::Scene scene = pgi::load_scene(argv[1]);
     const std::string kind = argv[2];
-    const std::size_t n = std::stoul(argv[3]);
+    const std::size_t n = std::stoul(argv[3]), k = argc == 5 ? std::stoul(argv[4]) : 0;
     std::vector<double> times;
     std::vector<pgi::Poly> result;
     const auto start = Clock::now();
     while (times.size() < 5 || (Clock::now() - start < std::chrono::seconds(1) && times.size() < 1000)) {
         auto t0 = Clock::now();
-        result = run(kind, scene, n);
+        result = run(kind, scene, n, k);
         times.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
     }
     std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());

@@ -74,6 +74,22 @@ class RingImpl:
                 alpha[i][m] = v[i] * c
         return alpha
 
+    def log_canonical(self, D):
+        """alpha_j = exp((1/2) sum_i a_ij x_i p_i) x_j with pi_ij = a_ij x_i x_j."""
+        n = self.n
+        alpha = []
+        for j in range(n):
+            u = sum((self.pi[i][j] * self.P[i] * QQ(1, 2) for i in range(n) if self.pi[i][j]), self.R.zero)
+            u = self.R({mon: c for mon, c in u.items()}) if u else u
+            # pi_ij / x_j = a_ij x_i, so u_j = (1/2) sum_i a_ij x_i p_i = (1/2) sum_i pi_ij p_i / x_j
+            u = sum((self.R({tuple(e - (1 if v == j else 0) for v, e in enumerate(mon)): c}) for mon, c in u.items()), self.R.zero)
+            comps, term = [self.X[j]], self.X[j]
+            for m in range(1, D + 1):
+                term = term * u * QQ(1, m)
+                comps.append(term)
+            alpha.append(comps)
+        return alpha
+
     def radial(self, D):
         n = self.n
         alpha = [[self.X[i]] + [self.R.zero] * D for i in range(n)]
@@ -97,7 +113,73 @@ class RingImpl:
             images = {self.n + l: [self.R.zero] + [S[j - 1].diff(self.X[l]) for j in range(1, N)] for l in range(self.n)}
             a = {l: self.compose(sum(alpha[l][: N], self.R.zero), images, N) for l in range(self.n)}
             S.append(self.compose(H, a, N)[i] * QQ(1, i + 1))
-        return [str(s.as_expr()) for s in S]
+        return [str(s.as_expr()).replace("**", "^") for s in S]
+
+
+    # --- modified Hamiltonians (MATH.md 7), the same algorithm as magnus/ ---
+    def compose_series(self, fs, images, N):
+        """sum_m t^m f_m(images), each f a list of t-coefficients."""
+        out = []
+        for f in fs:
+            r = [self.R.zero] * N
+            for m, c in enumerate(f[:N]):
+                if c:
+                    comp = self.compose(c, images, N)
+                    for d in range(N - m):
+                        r[m + d] += comp[d]
+            out.append(r)
+        return out
+
+    def inverse_near_identity(self, u, N):
+        n = self.n
+        v = [[self.R.zero] * N for _ in range(n)]
+        for _ in range(1, N):
+            images = {i: [self.X[i] + v[i][0]] + v[i][1:] for i in range(n)}
+            v = [[-c for c in s] for s in self.compose_series(u, images, N)]
+        return v
+
+    def pbracket(self, f, g):
+        n = self.n
+        return sum((self.pi[i][j] * f.diff(self.X[i]) * g.diff(self.X[j]) for i in range(n) for j in range(n) if self.pi[i][j]),
+                   self.R.zero)
+
+    def series_bracket(self, A, B):
+        N = min(len(A), len(B))
+        r = [self.R.zero] * N
+        for a in range(N):
+            if A[a]:
+                for b in range(N - a):
+                    if B[b]:
+                        r[a + b] += self.pbracket(A[a], B[b])
+        return r
+
+    def magnus(self, h, m):
+        M = [self.R.zero] * (m + 1)
+        for j in range(1, m + 1):
+            hj = (h + [self.R.zero] * j)[:j]
+            Mj = M[:j]
+            term, rhs = hj, list(hj)
+            for i in range(1, j):
+                term = self.series_bracket(Mj, term)
+                c = QQ(bernoulli(i).p, bernoulli(i).q) / QQ(int(sp.factorial(i)))
+                if c:
+                    rhs = [a + c * b for a, b in zip(rhs, term)]
+            M[j] = rhs[j - 1] * QQ(1, j)
+        return M
+
+    def modified(self, alpha, H, k, m):
+        """H_0..H_m of the order-k scheme on the realisation alpha (beta = alpha(x, -p))."""
+        n, N = self.n, m + 1
+        S = [self.parse(s) for s in self.hamilton_jacobi(alpha, H, k)]
+        images = {n + l: [self.R.zero] + [S[j - 1].diff(self.X[l]) if j <= k else self.R.zero for j in range(1, N)]
+                  for l in range(n)}
+        beta_minus_x = [sum((alpha[i][d] * (-1) ** d for d in range(1, min(N, len(alpha[i])))), self.R.zero) for i in range(n)]
+        u = [self.compose(b, images, N) for b in beta_minus_x]
+        v = self.inverse_near_identity(u, N)
+        dS = [S[j - 1] * (j) if j <= k else self.R.zero for j in range(1, N + 1)]
+        h = self.compose_series([dS], {i: [self.X[i] + v[i][0]] + v[i][1:] for i in range(n)}, N)[0]
+        M = self.magnus(h, m + 1)
+        return [str(M[j + 1].as_expr()) for j in range(m + 1)]
 
 
 class ExprImpl:
