@@ -9,10 +9,8 @@
 namespace pgi {
 
 Series variation_functions(const PhaseSpace& M, const Realisation& r, const std::vector<Poly>& S, std::size_t N) {
-    std::vector<std::size_t> xs;
-    for (std::size_t i = 0; i < M.dim(); ++i) xs.push_back(M.x(i));
     // Phi_t^{-1} = id + v
-    auto v = inverse_near_identity(bisection_displacement(M, r, Side::beta, S, N), xs, N);
+    auto v = inverse_near_identity(bisection_displacement(M, r, Side::beta, S, N), M.coordinate_vars(), N);
     std::vector<std::optional<Series>> images(M.ring()->size());
     for (std::size_t i = 0; i < M.dim(); ++i) images[M.x(i)] = Series::constant(M.x_gen(i), N) + v[i];
     // d/dt S_t = sum_j j t^{j-1} S_j

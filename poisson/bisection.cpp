@@ -4,16 +4,6 @@
 
 namespace pgi {
 
-namespace {
-
-std::vector<std::size_t> coordinate_vars(const PhaseSpace& M) {
-    std::vector<std::size_t> xs;
-    for (std::size_t i = 0; i < M.dim(); ++i) xs.push_back(M.x(i));
-    return xs;
-}
-
-}  // namespace
-
 std::vector<Series> bisection_displacement(const PhaseSpace& M, const Realisation& r, Side side, const std::vector<Poly>& S,
                                            std::size_t N) {
     const std::size_t n = M.dim(), D = std::min(N - 1, r.degree);
@@ -33,7 +23,7 @@ std::vector<Series> bisection_displacement(const PhaseSpace& M, const Realisatio
 std::vector<std::vector<Poly>> base_point_series(const PhaseSpace& M, const Realisation& r, const std::vector<Poly>& S,
                                                  std::size_t P) {
     const std::size_t n = M.dim();
-    auto v = inverse_near_identity(bisection_displacement(M, r, Side::alpha, S, P + 1), coordinate_vars(M), P + 1);
+    auto v = inverse_near_identity(bisection_displacement(M, r, Side::alpha, S, P + 1), M.coordinate_vars(), P + 1);
     std::vector<std::vector<Poly>> out(P, std::vector<Poly>(n, Poly(M.ring())));
     for (std::size_t m = 1; m <= P; ++m)
         for (std::size_t l = 0; l < n; ++l) out[m - 1][l] = v[l][m];

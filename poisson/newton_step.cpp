@@ -35,17 +35,6 @@ std::vector<double> component_sizes(const Realisation& r, const std::vector<doub
     return a;
 }
 
-// S_dt = sum_j dt^j S_j, exactly in the double dt.
-Poly hamilton_jacobi_sum(const std::vector<Poly>& S, const Rational& dt) {
-    Poly sum(S.front().ring());
-    Rational power = dt;
-    for (const auto& Sj : S) {
-        sum += power * Sj;
-        power = power * dt;
-    }
-    return sum;
-}
-
 // The degree of the next probe: where the terms' geometric decay, fitted on the last four, reaches
 // the target, plus two for the parity of symmetric realisations; at least two more than now.
 std::size_t deeper_probe(const std::vector<double>& a, double target, std::size_t max_degree) {
@@ -92,7 +81,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     std::size_t probe_degree = std::max(D_min, P) + 2;
     Realisation probe = build_realisation(pi, opt.realisation, probe_degree);
     auto S = hamilton_jacobi_terms(M, probe, H, opt.k);
-    Poly S_dt = hamilton_jacobi_sum(S, dt);
+    Poly S_dt = sum_powers(S, dt, 1);  // S_dt = sum_j dt^j S_j, exactly in the double dt
 
     // p at the typical state, to size the realisation's terms there.
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n));
@@ -146,20 +135,17 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     for (std::size_t l = 0; l < n; ++l) g.push_back(derivative(S_dt, M.x(l)));
     for (std::size_t c = 0; c < n; ++c)
         for (std::size_t r = 0; r < n; ++r) g.push_back(derivative(g[c], M.x(r)));
-    std::vector<std::size_t> xs;
-    for (std::size_t i = 0; i < n; ++i) xs.push_back(M.x(i));
-    s.gradient_ = CompiledMap::build(g, xs);
+    s.gradient_ = CompiledMap::build(g, M.coordinate_vars());
 
     // xb = x + sum_m dt^m u_m, from the exact series of the base point.
     auto u = base_point_series(M, probe, S, P);
     std::vector<Poly> xb;
     for (std::size_t l = 0; l < n; ++l) {
-        Poly y = M.x_gen(l);
-        Rational power = dt;
-        for (std::size_t m = 0; m < P; ++m, power = power * dt) y += power * u[m][l];
-        xb.push_back(std::move(y));
+        std::vector<Poly> c;
+        for (std::size_t m = 0; m < P; ++m) c.push_back(u[m][l]);
+        xb.push_back(M.x_gen(l) + sum_powers(c, dt, 1));
     }
-    s.predictor_ = CompiledMap::build(xb, xs);
+    s.predictor_ = CompiledMap::build(xb, M.coordinate_vars());
 
     const auto N = static_cast<Eigen::Index>(n);
     s.v_ = RealisationValues(n);

@@ -20,6 +20,12 @@ PhaseSpace::PhaseSpace(std::vector<std::string> coordinates)
     for (std::size_t i = 0; i < dim(); ++i) momenta_[p(i)] = true;
 }
 
+std::vector<std::size_t> PhaseSpace::coordinate_vars() const {
+    std::vector<std::size_t> xs;
+    for (std::size_t i = 0; i < dim(); ++i) xs.push_back(x(i));
+    return xs;
+}
+
 Poly PhaseSpace::parse(std::string_view text) const {
     Poly f = Poly::parse(coordinate_ring_, text);
     std::vector<long> map(dim());

@@ -21,6 +21,8 @@ public:
     std::size_t p(std::size_t i) const { return dim() + i; }
     Poly x_gen(std::size_t i) const { return Poly::gen(ring_, x(i)); }
     Poly p_gen(std::size_t i) const { return Poly::gen(ring_, p(i)); }
+    /// The ring indices of x_1..x_n, the inputs of every evaluator over the coordinates.
+    std::vector<std::size_t> coordinate_vars() const;
     /// The mask of the momenta, for grading by degree in p.
     const VarMask& momenta() const { return momenta_; }
     /// Parses a polynomial in the coordinates only (a momentum name is an unknown variable).

@@ -146,6 +146,18 @@ Poly substitute(const Poly& f, const std::vector<Poly>& images) {
     return r;
 }
 
+Poly sum_powers(const std::vector<Poly>& c, const Rational& t, unsigned long first) {
+    if (c.empty()) throw std::invalid_argument("pgi::sum_powers: no coefficients");
+    Poly sum(c.front().ring());
+    Rational power(1);
+    for (unsigned long j = 0; j < first; ++j) power = power * t;
+    for (const auto& cj : c) {
+        sum += power * cj;
+        power = power * t;
+    }
+    return sum;
+}
+
 double evaluate(const Poly& f, std::span<const double> point) {
     if (point.size() != f.ring()->size()) throw std::invalid_argument("pgi::evaluate: point has the wrong size");
     double sum = 0;

@@ -99,6 +99,8 @@ Poly pow(const Poly& f, unsigned long k);
 Poly derivative(const Poly& f, std::size_t var);
 /// f with every variable v replaced by images[v] (all images in f's ring, one per variable).
 Poly substitute(const Poly& f, const std::vector<Poly>& images);
+/// sum_j t^(first + j) c[j]: a truncated series in t evaluated at a rational t (c non-empty, one ring).
+Poly sum_powers(const std::vector<Poly>& c, const Rational& t, unsigned long first = 0);
 /// The double value of f at a point (one coordinate per ring variable), for checks, not for speed.
 double evaluate(const Poly& f, std::span<const double> point);
 

@@ -15,18 +15,12 @@ using namespace pgi;
 
 namespace {
 
-std::vector<std::size_t> coordinate_vars(const PhaseSpace& M) {
-    std::vector<std::size_t> xs;
-    for (std::size_t i = 0; i < M.dim(); ++i) xs.push_back(M.x(i));
-    return xs;
-}
-
 // The step of size t as exact t-series: phi_t = Phi^beta_t o (Phi^alpha_t)^{-1} (MATH.md 6).
 std::vector<Series> step_series(const Scene& s, std::size_t k, std::size_t N) {
     const PhaseSpace& M = s.phase_space();
     Realisation r = build_realisation(s.pi, s.realisation, std::max(N, k));
     auto S = hamilton_jacobi_terms(M, r, s.H, k);
-    auto v = inverse_near_identity(bisection_displacement(M, r, Side::alpha, S, N), coordinate_vars(M), N);
+    auto v = inverse_near_identity(bisection_displacement(M, r, Side::alpha, S, N), M.coordinate_vars(), N);
     std::vector<std::optional<Series>> images(M.ring()->size());
     for (std::size_t i = 0; i < M.dim(); ++i) images[M.x(i)] = Series::constant(M.x_gen(i), N) + v[i];
     auto phi = compose(bisection_displacement(M, r, Side::beta, S, N), images, N);
@@ -118,16 +112,13 @@ TEST_CASE("modified: the time-dt flow of Htilde agrees with one step to the trun
 
 namespace {
 
-// Htilde truncated after dt^m at a numeric dt, as one polynomial: sum_j dt^j H_j (dt exact as a rational).
+// Htilde truncated after dt^m at a numeric dt, as one polynomial (dt exact as a rational).
 Poly truncated_at(const std::vector<Poly>& Ht, std::size_t m, double dt) {
-    Poly sum(Ht.front().ring());
-    Rational power(1), h = Rational::from_double(dt);
-    for (std::size_t j = 0; j <= m; ++j, power = power * h) sum += power * Ht[j];
-    return sum;
+    return sum_powers(std::vector<Poly>(Ht.begin(), Ht.begin() + long(m) + 1), Rational::from_double(dt));
 }
 
 CompiledMap compiled_field(const Scene& s, const Poly& K) {
-    return CompiledMap::build(s.pi.hamiltonian_vector_field(K), coordinate_vars(s.phase_space()));
+    return CompiledMap::build(s.pi.hamiltonian_vector_field(K), s.phase_space().coordinate_vars());
 }
 
 Eigen::VectorXd rk4_flow(const CompiledMap& f, Eigen::VectorXd x, double T, int substeps) {
@@ -186,7 +177,7 @@ TEST_CASE("modified: over 1e5 steps the truncated Htilde is conserved far better
         Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
         const std::size_t k = 2, m = 4;
         auto Ht = modified_hamiltonian(s.pi, s.H, k, s.realisation, m);
-        const auto vars = coordinate_vars(s.phase_space());
+        const auto vars = s.phase_space().coordinate_vars();
         CompiledMap energies = CompiledMap::build({s.H, truncated_at(Ht, m, s.dt)}, vars);
         StepOptions opt;
         opt.k = k;

@@ -14,16 +14,10 @@ namespace {
 
 Eigen::VectorXd vec(const std::vector<double>& v) { return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())); }
 
-std::vector<std::size_t> coordinates(const PhaseSpace& M) {
-    std::vector<std::size_t> xs;
-    for (std::size_t i = 0; i < M.dim(); ++i) xs.push_back(M.x(i));
-    return xs;
-}
-
 // The vector field pi grad H, compiled: the reference integrator's and the RK4 baseline's right-hand side.
 struct VectorField {
     CompiledMap f;
-    explicit VectorField(const Scene& s) : f(CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), coordinates(s.phase_space()))) {}
+    explicit VectorField(const Scene& s) : f(CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), s.phase_space().coordinate_vars())) {}
     Eigen::VectorXd operator()(const Eigen::VectorXd& x) const {
         Eigen::VectorXd y(x.size());
         f.eval(x.data(), y.data());
@@ -110,7 +104,7 @@ TEST_CASE("newton_step: Casimirs are kept to round-off over 1e5 steps for every 
     for (const std::string name : {"rigid_body", "lotka_volterra", "nambu"}) {
         Scene s = test::bundled(name);
         const Eigen::VectorXd x0 = vec(*s.x0);
-        CompiledMap C = CompiledMap::build(s.casimirs, coordinates(s.phase_space()));
+        CompiledMap C = CompiledMap::build(s.casimirs, s.phase_space().coordinate_vars());
         auto casimir = [&](const Eigen::VectorXd& x) {
             double c;
             C.eval(x.data(), &c);

@@ -24,17 +24,6 @@ json poly_entries(const std::vector<Poly>& v) {
     return a;
 }
 
-// sum_j dt^j H_j at the scene's dt, exactly in the double dt.
-Poly at_step(const std::vector<Poly>& Ht, double dt) {
-    Poly sum(Ht.front().ring());
-    Rational power(1), h = Rational::from_double(dt);
-    for (const auto& Hj : Ht) {
-        sum += power * Hj;
-        power = power * h;
-    }
-    return sum;
-}
-
 std::string latex_escape(const std::string& s) {
     std::string out;
     for (char c : s) {
@@ -68,7 +57,7 @@ json report_data(const Scene& scene, std::size_t m) {
            {"S", poly_entries(S)}, {"modified", poly_entries(Ht)}, {"modified_upto", m}};
     if (scene.x0 && scene.t_end) {
         IntegrateOptions options;
-        options.modified = at_step(Ht, scene.dt);
+        options.modified = sum_powers(Ht, Rational::from_double(scene.dt));  // Htilde at the scene's dt
         json run = integrate_report(scene, options);
         r["run"] = {{"dt", scene.dt},
                     {"steps", run["steps"]},

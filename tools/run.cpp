@@ -50,9 +50,7 @@ CompiledMap invariants(const Scene& scene, const std::optional<Poly>& modified) 
     std::vector<Poly> f{scene.H};
     f.insert(f.end(), scene.casimirs.begin(), scene.casimirs.end());
     if (modified) f.push_back(*modified);
-    std::vector<std::size_t> xs;
-    for (std::size_t i = 0; i < scene.phase_space().dim(); ++i) xs.push_back(scene.phase_space().x(i));
-    return CompiledMap::build(f, xs);
+    return CompiledMap::build(f, scene.phase_space().coordinate_vars());
 }
 
 double relative_error(double value, double initial) {

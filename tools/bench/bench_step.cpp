@@ -39,9 +39,7 @@ int main(int argc, char** argv) {
     const std::size_t k_max = argc > 2 ? std::stoul(argv[2]) : 6, steps = argc > 3 ? std::stoul(argv[3]) : 20000;
     const std::size_t predictor = argc > 4 ? std::stoul(argv[4]) : 0;
     const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
-    std::vector<std::size_t> xs;
-    for (std::size_t i = 0; i < s.phase_space().dim(); ++i) xs.push_back(s.phase_space().x(i));
-    const auto field = pgi::CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), xs);
+    const auto field = pgi::CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), s.phase_space().coordinate_vars());
     Eigen::VectorXd f(x0.size()), y = x0;
     double sink = 0;
     const double field_ns = median_ns([&](std::size_t i) { y[0] = x0[0] + 1e-12 * double(i & 7); field.eval(y.data(), f.data()); sink += f[0]; }, 200000);
