@@ -19,8 +19,10 @@ class SceneReader {
 public:
     SceneReader(std::filesystem::path file, const SceneOverrides& overrides) : file_(std::move(file)), ov_(overrides) {}
 
-    Scene read() {
-        toml::table doc = parse_document();
+    Scene read() { return read_text(file_text()); }
+
+    Scene read_text(std::string_view text) {
+        toml::table doc = parse_document(text);
         check_keys(doc, "", {"name", "coordinates", "brackets", "hamiltonian", "integrator", "run", "magnus"});
         std::string name = string_at(doc, "name", true).value_or("");
         PhaseSpace M(read_coordinates(doc));
@@ -49,14 +51,18 @@ public:
 private:
     [[noreturn]] void fail(const std::string& key, const std::string& problem) const { throw SceneError(file_, key, problem); }
 
-    toml::table parse_document() const {
+    std::string file_text() const {
         std::ifstream in(file_, std::ios::binary);
         if (!in) fail("", std::string("cannot read the file (") + std::strerror(errno) + ")");
         std::stringstream buffer;
         buffer << in.rdbuf();
         if (in.bad()) fail("", "cannot read the file");
+        return buffer.str();
+    }
+
+    toml::table parse_document(std::string_view text) const {
         try {
-            return toml::parse(buffer.str(), file_.string());
+            return toml::parse(text, file_.string());
         } catch (const toml::parse_error& e) {
             fail("", "TOML syntax error at line " + std::to_string(e.source().begin.line) + ", column " +
                          std::to_string(e.source().begin.column) + ": " + std::string(e.description()));
@@ -272,6 +278,10 @@ private:
 
 Scene load_scene(const std::filesystem::path& file, const SceneOverrides& overrides) {
     return SceneReader(file, overrides).read();
+}
+
+Scene parse_scene(std::string_view text, const std::filesystem::path& file, const SceneOverrides& overrides) {
+    return SceneReader(file, overrides).read_text(text);
 }
 
 void require_valid(const Scene& scene) {

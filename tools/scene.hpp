@@ -44,6 +44,8 @@ struct Scene {
 /// order < 1, dt <= 0, non-finite numbers, x0 of the wrong length. Does not check Jacobi or the
 /// Casimirs: require_valid() does, check_report() reports them.
 Scene load_scene(const std::filesystem::path& file, const SceneOverrides& overrides = {});
+/// The same from the text of a scene; file only names it in messages.
+Scene parse_scene(std::string_view text, const std::filesystem::path& file, const SceneOverrides& overrides = {});
 
 /// Throws SceneError naming the triple and the jacobiator if pi fails Jacobi, or the Casimir and
 /// the non-zero component of pi grad C if a listed Casimir is not one.
