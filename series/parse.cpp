@@ -15,17 +15,25 @@ public:
         : ring_(r), text_(text), max_exponent_(max_exponent) {}
 
     void run() {
+        const auto multiplier = group_multipliers();
         long depth = 0;
+        std::vector<unsigned long> scale{1};  // product of the powers the enclosing groups are raised to
         for (std::size_t i = 0; i < text_.size();) {
             char c = text_[i];
             if (std::isspace(static_cast<unsigned char>(c))) { ++i; continue; }
-            if (c == '(') { ++depth; ++i; continue; }
-            if (c == ')') {
-                if (--depth < 0) fail("unbalanced parentheses: ')' without '(' at position " + pos(i));
+            if (c == '(') {
+                ++depth;
+                scale.push_back(scale.back() * multiplier.at(i));
                 ++i;
                 continue;
             }
-            if (c == '^') { i = check_exponent(i + 1); continue; }
+            if (c == ')') {
+                if (--depth < 0) fail("unbalanced parentheses: ')' without '(' at position " + pos(i));
+                scale.pop_back();
+                ++i;
+                continue;
+            }
+            if (c == '^') { i = check_exponent(i + 1, scale.back()); continue; }
             if (c == '/') { i = check_divisor(i + 1); continue; }
             if (c == '+' || c == '-' || c == '*') { ++i; continue; }
             if (std::isdigit(static_cast<unsigned char>(c))) { i = skip_number(i); continue; }
@@ -61,15 +69,40 @@ private:
         return i;
     }
 
-    // After '^': a non-negative integer literal no larger than max_exponent_.
-    std::size_t check_exponent(std::size_t i) const {
+    // After '^': a non-negative integer literal n with n times the powers of the enclosing groups at most
+    // max_exponent_ (so neither x^1001 nor ((x+1)^100)^100 nor 7^777^7 is built), not itself raised to a power.
+    std::size_t check_exponent(std::size_t i, unsigned long enclosing) const {
         i = skip_space(i);
         std::size_t j = skip_number(i);
         if (j == i) fail("'^' must be followed by a non-negative integer at position " + pos(i));
         std::string_view digits = text_.substr(i, j - i);
         if (digits.size() > 18 || std::stoul(std::string(digits)) > max_exponent_)
             fail("exponent " + std::string(digits) + " exceeds the limit " + std::to_string(max_exponent_));
+        if (std::stoul(std::string(digits)) * enclosing > max_exponent_)
+            fail("exponent " + std::string(digits) + " inside groups raised to the power " + std::to_string(enclosing) +
+                 " exceeds the limit " + std::to_string(max_exponent_));
+        if (std::size_t k = skip_space(j); k < text_.size() && text_[k] == '^')
+            fail("chained exponents at position " + pos(k) + ": write (a^b)^c");
         return j;
+    }
+
+    // For each '(' the power its group is raised to (1 when none), capped so products cannot overflow.
+    std::vector<unsigned long> group_multipliers() const {
+        std::vector<unsigned long> m(text_.size(), 1);
+        std::vector<std::size_t> open;
+        for (std::size_t i = 0; i < text_.size(); ++i) {
+            if (text_[i] == '(') open.push_back(i);
+            if (text_[i] != ')' || open.empty()) continue;
+            std::size_t k = skip_space(i + 1);
+            if (k < text_.size() && text_[k] == '^') {
+                std::size_t a = skip_space(k + 1), b = skip_number(a);
+                std::string_view digits = text_.substr(a, b - a);
+                if (!digits.empty()) m[open.back()] = digits.size() > 6 ? max_exponent_ + 1 : std::stoul(std::string(digits));
+            }
+            open.pop_back();
+        }
+        for (auto& v : m) v = std::max<unsigned long>(1, std::min<unsigned long>(v, max_exponent_ + 1));
+        return m;
     }
 
     // After '/': the divisor must be a non-zero constant (a number or a parenthesised constant).

@@ -66,6 +66,18 @@ TEST_CASE("poly: malformed polynomials get a message naming the problem") {
     CHECK_THROWS_AS(Poly::parse(r, "x^-1"), ParseError);
 }
 
+TEST_CASE("poly: regression (fuzzer timeout): nested and chained powers are bounded like single ones") {
+    auto r = xyz();
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "77^777^7^777^777"), "malformed polynomial '77^777^7^777^777': chained exponents at position 7: write (a^b)^c",
+                         ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "((x+y)^100)^100"),
+                         "malformed polynomial '((x+y)^100)^100': exponent 100 inside groups raised to the power 100 exceeds the limit 1000",
+                         ParseError);
+    CHECK_THROWS_AS(Poly::parse(r, "(((x)^10)^10)^11"), ParseError);
+    CHECK(Poly::parse(r, "((x)^10)^10") == pow(Poly::gen(r, 0), 100));
+    CHECK(Poly::parse(r, "(x + 1)^2 * (y - 1)^3") == pow(Poly::parse(r, "x + 1"), 2) * pow(Poly::parse(r, "y - 1"), 3));
+}
+
 TEST_CASE("poly: derivative obeys the product rule on random inputs (FLINT t-derivative style)") {
     auto r = xyz();
     std::mt19937 gen(20261122);

@@ -5,6 +5,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include <flint/flint.h>
+
+#include <cstdlib>
 #include <functional>
 #include <iostream>
 
@@ -79,6 +82,7 @@ int run_command(const std::string& name, const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    std::atexit(flint_cleanup_master);  // FLINT's own caches, so memcheck sees every block freed
     CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
     app.require_subcommand(1);
     Options o;
