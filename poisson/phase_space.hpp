@@ -11,7 +11,8 @@ namespace pgi {
 class PhaseSpace {
 public:
     /// Requires distinct identifiers (std::invalid_argument otherwise). Momenta are named p_<coordinate>.
-    explicit PhaseSpace(std::vector<std::string> coordinates);
+    /// max_terms bounds every product of the exact phase (Ring::max_terms).
+    explicit PhaseSpace(std::vector<std::string> coordinates, std::size_t max_terms = Ring::default_max_terms);
 
     std::size_t dim() const { return coordinates_.size(); }
     const std::vector<std::string>& coordinates() const { return coordinates_; }

@@ -142,7 +142,7 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
     const std::size_t n = M.dim();
     auto alpha = identity_map(M, D);
     std::vector<std::vector<Gradient>> grad(n);  // grad[i][a]: gradients of A_{a,i}, a >= 1
-    for (std::size_t m = 0; m < D; ++m) {
+    for (std::size_t m = 0; m < D; ++m) try {
         // [pi_ij(A_0 + ... + A_m)]_deg m: compose with alpha truncated after degree m
         std::vector<std::optional<Series>> images(M.ring()->size());
         for (std::size_t i = 0; i < n; ++i) images[M.x(i)] = alpha[i].truncated(m + 1);
@@ -164,6 +164,8 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
             alpha[j][m + 1] = Rational(1, static_cast<unsigned long>(m + 2)) * next[j];
             grad[j].emplace_back(M, alpha[j][m + 1]);
         }
+    } catch (const ResourceLimitError& e) {
+        throw ResourceLimitError("radial realisation, terms of degree " + std::to_string(m + 1) + " in p: " + e.what());
     }
     return symmetric("radial", D, std::move(alpha));
 }

@@ -1,6 +1,7 @@
 #include "series/compile.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <stdexcept>
 
@@ -45,7 +46,12 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
                                                 "', which is not an input");
                 x[static_cast<std::size_t>(slot[v])] = e[v];
             }
-            rows[o].emplace_back(x, f.term_coeff(t).to_double());
+            const double coeff = f.term_coeff(t).to_double();
+            // NOTE: never let a rational become an infinite double silently
+            if (!std::isfinite(coeff))
+                throw std::invalid_argument("a coefficient of " + std::to_string(fmpz_sizeinbase(fmpq_numref(f.term_coeff(t).get()), 10)) +
+                                            " digits in output " + std::to_string(o) + " is beyond the double range");
+            rows[o].emplace_back(x, coeff);
             for (Exponent y = x; index.emplace(y, 0).second;) {
                 auto v = std::find_if(y.begin(), y.end(), [](unsigned long k) { return k > 0; });
                 if (v == y.end()) break;

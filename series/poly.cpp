@@ -20,7 +20,7 @@ void require_same_ring(const Poly& a, const Poly& b, const char* where) {
 
 }  // namespace
 
-Ring::Ring(std::vector<std::string> names) : names_(std::move(names)) {
+Ring::Ring(std::vector<std::string> names, std::size_t max_terms) : names_(std::move(names)), max_terms_(max_terms) {
     for (std::size_t i = 0; i < names_.size(); ++i) {
         if (!is_identifier(names_[i]))
             throw std::invalid_argument("variable name '" + names_[i] + "' is not an identifier");
@@ -110,6 +110,11 @@ Poly operator-(const Poly& a) {
 }
 Poly operator*(const Poly& a, const Poly& b) {
     require_same_ring(a, b, "pgi::mul");
+    const std::size_t la = a.length(), lb = b.length(), limit = a.ring()->max_terms();
+    if (la != 0 && lb > limit / la)
+        throw ResourceLimitError("a product of a " + std::to_string(la) + "-term and a " + std::to_string(lb) +
+                                 "-term polynomial could reach " + std::to_string(la * lb) + " terms, above the limit of " +
+                                 std::to_string(limit) + " (raise it with --max-terms)");
     Poly r(a.ring());
     fmpq_mpoly_mul(r.get_mut(), a.get(), b.get(), a.ctx());
     return r;

@@ -14,13 +14,22 @@
 
 namespace pgi {
 
-/// Owns one fmpq_mpoly context and the names of its variables. Shared by its polynomials
-/// through RingPtr, never copied.
+/// Thrown before an exact computation would outgrow its ring's term limit; what() says what and how large.
+class ResourceLimitError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+/// Owns one fmpq_mpoly context, the names of its variables and the term limit of its products.
+/// Shared by its polynomials through RingPtr, never copied.
 class Ring {
 public:
+    /// The default bound on the terms a product may reach (its factors' lengths multiplied): about a
+    /// gigabyte of coefficients and exponents.
+    static constexpr std::size_t default_max_terms = 20'000'000;
     /// Requires distinct, non-empty names made of letters, digits and '_', not starting with a digit.
     /// Throws std::invalid_argument naming the offending name.
-    explicit Ring(std::vector<std::string> names);
+    explicit Ring(std::vector<std::string> names, std::size_t max_terms = default_max_terms);
     ~Ring() { fmpq_mpoly_ctx_clear(ctx_); }
     Ring(const Ring&) = delete;
     Ring& operator=(const Ring&) = delete;
@@ -30,13 +39,17 @@ public:
     const std::vector<std::string>& names() const { return names_; }
     /// Index of a variable, or -1.
     long index_of(std::string_view name) const;
+    std::size_t max_terms() const { return max_terms_; }
 
 private:
     fmpq_mpoly_ctx_t ctx_;
     std::vector<std::string> names_;
+    std::size_t max_terms_;
 };
 using RingPtr = std::shared_ptr<const Ring>;
-inline RingPtr make_ring(std::vector<std::string> names) { return std::make_shared<const Ring>(std::move(names)); }
+inline RingPtr make_ring(std::vector<std::string> names, std::size_t max_terms = Ring::default_max_terms) {
+    return std::make_shared<const Ring>(std::move(names), max_terms);
+}
 
 /// A polynomial of Q[ring variables]. Copy is a deep copy; move swaps with an empty poly.
 class Poly {
@@ -91,6 +104,7 @@ bool operator==(const Poly& a, const Poly& b);
 Poly operator+(const Poly& a, const Poly& b);
 Poly operator-(const Poly& a, const Poly& b);
 Poly operator-(const Poly& a);
+/// The product; throws ResourceLimitError before multiplying when length(a) length(b) exceeds the ring's max_terms().
 Poly operator*(const Poly& a, const Poly& b);
 Poly operator*(const Rational& c, const Poly& a);
 /// Set the result to f^k. Throws std::overflow_error when an exponent overflows.

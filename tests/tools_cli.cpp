@@ -281,3 +281,44 @@ TEST_CASE("cli: report writes Markdown, JSON and LaTeX atomically, and the LaTeX
     CHECK(bad_format.exit_code == 2);
     fs::remove_all(dir);
 }
+
+TEST_CASE("cli: resource guards stop the exact phase and oversized output before they start, with exit 2") {
+    const std::string nambu = test::scene_path("nambu");
+    Run terms = pgi_run({"integrate", nambu, "--dt", "1/2", "--max-terms", "20000", "--json"});
+    CHECK(terms.exit_code == 2);
+    CHECK(terms.out.empty());
+    CHECK_MESSAGE(terms.err.find("exact phase stopped: radial realisation, terms of degree ") != std::string::npos, terms.err);
+    CHECK(terms.err.find("above the limit of 20000 (raise it with --max-terms)") != std::string::npos);
+    const fs::path csv = fs::temp_directory_path() / ("pgi_test_big_" + std::to_string(::getpid()) + ".csv");
+    Run big = pgi_run({"integrate", nambu, "--t-end", "1e6", "--csv", csv.string(), "--max-csv-mb", "10"});
+    CHECK(big.exit_code == 2);
+    CHECK_MESSAGE(big.err.find("--csv: the trajectory would take about ") != std::string::npos, big.err);
+    CHECK_FALSE(fs::exists(csv));
+}
+
+TEST_CASE("cli: a coefficient beyond the double range is refused, not turned into infinity") {
+    const fs::path scene = fs::temp_directory_path() / ("pgi_test_huge_" + std::to_string(::getpid()) + ".toml");
+    {
+        std::ofstream out(scene);
+        out << "name = \"huge\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = \"10^400*q^2 + p^2\"\n"
+               "[run]\nx0 = [1.0, 0.0]\nt_end = 1\n";
+    }
+    Run r = pgi_run({"integrate", scene.string()});
+    CHECK(r.exit_code == 2);
+    CHECK_MESSAGE(r.err.find("is beyond the double range") != std::string::npos, r.err);
+    fs::remove(scene);
+}
+
+TEST_CASE("cli: no bad scene leaves an output file behind") {
+    const fs::path dir = fs::temp_directory_path() / ("pgi_test_noout_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    for (const auto& entry : fs::directory_iterator(fs::path(PGI_SCENES_DIR) / "../../tests/bad_scenes")) {
+        CAPTURE(entry.path().string());
+        Run csv = pgi_run({"integrate", entry.path().string(), "--csv", (dir / "out.csv").string()});
+        CHECK(csv.exit_code == 2);
+        Run report = pgi_run({"report", entry.path().string(), "--out", (dir / "out.md").string()});
+        CHECK(report.exit_code == 2);
+        CHECK(fs::is_empty(dir));
+    }
+    fs::remove_all(dir);
+}

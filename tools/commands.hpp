@@ -27,6 +27,7 @@ public:
 struct IntegrateOptions {
     std::optional<std::filesystem::path> csv;
     std::size_t every = 1;            // one CSV row every this many steps
+    double max_csv_mb = 1024;         // refuse (before running) a CSV that would be larger than this
     bool progress = false;            // a progress line on stderr for runs longer than a second or two
     std::optional<Poly> modified;     // also track this (a truncated modified Hamiltonian) along the run
 };

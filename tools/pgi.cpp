@@ -32,6 +32,8 @@ void scene_options(CLI::App* cmd, Options& o) {
     cmd->add_option("--realisation", o.overrides.realisation, "auto | closed-form | radial");
     cmd->add_option("--x0", o.overrides.x0, "initial state, comma-separated");
     cmd->add_option("--t-end", o.overrides.t_end, "final time");
+    cmd->add_option("--max-terms", o.overrides.max_terms, "bound on the terms of any product of the exact phase")
+        ->check(CLI::PositiveNumber);
 }
 
 void emit(const Options& o, const nlohmann::json& report, const std::function<std::string(const nlohmann::json&)>& text) {
@@ -104,6 +106,8 @@ int main(int argc, char** argv) {
     for (auto* cmd : {integrate, run}) {
         cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
         cmd->add_option("--every", o.integrate.every, "one CSV row every M steps")->check(CLI::PositiveNumber);
+        cmd->add_option("--max-csv-mb", o.integrate.max_csv_mb, "refuse a CSV larger than this (default 1024)")
+            ->check(CLI::PositiveNumber);
     }
     realisation->add_option("--degree", o.degree, "total degree D in the momenta")->required();
     try {
@@ -121,6 +125,9 @@ int main(int argc, char** argv) {
         return 3;
     } catch (const pgi::SceneError& e) {
         std::cerr << "pgi: " << e.what() << "\n";
+        return 2;
+    } catch (const pgi::ResourceLimitError& e) {
+        std::cerr << "pgi: " << o.scene << ": exact phase stopped: " << e.what() << "\n";
         return 2;
     } catch (const std::invalid_argument& e) {
         std::cerr << "pgi: " << o.scene << ": " << e.what() << "\n";

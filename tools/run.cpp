@@ -111,6 +111,14 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     std::vector<double> values(inv.num_outputs()), initial(inv.num_outputs()), worst(inv.num_outputs(), 0.0);
     std::optional<AtomicFile> csv;
     if (options.csv) {
+        // at most 25 characters a number: refuse before running rather than fill the disk
+        const double rows = double(N / options.every + 2), columns = double(2 + scene.phase_space().dim() + scene.casimirs.size());
+        const double mb = rows * columns * 25 / 1e6;
+        if (mb > options.max_csv_mb)
+            throw SceneError(scene.file, "--csv",
+                             fmt::format("the trajectory would take about {:.0f} MB ({:.0f} rows of {:.0f} columns), above the "
+                                         "limit of {:.0f} MB: raise --every or --max-csv-mb",
+                                         mb, rows, columns, options.max_csv_mb));
         csv.emplace(*options.csv);
         csv->stream() << "t";
         for (const auto& c : scene.phase_space().coordinates()) csv->stream() << "," << c;

@@ -25,7 +25,7 @@ public:
         toml::table doc = parse_document(text);
         check_keys(doc, "", {"name", "coordinates", "brackets", "hamiltonian", "integrator", "run", "magnus"});
         std::string name = string_at(doc, "name", true).value_or("");
-        PhaseSpace M(read_coordinates(doc));
+        PhaseSpace M(read_coordinates(doc), ov_.max_terms);
         PoissonStructure pi = read_brackets(doc, M);
         const toml::table& ham = table_at(doc, "hamiltonian", true);
         check_keys(ham, "hamiltonian", {"H", "casimirs"});

@@ -20,6 +20,7 @@ public:
 /// Command-line values that replace the scene's, in the scene's own forms ("1/10", "0.6,0.8,0.3").
 struct SceneOverrides {
     std::optional<std::string> order, dt, realisation, x0, t_end;
+    std::size_t max_terms = Ring::default_max_terms;   // --max-terms: the exact phase's product bound
 };
 
 struct Scene {
