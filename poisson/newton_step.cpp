@@ -55,6 +55,31 @@ Realisation truncated(const Realisation& r, std::size_t D) {
     return t;
 }
 
+// The smallest D >= D_min whose neglected terms (two degrees at least, for the parity of symmetric
+// realisations) are below round-off at the typical state; deepens the probe until one is found or
+// max_degree is reached. Sets truncation to the size of the first neglected degree.
+std::size_t choose_degree(const PoissonStructure& pi, const StepOptions& opt, std::size_t D_min, Realisation& probe,
+                          const std::vector<double>& point, double scale, double& truncation) {
+    const double target = unit_roundoff / 4;
+    for (;;) {
+        const auto a = component_sizes(probe, point, scale);
+        for (std::size_t d = probe.degree - 2;; --d) {
+            bool tail_small = true;
+            for (std::size_t m = d + 1; m <= probe.degree; ++m) tail_small = tail_small && a[m] <= target;
+            if (!tail_small) break;
+            if (d == D_min || a[d] > target) {
+                truncation = a[d + 1];
+                return d;
+            }
+        }
+        if (probe.degree >= opt.max_degree + 1) {
+            truncation = a[opt.max_degree + 1];
+            return opt.max_degree;
+        }
+        probe = build_realisation(pi, opt.realisation, deeper_probe(a, target, opt.max_degree));
+    }
+}
+
 }  // namespace
 
 NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
@@ -95,32 +120,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
         s.info_ = {probe.method + " (closed form)", 0, true, 0.0, P};
         s.realisation_ = RealisationEvaluator::log_canonical(pi);
     } else {
-        // The smallest D >= D_min whose neglected terms (two degrees at least, for the parity of
-        // symmetric realisations) are below round-off at the typical state; deepen the probe until
-        // one is found or max_degree is reached.
-        const double target = unit_roundoff / 4;
-        std::size_t D = opt.max_degree;
-        for (;;) {
-            auto a = component_sizes(probe, point, scale);
-            std::size_t found = 0;
-            for (std::size_t d = probe.degree - 2; d >= D_min && found == 0; --d) {
-                bool tail_small = true;
-                for (std::size_t m = d + 1; m <= probe.degree; ++m) tail_small = tail_small && a[m] <= target;
-                if (!tail_small) break;
-                if (d == D_min || a[d] > target) found = d;
-                if (d == D_min) break;
-            }
-            if (found) {
-                D = found;
-                s.info_.truncation_estimate = a[D + 1];
-                break;
-            }
-            if (probe.degree >= opt.max_degree + 1) {
-                s.info_.truncation_estimate = a[opt.max_degree + 1];
-                break;
-            }
-            probe = build_realisation(pi, opt.realisation, deeper_probe(a, target, opt.max_degree));
-        }
+        const std::size_t D = choose_degree(pi, opt, D_min, probe, point, scale, s.info_.truncation_estimate);
         Realisation used = truncated(probe, D);
         s.info_.method = used.method;
         s.info_.degree = D;
