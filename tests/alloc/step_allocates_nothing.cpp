@@ -1,0 +1,48 @@
+// A separate test program (it replaces malloc to count calls): the compiled step allocates nothing.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include "poisson/integrate.hpp"
+#include "tools/scene.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cstddef>
+
+extern "C" void* __libc_malloc(std::size_t);
+namespace {
+long allocations = 0;
+bool counting = false;
+}  // namespace
+// glibc's malloc, counted while `counting` is set (Eigen and FLINT allocate through it, as does operator new).
+extern "C" void* malloc(std::size_t n) {
+    if (counting) ++allocations;
+    return __libc_malloc(n);
+}
+
+TEST_CASE("newton_step: no allocation in the hot loop, for every realisation form") {
+    for (const std::string name : {"rigid_body", "lotka_volterra", "nambu", "henon_heiles", "volterra_chain"}) {
+        pgi::Scene s = pgi::load_scene(std::string(PGI_SCENES_DIR) + "/" + name + ".toml");
+        Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
+        for (std::size_t k : {1, 4}) {
+            pgi::StepOptions opt;
+            opt.k = k;
+            opt.dt = s.dt;
+            auto st = pgi::NewtonStepper::build(s.pi, s.H, opt, x);
+            Eigen::VectorXd inc(x.size());
+            allocations = 0;
+            counting = true;
+            for (int n = 0; n < 200; ++n) {
+                if (st.step(x, inc) != pgi::StepStatus::ok) break;
+                x += inc;
+            }
+            counting = false;
+            CAPTURE(name);
+            CAPTURE(k);
+            CHECK(allocations == 0);
+            // the counter does count: a heap vector is one allocation
+            counting = true;
+            Eigen::VectorXd probe(64);
+            counting = false;
+            CHECK(allocations == 1);
+        }
+    }
+}
