@@ -2,12 +2,14 @@
 // library: only this program links GSL. The same compiled vector field (pi grad H, and its Jacobian for
 // the implicit methods) feeds every peer, so the comparison measures the methods.
 //
-//   pgi_peers SCENE [--t-end T] [--csv FILE] [--drift FILE] [--drift-t-end T2]
+//   pgi_peers SCENE [--t-end T] [--csv FILE] [--drift FILE] [--drift-t-end T2] [--long T3]
 //
 // Work-precision: pgi k = 2, 4, 6 and GSL's rk4imp (Gauss, order 4) on a step ladder, GSL's rk8pd,
 // rkf45 and msbdf on a tolerance ladder; final error against a reference (rk8pd at tolerance 1e-13, its
 // own accuracy estimated against tolerance 1e-12 and printed; errors under 100 times it are not used).
 // Drift: relative energy and Casimir errors along a long run for pgi k = 4 and the peers.
+// Long (--long T3): pgi k = 4 at the scene's dt to T3, then for each peer the cheapest run of its ladder
+// whose maximum energy and Casimir errors are both at or below pgi's, or "none reaches them".
 #include "poisson/integrate.hpp"
 #include "tools/atomic_file.hpp"
 #include "tools/scene.hpp"
@@ -163,6 +165,43 @@ double time_at_error(const std::vector<nlohmann::json>& rows, const std::string&
     return std::nan("");
 }
 
+// pgi k = 4 at dt to T, and for each peer the cheapest ladder run matching both of pgi's maximum errors.
+nlohmann::json long_table(Problem& pr, const std::vector<double>& x0, double dt, double T) {
+    const Outcome p = run_pgi(pr, 4, x0, T, dt);
+    nlohmann::json table{{"t_end", T},
+                         {"pgi-k4", {{"seconds", p.seconds}, {"energy_error_max", p.energy_error}, {"casimir_error_max", p.casimir_error}}}};
+    std::cerr << fmt::format("long T = {:g}: pgi-k4 {:.2f} s, energy {:.1e}, Casimir {:.1e}\n", T, p.seconds, p.energy_error, p.casimir_error);
+    auto matches = [&](const Outcome& o) { return o.ok && o.energy_error <= p.energy_error && o.casimir_error <= p.casimir_error; };
+    struct Ladder {
+        std::string name;
+        const gsl_odeiv2_step_type* type;
+        bool fixed;
+        std::vector<double> values;  // steps (fixed) or tolerances
+    };
+    const std::vector<Ladder> ladders{{"rk4imp", gsl_odeiv2_step_rk4imp, true, {dt, dt / 2, dt / 4}},
+                                      {"rk8pd", gsl_odeiv2_step_rk8pd, false, {1e-8, 1e-10, 1e-12, 1e-13}},
+                                      {"rkf45", gsl_odeiv2_step_rkf45, false, {1e-8, 1e-10, 1e-12}},
+                                      {"msbdf", gsl_odeiv2_step_msbdf, false, {1e-8, 1e-10, 1e-12}}};
+    for (const auto& l : ladders) {
+        nlohmann::json entry{{"matched", false}};
+        for (double v : l.values) {  // from the cheapest up: the first match is the cheapest
+            const Outcome o = run_gsl(pr, l.type, x0, T, l.fixed ? v : 1e-3, l.fixed ? 0.0 : v, l.fixed);
+            std::cerr << fmt::format("long T = {:g}: {} {}={:g}: {:.2f} s, energy {:.1e}, Casimir {:.1e}{}\n", T, l.name,
+                                     l.fixed ? "dt" : "tol", v, o.seconds, o.energy_error, o.casimir_error, o.ok ? "" : " FAILED");
+            entry["runs"].push_back({{l.fixed ? "dt" : "tol", v}, {"seconds", o.seconds}, {"energy_error_max", o.energy_error},
+                                     {"casimir_error_max", o.casimir_error}, {"ok", o.ok}});
+            if (matches(o)) {
+                entry["matched"] = true;
+                entry["seconds"] = o.seconds;
+                entry[l.fixed ? "dt" : "tol"] = v;
+                break;
+            }
+        }
+        table[l.name] = entry;
+    }
+    return table;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -174,6 +213,8 @@ int main(int argc, char** argv) {
     app.add_option("--csv", csv_file, "work-precision rows: method, parameter, error, seconds, ...");
     app.add_option("--drift", drift_file, "drift samples: method, t, energy error, Casimir error");
     app.add_option("--drift-t-end", drift_t_end, "final time of the drift runs (default 1e4)");
+    double long_t_end = 0;
+    app.add_option("--long", long_t_end, "also the long-run table to this final time (e.g. 1e5)");
     CLI11_PARSE(app, argc, argv);
     gsl_set_error_handler_off();
     const pgi::Scene scene = pgi::load_scene(scene_file);
@@ -249,6 +290,7 @@ int main(int argc, char** argv) {
         summary["drift"] = drift;
         summary["drift_t_end"] = drift_t_end;
     }
+    if (long_t_end > 0) summary["long"] = long_table(pr, x0, scene.dt, long_t_end);
     summary.erase("rows");
     std::cout << summary.dump(2) << "\n";
     return 0;
