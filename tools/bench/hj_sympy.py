@@ -80,7 +80,6 @@ class RingImpl:
         alpha = []
         for j in range(n):
             u = sum((self.pi[i][j] * self.P[i] * QQ(1, 2) for i in range(n) if self.pi[i][j]), self.R.zero)
-            u = self.R({mon: c for mon, c in u.items()}) if u else u
             # pi_ij / x_j = a_ij x_i, so u_j = (1/2) sum_i a_ij x_i p_i = (1/2) sum_i pi_ij p_i / x_j
             u = sum((self.R({tuple(e - (1 if v == j else 0) for v, e in enumerate(mon)): c}) for mon, c in u.items()), self.R.zero)
             comps, term = [self.X[j]], self.X[j]

@@ -78,6 +78,9 @@ struct Monitor {
             next_sample = next_sample == 0 ? t * 1.05 + 1e-9 : next_sample * 1.05;  // log-spaced in t
         }
     }
+    // the largest relative errors seen: of H, and of the worst Casimir (0 without Casimirs)
+    double energy_error() const { return worst[0]; }
+    double casimir_error() const { return worst.size() > 1 ? *std::max_element(worst.begin() + 1, worst.end()) : 0.0; }
 };
 
 struct Outcome {
@@ -112,8 +115,8 @@ Outcome run_gsl(Problem& pr, const gsl_odeiv2_step_type* type, const std::vector
         monitor(t, o.x.data());
     }
     o.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    o.energy_error = monitor.worst[0];
-    o.casimir_error = monitor.worst.size() > 1 ? *std::max_element(monitor.worst.begin() + 1, monitor.worst.end()) : 0.0;
+    o.energy_error = monitor.energy_error();
+    o.casimir_error = monitor.casimir_error();
     gsl_odeiv2_driver_free(d);
     return o;
 }
@@ -138,8 +141,8 @@ Outcome run_pgi(Problem& pr, std::size_t k, const std::vector<double>& x0, doubl
     o.ok = summary.status == pgi::StepStatus::ok;
     o.steps = summary.steps;
     o.x.assign(x.data(), x.data() + x.size());
-    o.energy_error = monitor.worst[0];
-    o.casimir_error = monitor.worst.size() > 1 ? *std::max_element(monitor.worst.begin() + 1, monitor.worst.end()) : 0.0;
+    o.energy_error = monitor.energy_error();
+    o.casimir_error = monitor.casimir_error();
     return o;
 }
 
