@@ -80,6 +80,24 @@ std::size_t choose_degree(const PoissonStructure& pi, const StepOptions& opt, st
     }
 }
 
+// dx = J^{-1} r by Eigen's partial-pivoting LU; at the common small sizes on fixed-size matrices,
+// which live on the stack and unroll, otherwise by the stepper's preallocated dynamic LU.
+template <int N>
+void solve_fixed(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, Eigen::VectorXd& dx) {
+    const Eigen::PartialPivLU<Eigen::Matrix<double, N, N>> lu{Eigen::Matrix<double, N, N>(J)};
+    dx = lu.solve(Eigen::Matrix<double, N, 1>(r));
+}
+
+void solve(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, Eigen::VectorXd& dx, Eigen::PartialPivLU<Eigen::MatrixXd>& lu) {
+    switch (J.rows()) {
+        case 2: return solve_fixed<2>(J, r, dx);
+        case 3: return solve_fixed<3>(J, r, dx);
+        case 4: return solve_fixed<4>(J, r, dx);
+        case 6: return solve_fixed<6>(J, r, dx);
+        default: lu.compute(J); dx.noalias() = lu.solve(r);
+    }
+}
+
 }  // namespace
 
 NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
@@ -179,14 +197,12 @@ const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
 bool NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
     const double scale = x.lpNorm<Eigen::Infinity>();
     for (int it = 1; it <= opt_.newton_max_iter; ++it) {
-        evaluate_at(xb_);
         // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
         newton_system(xb_);
         r_ = v_.alpha - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
         if (!std::isfinite(residual_) || !v_.delta.allFinite()) return false;
-        lu_.compute(J_);
-        dx_.noalias() = lu_.solve(r_);
+        solve(J_, r_, dx_, lu_);
         xb_ -= dx_;
         iterations_ = it;
         correction_ = dx_.lpNorm<Eigen::Infinity>();

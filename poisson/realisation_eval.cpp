@@ -98,13 +98,54 @@ void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd&
 namespace {
 
 // y = A x for small column-major A (n x n): plain loops, as Eigen's dynamic kernels cost more than
-// the arithmetic at n = 3..10.
-inline void matvec(const double* A, const double* x, double* y, Eigen::Index n) {
+// the arithmetic at n = 3..10. N > 0 fixes n at compile time (the loops unroll), N = 0 reads it.
+template <int N>
+inline void matvec(const double* A, const double* x, double* y, Eigen::Index n_runtime) {
+    const Eigen::Index n = N > 0 ? N : n_runtime;
     for (Eigen::Index i = 0; i < n; ++i) y[i] = 0.0;
     for (Eigen::Index k = 0; k < n; ++k) {
         const double xk = x[k];
         const double* col = A + k * n;
         for (Eigen::Index i = 0; i < n; ++i) y[i] += col[i] * xk;
+    }
+}
+
+// Scratch of the Lie-Poisson series, owned by the evaluator: v_{m-1}, v_m, W_{m-1}, W_m, L^m, L^{m+1}.
+struct LieScratch {
+    double *vp, *vn, *Wp, *Wn, *P, *T;
+};
+
+// alpha = sum_m b_m L^m x with alpha_x = sum_m b_m L^m and alpha_p (column j) = sum_m b_m d(L^m x)/dp_j.
+// v_m = L^m x; W_m = d v_m / dp, column j = C_j v_{m-1} + L (column j of W_{m-1}).
+template <int N>
+void lie_poisson_series(const std::vector<double>& b, const std::vector<Eigen::MatrixXd>& C, const double* L, const double* x,
+                        Eigen::Index n_runtime, LieScratch s, double* alpha, double* ax, double* ap) {
+    const Eigen::Index n = N > 0 ? N : n_runtime;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        s.vp[i] = x[i];
+        alpha[i] = b[0] * x[i];
+    }
+    for (Eigen::Index e = 0; e < n * n; ++e) s.Wp[e] = 0.0, s.P[e] = 0.0, ax[e] = 0.0, ap[e] = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i) s.P[i * n + i] = 1.0, ax[i * n + i] = b[0];
+    for (std::size_t m = 1; m < b.size(); ++m) {
+        matvec<N>(L, s.vp, s.vn, n);
+        for (Eigen::Index j = 0; j < n; ++j) {
+            matvec<N>(L, s.Wp + j * n, s.Wn + j * n, n);
+            const double* Cj = C[static_cast<std::size_t>(j)].data();
+            for (Eigen::Index k = 0; k < n; ++k) {
+                const double vk = s.vp[k];
+                for (Eigen::Index i = 0; i < n; ++i) s.Wn[j * n + i] += Cj[k * n + i] * vk;
+            }
+            matvec<N>(L, s.P + j * n, s.T + j * n, n);
+        }
+        std::swap(s.P, s.T);
+        const double bm = b[m];
+        if (bm != 0) {
+            for (Eigen::Index i = 0; i < n; ++i) alpha[i] += bm * s.vn[i];
+            for (Eigen::Index e = 0; e < n * n; ++e) ax[e] += bm * s.P[e], ap[e] += bm * s.Wn[e];
+        }
+        std::swap(s.vp, s.vn);
+        std::swap(s.Wp, s.Wn);
     }
 }
 
@@ -115,49 +156,17 @@ void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eige
     // L(p) = sum_j p_j C_j, so L(p) x = pi(x) p
     L_.setZero();
     for (Eigen::Index j = 0; j < n; ++j) L_ += p[j] * C_[static_cast<std::size_t>(j)];
-    // v_m = L^m x; W_m = d v_m / dp, column j = C_j v_{m-1} + L (column j of W_{m-1}); power = L^m.
-    // NOTE: plain loops on the raw columns: at n = 3..10 Eigen's dynamic-size kernels cost more than
-    // the arithmetic.
-    const double* L = L_.data();
-    double* vp = v_prev_.data();
-    double* vn = v_next_.data();
-    double* Wp = W_prev_.data();
-    double* Wn = W_next_.data();
-    double* P = power_.data();
-    double* T = tmp_.data();
-    double* ax = v.alpha_x.data();
-    double* ap = v.alpha_p.data();
-    for (Eigen::Index i = 0; i < n; ++i) {
-        vp[i] = x[i];
-        v.alpha[i] = b_[0] * x[i];
-    }
-    for (Eigen::Index e = 0; e < n * n; ++e) Wp[e] = 0.0, P[e] = 0.0, ax[e] = 0.0, ap[e] = 0.0;
-    for (Eigen::Index i = 0; i < n; ++i) P[i * n + i] = 1.0, ax[i * n + i] = b_[0];
-    for (std::size_t m = 1; m < b_.size(); ++m) {
-        matvec(L, vp, vn, n);
-        for (Eigen::Index j = 0; j < n; ++j) {
-            matvec(L, Wp + j * n, Wn + j * n, n);
-            const double* C = C_[static_cast<std::size_t>(j)].data();
-            for (Eigen::Index k = 0; k < n; ++k) {
-                const double vk = vp[k];
-                if (vk == 0.0) continue;
-                for (Eigen::Index i = 0; i < n; ++i) Wn[j * n + i] += C[k * n + i] * vk;
-            }
-            matvec(L, P + j * n, T + j * n, n);
-        }
-        std::swap(P, T);
-        const double b = b_[m];
-        if (b != 0) {
-            for (Eigen::Index i = 0; i < n; ++i) v.alpha[i] += b * vn[i];
-            for (Eigen::Index e = 0; e < n * n; ++e) ax[e] += b * P[e], ap[e] += b * Wn[e];
-        }
-        std::swap(vp, vn);
-        std::swap(Wp, Wn);
+    const LieScratch s{v_prev_.data(), v_next_.data(), W_prev_.data(), W_next_.data(), power_.data(), tmp_.data()};
+    // NOTE: so(3)* and e(3)* (n = 3, 6) get loops of fixed length, which the compiler unrolls: ~2x.
+    switch (n) {
+        case 3: lie_poisson_series<3>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data()); break;
+        case 6: lie_poisson_series<6>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data()); break;
+        default: lie_poisson_series<0>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data());
     }
     // delta = beta - alpha = -2 sum_{m odd} B_m/m! L^m x = L(p) x: B_1 = -1/2 and B_3 = B_5 = ... = 0
-    matvec(L, x.data(), v.delta.data(), n);
+    matvec<0>(L_.data(), x.data(), v.delta.data(), n);
     v.delta_x = L_;
-    for (Eigen::Index j = 0; j < n; ++j) matvec(C_[static_cast<std::size_t>(j)].data(), x.data(), v.delta_p.col(j).data(), n);
+    for (Eigen::Index j = 0; j < n; ++j) matvec<0>(C_[static_cast<std::size_t>(j)].data(), x.data(), v.delta_p.col(j).data(), n);
 }
 
 void RealisationEvaluator::eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {

@@ -88,10 +88,21 @@ void CompiledMap::eval(const double* in, double* out) const {
     const std::size_t M = parent_.size();
     for (std::size_t m = 0; m < M; ++m) mono[m + 1] = mono[parent_[m]] * in[var_[m]];
     const std::size_t O = num_outputs();
+    const double* c = term_coeff_.data();
+    const std::uint32_t* tm = term_monomial_.data();
     for (std::size_t o = 0; o < O; ++o) {
-        double s = 0.0;
-        for (std::uint32_t t = row_start_[o]; t < row_start_[o + 1]; ++t) s += term_coeff_[t] * mono[term_monomial_[t]];
-        out[o] = s;
+        // four partial sums: one running sum would wait on the adder's latency at every term
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        std::uint32_t t = row_start_[o];
+        const std::uint32_t end = row_start_[o + 1];
+        for (; t + 4 <= end; t += 4) {
+            s0 += c[t] * mono[tm[t]];
+            s1 += c[t + 1] * mono[tm[t + 1]];
+            s2 += c[t + 2] * mono[tm[t + 2]];
+            s3 += c[t + 3] * mono[tm[t + 3]];
+        }
+        for (; t < end; ++t) s0 += c[t] * mono[tm[t]];
+        out[o] = (s0 + s1) + (s2 + s3);
     }
 }
 
