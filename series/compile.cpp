@@ -82,9 +82,9 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
     return c;
 }
 
-void CompiledMap::eval(const double* in, double* out) const {
-    double* mono = mono_.data();
-    mono[0] = 1.0;
+template <class T>
+void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
+    mono[0] = T(1);
     const std::size_t M = parent_.size();
     for (std::size_t m = 0; m < M; ++m) mono[m + 1] = mono[parent_[m]] * in[var_[m]];
     const std::size_t O = num_outputs();
@@ -92,18 +92,25 @@ void CompiledMap::eval(const double* in, double* out) const {
     const std::uint32_t* tm = term_monomial_.data();
     for (std::size_t o = 0; o < O; ++o) {
         // four partial sums: one running sum would wait on the adder's latency at every term
-        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        T s0 = 0, s1 = 0, s2 = 0, s3 = 0;
         std::uint32_t t = row_start_[o];
         const std::uint32_t end = row_start_[o + 1];
         for (; t + 4 <= end; t += 4) {
-            s0 += c[t] * mono[tm[t]];
-            s1 += c[t + 1] * mono[tm[t + 1]];
-            s2 += c[t + 2] * mono[tm[t + 2]];
-            s3 += c[t + 3] * mono[tm[t + 3]];
+            s0 += T(c[t]) * mono[tm[t]];
+            s1 += T(c[t + 1]) * mono[tm[t + 1]];
+            s2 += T(c[t + 2]) * mono[tm[t + 2]];
+            s3 += T(c[t + 3]) * mono[tm[t + 3]];
         }
-        for (; t < end; ++t) s0 += c[t] * mono[tm[t]];
+        for (; t < end; ++t) s0 += T(c[t]) * mono[tm[t]];
         out[o] = (s0 + s1) + (s2 + s3);
     }
+}
+
+void CompiledMap::eval(const double* in, double* out) const { eval_with(in, out, mono_.data()); }
+
+void CompiledMap::eval(const long double* in, long double* out, std::vector<long double>& scratch) const {
+    scratch.resize(num_monomials());
+    eval_with(in, out, scratch.data());
 }
 
 }  // namespace pgi

@@ -26,6 +26,9 @@ public:
 
     /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch).
     void eval(const double* in, double* out) const;
+    /// The same polynomials (with the same double coefficients) in long double, for reference
+    /// solutions of the problem the double evaluator defines; scratch is resized as needed.
+    void eval(const long double* in, long double* out, std::vector<long double>& scratch) const;
 
 private:
     std::size_t num_inputs_ = 0;
@@ -33,6 +36,8 @@ private:
     std::vector<std::uint32_t> row_start_, term_monomial_;
     std::vector<double> term_coeff_;
     mutable std::vector<double> mono_;
+    template <class T>
+    void eval_with(const T* in, T* out, T* mono) const;
 };
 
 }  // namespace pgi

@@ -1,7 +1,9 @@
+#include "series/compile.hpp"
 #include "series/poly.hpp"
 
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <random>
 
 using namespace pgi;
@@ -137,4 +139,70 @@ TEST_CASE("poly: rename_variables moves a polynomial between rings") {
     auto small = make_ring({"a", "b"});
     auto big = make_ring({"u", "a", "v", "b"});
     CHECK(rename_variables(Poly::parse(small, "a^2*b - 1/3"), big, {1, 3}) == Poly::parse(big, "a^2*b - 1/3"));
+}
+
+namespace {
+
+// The exact value of f at a point of doubles, and the sum of the terms' absolute values.
+std::pair<Rational, double> exact_value(const Poly& f, const std::vector<double>& point) {
+    Rational sum;
+    double size = 0;
+    for (std::size_t i = 0; i < f.length(); ++i) {
+        Rational term = f.term_coeff(i);
+        const auto e = f.term_exponents(i);
+        for (std::size_t v = 0; v < e.size(); ++v)
+            for (unsigned long k = 0; k < e[v]; ++k) term = term * Rational::from_double(point[v]);
+        size += std::abs(term.to_double());
+        sum = sum + term;
+    }
+    return {sum, size};
+}
+
+// |y - exact| for a long double y, exactly: y = hi + lo with hi, lo doubles.
+double error_of(long double y, const Rational& exact) {
+    const double hi = static_cast<double>(y), lo = static_cast<double>(y - hi);
+    return std::abs((Rational::from_double(hi) + Rational::from_double(lo) - exact).to_double());
+}
+
+}  // namespace
+
+TEST_CASE("compile: CompiledMap agrees with exact evaluation, in double and in long double") {
+    // dyadic coefficients and inputs, so the only errors are the evaluators' own rounding
+    auto r = xyz();
+    std::mt19937 gen(7);
+    std::uniform_int_distribution<long> coeff(-99, 99);
+    std::uniform_real_distribution<double> input(-1.5, 1.5);
+    std::uniform_int_distribution<unsigned long> ex(0, 4);
+    double total_double = 0, total_long = 0;
+    for (int trial = 0; trial < 20; ++trial) {
+        std::vector<Poly> outputs;
+        for (int o = 0; o < 3; ++o) {
+            Poly f(r);
+            for (int t = 0; t < 12; ++t) {
+                Poly m = Poly::constant(r, Rational(coeff(gen), 1L << (t % 5)));
+                for (std::size_t v = 0; v < 3; ++v) m = m * pow(Poly::gen(r, v), ex(gen));
+                f += m;
+            }
+            outputs.push_back(f);
+        }
+        const CompiledMap map = CompiledMap::build(outputs, {0, 1, 2});
+        const std::vector<double> x{input(gen), input(gen), input(gen)};
+        const std::vector<long double> xl(x.begin(), x.end());
+        std::vector<double> y(3);
+        std::vector<long double> yl(3), scratch;
+        map.eval(x.data(), y.data());
+        map.eval(xl.data(), yl.data(), scratch);
+        for (std::size_t o = 0; o < 3; ++o) {
+            const auto [exact, size] = exact_value(outputs[o], x);
+            // each term has at most 12 + 12 roundings (monomial products, coefficient, sum): gamma_24
+            const double err_double = error_of(static_cast<long double>(y[o]), exact), err_long = error_of(yl[o], exact);
+            CHECK(err_double <= 24 * 0x1p-53 * size);
+            CHECK(err_long <= 24 * 0x1p-64 * size);
+            total_double += err_double;
+            total_long += err_long;
+        }
+    }
+    // a long double path that secretly rounded to double would not be 100 times better overall
+    REQUIRE(total_double > 0);
+    CHECK(total_long * 100 < total_double);
 }
