@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
-# Work-precision and drift figures of pgi against GSL's integrators (issue 5), for the rigid body, the cyclic
+# Work-precision and drift figures of pgi against GSL's and Boost.Odeint's integrators (issue 5), for the rigid body, the cyclic
 # Lotka-Volterra system and Henon-Heiles:  bash tools/peers/run.sh [OUTDIR] [DRIFT_T_END]
-# Installs GSL and gnuplot (Debian), builds pgi_peers, writes OUTDIR/*.csv, *.json and *.svg.
+# Installs GSL, Boost and gnuplot (Debian), builds pgi_peers, writes OUTDIR/*.csv, *.json and *.svg.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=${1:-docs/figures}
 drift_t=${2:-10000}
 bash tools/deps.sh
 missing=()
-for p in libgsl-dev gnuplot-nox; do dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p"); done
+for p in libgsl-dev libboost-dev gnuplot-nox; do dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p"); done
 if ((${#missing[@]})); then
     sudo_cmd=(); [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
     DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq "${missing[@]}" >/dev/null

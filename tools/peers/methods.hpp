@@ -1,0 +1,18 @@
+#pragma once
+// The methods of the peer comparison: pgi at order k, GSL's odeiv2 steppers and Boost.Odeint's, all
+// fed by the same compiled vector field; and the long double reference solution.
+#include "tools/peers/problem.hpp"
+
+namespace pgi::peers {
+
+Method pgi_method(std::size_t k);
+/// rk2imp (implicit midpoint), rk4imp (2-stage Gauss, order 4): fixed step; rk8pd, rkf45, msbdf: adaptive.
+std::vector<Method> gsl_methods();
+/// runge_kutta4: fixed step; runge_kutta_dopri5 (controlled), bulirsch_stoer: adaptive.
+std::vector<Method> odeint_methods();
+
+/// Fehlberg 7(8) (Boost.Odeint, controlled) in long double at absolute and relative tolerance tol,
+/// on the same compiled field (its double coefficients): the reference the errors are measured against.
+State reference_solution(const Problem& pr, const State& x0, double T, long double tol);
+
+}  // namespace pgi::peers

@@ -1,0 +1,42 @@
+// pgi as a method of the comparison: the stepper is built (exact phase, compilation) before the clock
+// starts; that time is reported apart, as setup_seconds.
+#include "poisson/integrate.hpp"
+#include "tools/peers/methods.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+namespace pgi::peers {
+
+Method pgi_method(std::size_t k) {
+    return {fmt::format("pgi-k{}", k), true, [k](const Problem& pr, const State& x0, double T, double dt, Samples* samples) {
+                StepOptions opt;
+                opt.k = k;
+                opt.dt = dt;
+                opt.realisation = pr.scene.realisation;
+                Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(x0.data(), Eigen::Index(x0.size()));
+                const auto setup = Clock::now();
+                auto stepper = NewtonStepper::build(pr.scene.pi, pr.scene.H, opt, x);
+                const double setup_seconds = std::chrono::duration<double>(Clock::now() - setup).count();
+                pr.evaluations = 0;
+                Monitor monitor(pr, x0.data(), samples);
+                const auto N = static_cast<std::size_t>(std::llround(T / dt));
+                const auto start = Clock::now();
+                const auto summary = integrate_steps(stepper, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& y) {
+                    if (n > 0) monitor(t, y.data());
+                    return false;
+                });
+                std::string failure;
+                if (summary.status != StepStatus::ok)
+                    failure = fmt::format("{} at step {} (t = {:g}), residual {:.2e} after {} iterations", to_string(summary.status),
+                                          summary.steps + 1, double(summary.steps + 1) * dt, stepper.last_residual(),
+                                          stepper.last_iterations());
+                Outcome o = finish(State(x.data(), x.data() + x.size()), summary.steps, start, monitor, failure);
+                o.evaluations = static_cast<std::size_t>(std::llround(summary.mean_iterations * double(summary.steps)));  // Newton systems
+                o.setup_seconds = setup_seconds;
+                return o;
+            }};
+}
+
+}  // namespace pgi::peers

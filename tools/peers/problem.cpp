@@ -1,0 +1,80 @@
+#include "tools/peers/problem.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pgi::peers {
+
+Problem::Problem(const Scene& s, const std::vector<Poly>& watched)
+    : scene(s), n(s.phase_space().dim()), num_watched(watched.size()) {
+    const auto xs = s.phase_space().coordinate_vars();
+    auto fs = s.pi.hamiltonian_vector_field(s.H);
+    std::vector<Poly> J;
+    for (const auto& fi : fs)
+        for (std::size_t j = 0; j < n; ++j) J.push_back(derivative(fi, xs[j]));
+    std::vector<Poly> inv{s.H};
+    inv.insert(inv.end(), s.casimirs.begin(), s.casimirs.end());
+    inv.insert(inv.end(), watched.begin(), watched.end());
+    field = CompiledMap::build(fs, xs);
+    jacobian = CompiledMap::build(J, xs);
+    invariants = CompiledMap::build(inv, xs);
+}
+
+Monitor::Monitor(const Problem& p, const double* x0, Samples* s)
+    : pr(p), initial(p.invariants.num_outputs()), value(initial), worst(initial.size(), 0.0), samples(s) {
+    pr.invariants.eval(x0, initial.data());
+}
+
+void Monitor::operator()(double t, const double* x) {
+    pr.invariants.eval(x, value.data());
+    for (std::size_t i = 0; i < value.size(); ++i)
+        worst[i] = std::max(worst[i], std::abs(value[i] - initial[i]) / std::max(std::abs(initial[i]), 1e-300));
+    if (samples && t >= next_sample) {
+        samples->push_back({t, worst.size() ? std::abs(value[0] - initial[0]) / std::abs(initial[0]) : 0.0,
+                            value.size() - pr.num_watched > 1 ? std::abs(value[1] - initial[1]) / std::abs(initial[1]) : 0.0});
+        next_sample = next_sample == 0 ? t * 1.05 + 1e-9 : next_sample * 1.05;  // log-spaced in t
+    }
+}
+
+double Monitor::casimir_error() const {
+    const auto first = worst.begin() + 1, last = worst.end() - static_cast<std::ptrdiff_t>(pr.num_watched);
+    return first < last ? *std::max_element(first, last) : 0.0;
+}
+
+std::vector<double> Monitor::watched_ratios() const {
+    std::vector<double> r;
+    for (std::size_t i = value.size() - pr.num_watched; i < value.size(); ++i) r.push_back(value[i] / initial[i]);
+    return r;
+}
+
+Outcome finish(State x, std::size_t steps, Clock::time_point start, const Monitor& monitor, std::string failure) {
+    Outcome o;
+    o.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    o.x = std::move(x);
+    o.steps = steps;
+    o.evaluations = monitor.pr.evaluations;
+    o.energy_error = monitor.energy_error();
+    o.casimir_error = monitor.casimir_error();
+    o.watched = monitor.watched_ratios();
+    const bool finite = std::all_of(o.x.begin(), o.x.end(), [](double v) { return std::isfinite(v); });
+    o.failure = failure.empty() && !finite ? "non-finite state" : std::move(failure);
+    o.ok = o.failure.empty();
+    return o;
+}
+
+Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, double value, int repeats) {
+    Outcome best = m.run(pr, x0, T, value, nullptr);
+    for (int r = 1; r < repeats && best.seconds < 0.2; ++r) {
+        Outcome o = m.run(pr, x0, T, value, nullptr);
+        if (o.seconds < best.seconds) best.seconds = o.seconds;
+    }
+    return best;
+}
+
+double distance(const State& a, const State& b) {
+    double d = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) d = std::max(d, std::abs(a[i] - b[i]));
+    return d;
+}
+
+}  // namespace pgi::peers

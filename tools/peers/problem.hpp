@@ -1,0 +1,76 @@
+#pragma once
+// What every method in the peer comparison shares: the compiled vector field pi grad H (and its
+// Jacobian, for the implicit peers), the quantities watched along a run, and the outcome of a run.
+#include "series/compile.hpp"
+#include "tools/scene.hpp"
+
+#include <array>
+#include <chrono>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace pgi::peers {
+
+using Clock = std::chrono::steady_clock;
+using Samples = std::vector<std::array<double, 3>>;  // t, relative energy error, first Casimir's relative error
+using State = std::vector<double>;
+
+struct Problem {
+    const Scene& scene;
+    std::size_t n;
+    CompiledMap field, jacobian;  // pi grad H; its Jacobian, row-major (as GSL wants dfdy)
+    CompiledMap invariants;       // H, the Casimirs, then the watched quantities
+    std::size_t num_watched;
+    mutable std::size_t evaluations = 0;  // field (or Jacobian) evaluations since the last reset
+
+    Problem(const Scene& s, const std::vector<Poly>& watched);
+    void f(const double* x, double* dxdt) const {
+        ++evaluations;
+        field.eval(x, dxdt);
+    }
+};
+
+/// Follows the invariants along a run: the largest relative error of H and of each Casimir, the
+/// watched quantities' final/initial ratios, and (optionally) log-spaced samples for drift plots.
+struct Monitor {
+    const Problem& pr;
+    std::vector<double> initial, value, worst;
+    Samples* samples = nullptr;
+    double next_sample = 0;
+    Monitor(const Problem& p, const double* x0, Samples* s);
+    void operator()(double t, const double* x);
+    double energy_error() const { return worst[0]; }
+    double casimir_error() const;       // the worst Casimir (0 without Casimirs)
+    std::vector<double> watched_ratios() const;
+};
+
+struct Outcome {
+    State x;
+    double seconds = 0, energy_error = 0, casimir_error = 0;
+    double setup_seconds = 0;     // pgi: the exact phase and compilation, before the timed run
+    std::vector<double> watched;  // final / initial value of each watched quantity
+    std::size_t steps = 0, evaluations = 0;
+    bool ok = true;
+    std::string failure;          // why the run stopped, if it did
+};
+
+/// The outcome of a run that ended at x after `steps` steps, started at `start` (clock read now),
+/// with the monitor's errors and the problem's evaluation count.
+Outcome finish(State x, std::size_t steps, Clock::time_point start, const Monitor& monitor, std::string failure = {});
+
+/// A method of the comparison: a fixed step (the ladder's value is dt) or an adaptive one (a tolerance).
+struct Method {
+    std::string name;
+    bool fixed_step;
+    std::function<Outcome(const Problem&, const State& x0, double T, double value, Samples*)> run;
+};
+
+/// Runs a method `repeats` times while runs are short (< 0.2 s), keeping the fastest time: the
+/// machines are shared and noisy, and the best time is the least disturbed.
+Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, double value, int repeats = 3);
+
+/// Max-norm distance of two states.
+double distance(const State& a, const State& b);
+
+}  // namespace pgi::peers
