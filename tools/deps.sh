@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Installs the Debian packages pgi builds with, if any is missing. Idempotent; needs root or sudo.
+# Installs the Debian packages pgi builds with, and any named as arguments (the tests' and the peers'
+# extras), if any is missing. Idempotent; needs root or sudo.  Usage: bash tools/deps.sh [PACKAGE...]
 set -euo pipefail
 packages=(build-essential cmake pkg-config libflint-dev libmpfr-dev libgmp-dev libeigen3-dev doctest-dev
-          libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libfmt-dev)
+          libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libfmt-dev "$@")
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

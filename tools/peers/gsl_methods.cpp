@@ -23,14 +23,14 @@ int jac(double, const double y[], double* dfdy, double dfdt[], void* p) {
     return GSL_SUCCESS;
 }
 
-// value: the step (fixed) or the tolerance (adaptive, absolute and relative, from a first step of 1e-3)
+// value: the step (fixed) or the relative tolerance (adaptive, from a first step of the scene's dt)
 Outcome run_gsl(const gsl_odeiv2_step_type* type, bool fixed, const Problem& pr, const State& x0, double T, double value,
                 Samples* samples) {
     gsl_odeiv2_system sys{rhs, jac, pr.n, const_cast<Problem*>(&pr)};
-    double h = fixed ? value : 1e-3;
-    const double eps = fixed ? 1e-14 : value;
+    double h = fixed ? value : pr.scene.dt;
+    const double eps_rel = fixed ? 1e-14 : value, eps_abs = absolute_tolerance(eps_rel, x0);
     // NOTE: GSL's implicit steppers (rk4imp, msbdf) work only through a driver, which owns step, control and evolve.
-    gsl_odeiv2_driver* d = gsl_odeiv2_driver_alloc_y_new(&sys, type, h, eps, eps);
+    gsl_odeiv2_driver* d = gsl_odeiv2_driver_alloc_y_new(&sys, type, h, eps_abs, eps_rel);
     if (d == nullptr) throw std::runtime_error("GSL could not allocate a driver");
     State x = x0;
     pr.evaluations = 0;

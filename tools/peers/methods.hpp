@@ -11,7 +11,7 @@ std::vector<Method> gsl_methods();
 /// runge_kutta4: fixed step; runge_kutta_dopri5 (controlled), bulirsch_stoer: adaptive.
 std::vector<Method> odeint_methods();
 
-/// Fehlberg 7(8) (Boost.Odeint, controlled) in long double at absolute and relative tolerance tol,
+/// Fehlberg 7(8) (Boost.Odeint, controlled) in long double at relative tolerance tol (absolute: tol |x0|),
 /// on the same compiled field (its double coefficients): the reference the errors are measured against.
 State reference_solution(const Problem& pr, const State& x0, double T, long double tol);
 

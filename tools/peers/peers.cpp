@@ -2,7 +2,7 @@
 // part of the core library: only this program links the peers. The same compiled vector field (pi grad
 // H, and its Jacobian for the implicit peers) feeds every method, so the comparison measures the methods.
 //
-//   pgi_peers SCENE [--order K] [--dt DT] [--x0 "[...]"] [--t-end T] [--watch POLY]...
+//   pgi_peers SCENE [--order K] [--dt DT] [--x0 A,B,...] [--t-end T] [--watch POLY]...
 //                   [--csv FILE] [--drift FILE] [--drift-t-end T2] [--long T3] [--suite]
 //
 // Work-precision (default): pgi k = 2, 4, 6, GSL rk2imp and rk4imp and odeint's rk4 on a step ladder;
@@ -13,7 +13,7 @@
 // Long (--long T3): pgi k = 4 at the scene's dt to T3, then for each peer the cheapest run of its ladder
 // whose maximum energy and Casimir errors are both at or below pgi's, or "none reaches them".
 // Suite (--suite): one run of every method at the scene's order and dt (adaptive peers at tolerance
-// 1e-10) with its outcome: finished or why not, errors, watched quantities (final / initial).
+// --tol, default 1e-6) with its outcome: finished or why not, errors, watched quantities (final / initial).
 #include "tools/atomic_file.hpp"
 #include "tools/peers/methods.hpp"
 
@@ -45,8 +45,9 @@ json outcome_json(const Outcome& o) {
 }
 
 void log_outcome(const std::string& label, const std::string& parameter, const Outcome& o, double error = std::nan("")) {
-    std::cerr << fmt::format("{:14s} {:>12s}: error {:9.2e}  {:9.4f} s  {:9d} steps  energy {:8.1e}  Casimir {:8.1e}{}\n", label,
-                             parameter, error, o.seconds, o.steps, o.energy_error, o.casimir_error, o.ok ? "" : "  FAILED: " + o.failure);
+    const std::string err = std::isnan(error) ? "" : fmt::format("error {:9.2e}", error);
+    std::cerr << fmt::format("{:14s} {:>12s}: {:15s}  {:9.4f} s  {:9d} steps  energy {:8.1e}  Casimir {:8.1e}{}\n", label,
+                             parameter, err, o.seconds, o.steps, o.energy_error, o.casimir_error, o.ok ? "" : "  FAILED: " + o.failure);
 }
 
 std::string parameter(const Method& m, double value) { return fmt::format("{}={:g}", m.fixed_step ? "dt" : "tol", value); }
@@ -98,7 +99,7 @@ json work_precision(const Problem& pr, const std::vector<Method>& methods, const
     const auto t0 = Clock::now();
     const State ref = reference_solution(pr, x0, T, 1e-18L);
     const double ref_accuracy = std::max(distance(ref, reference_solution(pr, x0, T, 1e-17L)), 1e-17);
-    std::cerr << fmt::format("reference: Fehlberg 7(8) in long double, tol 1e-18; accuracy {:.1e} ({:.2f} s)\n", ref_accuracy,
+    std::cerr << fmt::format("reference: Fehlberg 7(8) in long double, relative tolerance 1e-18; accuracy {:.1e} ({:.2f} s)\n", ref_accuracy,
                              std::chrono::duration<double>(Clock::now() - t0).count());
     std::vector<json> rows;
     for (const auto& m : methods)
@@ -177,14 +178,14 @@ json long_table(const Problem& pr, const std::vector<Method>& methods, const Sta
     return table;
 }
 
-// Every method once, at the scene's order and dt (adaptive ones at tolerance 1e-10), with its outcome.
-json suite(const Problem& pr, const State& x0, double T) {
+// Every method once, at the scene's order and dt (adaptive ones at tolerance tol), with its outcome.
+json suite(const Problem& pr, const State& x0, double T, double tol) {
     std::vector<Method> methods{pgi_method(pr.scene.order)};
     for (auto& g : gsl_methods()) methods.push_back(std::move(g));
     for (auto& o : odeint_methods()) methods.push_back(std::move(o));
     json rows = json::array();
     for (const auto& m : methods) {
-        const double v = m.fixed_step ? pr.scene.dt : 1e-10;
+        const double v = m.fixed_step ? pr.scene.dt : tol;
         const Outcome o = m.run(pr, x0, T, v, nullptr);
         log_outcome(m.name, parameter(m, v), o);
         json row = outcome_json(o);
@@ -204,10 +205,11 @@ int main(int argc, char** argv) {
     double drift_t_end = 1e4, long_t_end = 0;
     std::vector<std::string> watched_text;
     bool run_suite = false;
+    double suite_tol = 1e-6;
     app.add_option("scene", scene_file)->required();
     app.add_option("--order", overrides.order, "pgi's order k (suite)");
     app.add_option("--dt", overrides.dt, "the step (the ladders' middle)");
-    app.add_option("--x0", overrides.x0, "the initial state, e.g. \"[1, 2, 0.5]\"");
+    app.add_option("--x0", overrides.x0, "the initial state, e.g. 1,2,0.5");
     app.add_option("--t-end", t_end_opt, "final time (default 100; the scene's t_end for --suite)");
     app.add_option("--watch", watched_text, "a polynomial whose final/initial ratio is reported (repeatable)");
     app.add_option("--csv", csv_file, "work-precision rows: method, parameter, error, seconds, ...");
@@ -215,6 +217,7 @@ int main(int argc, char** argv) {
     app.add_option("--drift-t-end", drift_t_end, "final time of the drift runs (default 1e4)");
     app.add_option("--long", long_t_end, "the long-run table to this final time (e.g. 1e5)");
     app.add_flag("--suite", run_suite, "one run of every method with its outcome, instead of the work-precision ladders");
+    app.add_option("--tol", suite_tol, "the adaptive peers' tolerance in --suite (default 1e-6)");
     CLI11_PARSE(app, argc, argv);
     try {
         const pgi::Scene scene = pgi::load_scene(scene_file, overrides);
@@ -226,7 +229,7 @@ int main(int argc, char** argv) {
         const State x0 = *scene.x0;
         json summary{{"scene", scene.name}, {"dt", scene.dt}, {"x0", x0}, {"watched", watched_text}};
         if (run_suite) {
-            summary["suite"] = suite(pr, x0, t_end_opt.value_or(scene.t_end.value_or(100.0)));
+            summary["suite"] = suite(pr, x0, t_end_opt.value_or(scene.t_end.value_or(100.0)), suite_tol);
         } else {
             const auto methods = all_methods({2, 4, 6});
             summary["work_precision"] = work_precision(pr, methods, x0, t_end_opt.value_or(100.0), csv_file);

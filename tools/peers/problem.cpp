@@ -71,6 +71,12 @@ Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, d
     return best;
 }
 
+double absolute_tolerance(double tol, const State& x0) {
+    double scale = 0;
+    for (double v : x0) scale = std::max(scale, std::abs(v));
+    return tol * (scale > 0 ? scale : 1.0);
+}
+
 double distance(const State& a, const State& b) {
     double d = 0;
     for (std::size_t i = 0; i < a.size(); ++i) d = std::max(d, std::abs(a[i] - b[i]));

@@ -70,6 +70,10 @@ struct Method {
 /// machines are shared and noisy, and the best time is the least disturbed.
 Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, double value, int repeats = 3);
 
+/// The absolute tolerance matching a relative one at the scale of x0 (its largest component), so the
+/// adaptive peers are asked the same relative accuracy at |x| = 1e-6 and at |x| = 1e6.
+double absolute_tolerance(double tol, const State& x0);
+
 /// Max-norm distance of two states.
 double distance(const State& a, const State& b);
 

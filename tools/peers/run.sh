@@ -1,18 +1,13 @@
 #!/usr/bin/env bash
 # Work-precision and drift figures of pgi against GSL's and Boost.Odeint's integrators (issue 5), for the rigid body, the cyclic
 # Lotka-Volterra system and Henon-Heiles:  bash tools/peers/run.sh [OUTDIR] [DRIFT_T_END]
-# Installs GSL, Boost and gnuplot (Debian), builds pgi_peers, writes OUTDIR/*.csv, *.json and *.svg.
+# Installs GSL, Boost and gnuplot (Debian), builds pgi_peers, writes OUTDIR/*.csv, *.json and *.svg, and the
+# stiff and extreme suite's table (OUTDIR/suite.md).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=${1:-docs/figures}
 drift_t=${2:-10000}
-bash tools/deps.sh
-missing=()
-for p in libgsl-dev libboost-dev gnuplot-nox; do dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p"); done
-if ((${#missing[@]})); then
-    sudo_cmd=(); [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
-    DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq "${missing[@]}" >/dev/null
-fi
+bash tools/deps.sh libgsl-dev libboost-dev gnuplot-nox
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j "$(nproc)" --target pgi_peers
 mkdir -p "$out"
@@ -21,4 +16,5 @@ for scene in rigid_body lotka_volterra henon_heiles; do
         --drift-t-end "$drift_t" > "$out/$scene-peers.json"
     gnuplot -e "scene='$scene'; dir='$out'" tools/peers/plot.gp
 done
+python3 tools/peers/suite.py --json "$out/suite.json" --md "$out/suite.md"
 echo "figures in $out"

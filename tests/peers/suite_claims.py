@@ -1,0 +1,48 @@
+#!/usr/bin/env python3
+"""The README's claims about the stiff and extreme suite, checked by running pgi_peers --suite (issue 5).
+Deterministic: no timing is asserted. Usage: suite_claims.py PGI_PEERS SCENES_DIR"""
+import json
+import subprocess
+import sys
+
+
+def suite(peers, scene, *extra):
+    out = subprocess.run([peers, scene, "--suite", *extra], check=True, capture_output=True, text=True).stdout
+    return {r["method"]: r for r in json.loads(out)["suite"]["rows"]}
+
+
+def main():
+    peers, scenes = sys.argv[1], sys.argv[2]
+    failures = []
+
+    def claim(ok, text):
+        print(("ok    " if ok else "FAIL  ") + text)
+        if not ok:
+            failures.append(text)
+
+    # every peer of the comparison is present and ran
+    expected = {"rk2imp", "rk4imp", "rk8pd", "rkf45", "msbdf", "odeint-rk4", "odeint-dopri5", "odeint-bs"}
+    stiff = suite(peers, f"{scenes}/stiff_oscillators.toml", "--watch", "(p1^2 + 1000000*q1^2)/2")
+    claim(expected <= set(stiff), "all eight peers run")
+    # stiff pair at omega dt = 10: pgi keeps the stiff mode's energy, BDF damps it, explicit RK4 blows up
+    pgi = stiff["pgi-k2"]
+    claim(pgi["ok"] and abs(pgi["watched_final_over_initial"][0] - 1) < 1e-4, "pgi keeps the stiff mode's energy to 1e-4")
+    claim(stiff["msbdf"]["ok"] and stiff["msbdf"]["watched_final_over_initial"][0] < 0.9, "msbdf at tol 1e-6 damps the stiff mode by > 10%")
+    claim(not stiff["odeint-rk4"]["ok"] and "non-finite" in stiff["odeint-rk4"]["failure"], "explicit RK4 at omega dt = 10 fails, named")
+    # near the singular set: the Casimir x1 x2 x3 = 1e-6 kept to round-off by pgi, not by the implicit RK peers
+    near = suite(peers, f"{scenes}/lotka_volterra.toml", "--x0", "1e-6,2,0.5")
+    claim(near["pgi-k4"]["casimir_error_max"] <= 1e-13, "pgi keeps the Casimir near the singular set to 1e-13")
+    claim(near["rk4imp"]["casimir_error_max"] > 1e-10, "rk4imp does not keep the cubic Casimir")
+    # scale invariance of the rigid body: |x| = 1e6 with dt = 1e-7 gives the errors of |x| = 1 with dt = 0.1
+    base = suite(peers, f"{scenes}/rigid_body.toml", "--t-end", "10")
+    big = suite(peers, f"{scenes}/rigid_body.toml", "--x0", "453596.1214255773,0,891207.3600614354", "--dt", "1e-7", "--t-end", "1e-5")
+    e0, e1 = base["pgi-k4"]["energy_error_max"], big["pgi-k4"]["energy_error_max"]
+    claim(e0 > 0 and abs(e1 - e0) <= 1e-3 * e0, f"pgi's energy error is scale invariant ({e0:.6e} vs {e1:.6e})")
+    # order 8
+    k8 = suite(peers, f"{scenes}/rigid_body.toml", "--order", "8", "--dt", "0.2", "--t-end", "10")
+    claim(k8["pgi-k8"]["ok"] and k8["pgi-k8"]["energy_error_max"] < 1e-11, "k = 8 at dt = 0.2: energy error below 1e-11")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
