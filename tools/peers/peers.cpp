@@ -2,13 +2,15 @@
 // part of the core library: only this program links the peers. The same compiled vector field (pi grad
 // H, and its Jacobian for the implicit peers) feeds every method, so the comparison measures the methods.
 //
-//   pgi_peers SCENE [--order K] [--dt DT] [--x0 A,B,...] [--t-end T] [--watch POLY]...
-//                   [--csv FILE] [--drift FILE] [--drift-t-end T2] [--long T3] [--suite]
+//   pgi_peers SCENE [--orders 2,4,6] [--peers rk4imp,rk8pd,...] [--dts ...] [--tols ...]
+//                   [--order K] [--dt DT] [--x0 A,B,...] [--t-end T] [--watch POLY]...
+//                   [--csv FILE] [--plot FILE.svg] [--drift FILE] [--drift-t-end T2] [--long T3] [--suite]
 //
-// Work-precision (default): pgi k = 2, 4, 6, GSL rk2imp and rk4imp and odeint's rk4 on a step ladder;
-// GSL rk8pd, rkf45, msbdf and odeint's dopri5 and Bulirsch-Stoer on a tolerance ladder; final error
-// against a long double Fehlberg 7(8) reference, whose own accuracy is estimated and printed (errors
-// under 100 times it are marked unusable). Times are the best of up to three runs.
+// Work-precision (default): pgi at each order, GSL rk2imp and rk4imp and odeint's rk4 on a step ladder
+// (default 4 dt .. dt/8); GSL rk8pd, rkf45, msbdf and odeint's dopri5 and Bulirsch-Stoer on a tolerance
+// ladder (default 1e-4 .. 1e-12); final error against a long double Fehlberg 7(8) reference, whose own
+// accuracy is estimated and printed (errors under 100 times it are marked unusable). Times are the best
+// of up to three runs. --plot draws the work-precision diagram with gnuplot (tools/peers/plot.gp).
 // Drift (--drift): relative energy and Casimir errors along a long run, pgi k = 4 and the peers.
 // Long (--long T3): pgi k = 4 at the scene's dt to T3, then for each peer the cheapest run of its ladder
 // whose maximum energy and Casimir errors are both at or below pgi's, or "none reaches them".
@@ -23,20 +25,39 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <iostream>
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 namespace {
 
 using namespace pgi::peers;
 using nlohmann::json;
 
-std::vector<Method> all_methods(const std::vector<std::size_t>& orders) {
-    std::vector<Method> m;
-    for (std::size_t k : orders) m.push_back(pgi_method(k));
-    for (auto& g : gsl_methods()) m.push_back(std::move(g));
-    for (auto& o : odeint_methods()) m.push_back(std::move(o));
-    return m;
+// pgi at each order, then the peers named (all of them if none is); an unknown name is an error.
+std::vector<Method> select_methods(const std::vector<std::size_t>& orders, const std::vector<std::string>& names) {
+    std::vector<Method> peers = gsl_methods(), chosen;
+    for (auto& o : odeint_methods()) peers.push_back(std::move(o));
+    for (const auto& name : names)
+        if (std::none_of(peers.begin(), peers.end(), [&](const Method& m) { return m.name == name; })) {
+            std::string known;
+            for (const auto& m : peers) known += " " + m.name;
+            throw std::invalid_argument("--peers: unknown peer '" + name + "' (known:" + known + ")");
+        }
+    for (std::size_t k : orders) chosen.push_back(pgi_method(k));
+    for (auto& m : peers)
+        if (names.empty() || std::find(names.begin(), names.end(), m.name) != names.end()) chosen.push_back(std::move(m));
+    return chosen;
 }
+
+// The values each kind of method runs at: steps for fixed-step methods, tolerances for adaptive ones.
+struct Ladders {
+    std::vector<double> steps, tolerances;
+    const std::vector<double>& of(const Method& m) const { return m.fixed_step ? steps : tolerances; }
+};
 
 json outcome_json(const Outcome& o) {
     return {{"seconds", o.seconds}, {"steps", o.steps}, {"evaluations", o.evaluations}, {"energy_error_max", o.energy_error},
@@ -89,12 +110,8 @@ json matched_error_ratios(const std::vector<json>& rows, const std::vector<Metho
     return out;
 }
 
-std::vector<double> ladder(const Method& m, double dt) {
-    if (m.fixed_step) return {4 * dt, 2 * dt, dt, dt / 2, dt / 4, dt / 8};
-    return {1e-4, 1e-6, 1e-8, 1e-10, 1e-12};
-}
-
-json work_precision(const Problem& pr, const std::vector<Method>& methods, const State& x0, double T, const std::string& csv_file) {
+json work_precision(const Problem& pr, const std::vector<Method>& methods, const Ladders& ladders, const State& x0, double T,
+                    const std::string& csv_file) {
     // the reference and its accuracy, estimated as its distance to the same method at a 10x looser tolerance
     const auto t0 = Clock::now();
     const State ref = reference_solution(pr, x0, T, 1e-18L);
@@ -103,7 +120,7 @@ json work_precision(const Problem& pr, const std::vector<Method>& methods, const
                              std::chrono::duration<double>(Clock::now() - t0).count());
     std::vector<json> rows;
     for (const auto& m : methods)
-        for (double v : ladder(m, pr.scene.dt)) {
+        for (double v : ladders.of(m)) {
             const Outcome o = best_of(m, pr, x0, T, v);
             const double err = o.ok ? distance(o.x, ref) : std::nan("");
             log_outcome(m.name, parameter(m, v), o, err);
@@ -129,14 +146,14 @@ json work_precision(const Problem& pr, const std::vector<Method>& methods, const
             {"rows", rows}};
 }
 
-// Long runs at the scene's dt (fixed steps) and at two tolerances, sampled for the drift plot.
+// Long runs at the scene's dt (fixed steps) or at tolerance 1e-12 (adaptive), sampled for the drift plot.
 json drift(const Problem& pr, const std::vector<Method>& methods, const State& x0, double T, const std::string& file) {
     json out = json::array();
     pgi::AtomicFile f(file);
     f.stream() << "method,t,energy_error,casimir_error\n";
     for (const auto& m : methods) {
         if (m.name.rfind("pgi-", 0) == 0 && m.name != "pgi-k4") continue;
-        for (double v : m.fixed_step ? std::vector<double>{pr.scene.dt} : std::vector<double>{1e-8, 1e-12}) {
+        for (double v : {m.fixed_step ? pr.scene.dt : 1e-12}) {
             const std::string label = m.fixed_step ? m.name : fmt::format("{}-{:g}", m.name, v);
             Samples samples;
             const Outcome o = m.run(pr, x0, T, v, &samples);
@@ -179,10 +196,7 @@ json long_table(const Problem& pr, const std::vector<Method>& methods, const Sta
 }
 
 // Every method once, at the scene's order and dt (adaptive ones at tolerance tol), with its outcome.
-json suite(const Problem& pr, const State& x0, double T, double tol) {
-    std::vector<Method> methods{pgi_method(pr.scene.order)};
-    for (auto& g : gsl_methods()) methods.push_back(std::move(g));
-    for (auto& o : odeint_methods()) methods.push_back(std::move(o));
+json suite(const Problem& pr, const std::vector<Method>& methods, const State& x0, double T, double tol) {
     json rows = json::array();
     for (const auto& m : methods) {
         const double v = m.fixed_step ? pr.scene.dt : tol;
@@ -193,6 +207,25 @@ json suite(const Problem& pr, const State& x0, double T, double tol) {
         rows.push_back(row);
     }
     return {{"t_end", T}, {"rows", rows}};
+}
+
+// The work-precision diagram from the CSV, by gnuplot and tools/peers/plot.gp, written beside svg and
+// renamed into place. Throws if gnuplot is missing or fails.
+void plot_work_precision(const std::string& csv, const std::string& svg, const std::string& title) {
+    for (const auto* s : {&csv, &svg, &title})
+        if (s->find('\'') != std::string::npos) throw std::invalid_argument("--plot: quotes in '" + *s + "' are not supported");
+    const std::string tmp = svg + ".tmp" + std::to_string(::getpid());
+    const std::string vars = "kind='work-precision'; csv='" + csv + "'; out='" + tmp + "'; name='" + title + "'";
+    const char* argv[] = {"gnuplot", "-e", vars.c_str(), PGI_PEERS_PLOT_SCRIPT, nullptr};
+    pid_t pid = 0;
+    int status = 0;
+    if (posix_spawnp(&pid, "gnuplot", nullptr, nullptr, const_cast<char* const*>(argv), environ) != 0)
+        throw std::runtime_error("--plot: gnuplot is not installed (Debian: gnuplot-nox)");
+    if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        std::filesystem::remove(tmp);
+        throw std::runtime_error("--plot: gnuplot failed on " + csv);
+    }
+    std::filesystem::rename(tmp, svg);
 }
 
 }  // namespace
@@ -206,7 +239,17 @@ int main(int argc, char** argv) {
     std::vector<std::string> watched_text;
     bool run_suite = false;
     double suite_tol = 1e-6;
+    std::vector<std::size_t> orders{2, 4, 6};
+    std::vector<std::string> peer_names;
+    std::vector<double> dts, tols{1e-4, 1e-6, 1e-8, 1e-10, 1e-12};
+    std::string plot_file;
     app.add_option("scene", scene_file)->required();
+    app.add_option("--orders", orders, "pgi's orders k on the step ladder (default 2,4,6)")->delimiter(',');
+    app.add_option("--peers", peer_names, "the peers to run (default all: rk2imp,rk4imp,rk8pd,rkf45,msbdf,odeint-rk4,odeint-dopri5,odeint-bs)")
+        ->delimiter(',');
+    app.add_option("--dts", dts, "the step ladder (default 4 dt, 2 dt, dt, dt/2, dt/4, dt/8)")->delimiter(',');
+    app.add_option("--tols", tols, "the tolerance ladder (default 1e-4,1e-6,1e-8,1e-10,1e-12)")->delimiter(',');
+    app.add_option("--plot", plot_file, "the work-precision diagram, an SVG drawn by gnuplot (needs --csv)");
     app.add_option("--order", overrides.order, "pgi's order k (suite)");
     app.add_option("--dt", overrides.dt, "the step (the ladders' middle)");
     app.add_option("--x0", overrides.x0, "the initial state, e.g. 1,2,0.5");
@@ -228,11 +271,20 @@ int main(int argc, char** argv) {
         const Problem pr(scene, watched);
         const State x0 = *scene.x0;
         json summary{{"scene", scene.name}, {"dt", scene.dt}, {"x0", x0}, {"watched", watched_text}};
+        for (double v : dts)
+            if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--dts: {} is not a positive step", v));
+        for (double v : tols)
+            if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--tols: {} is not a positive tolerance", v));
+        if (!plot_file.empty() && csv_file.empty()) throw std::invalid_argument("--plot draws from the --csv file: give both");
         if (run_suite) {
-            summary["suite"] = suite(pr, x0, t_end_opt.value_or(scene.t_end.value_or(100.0)), suite_tol);
+            const auto methods = select_methods({scene.order}, peer_names);
+            summary["suite"] = suite(pr, methods, x0, t_end_opt.value_or(scene.t_end.value_or(100.0)), suite_tol);
         } else {
-            const auto methods = all_methods({2, 4, 6});
-            summary["work_precision"] = work_precision(pr, methods, x0, t_end_opt.value_or(100.0), csv_file);
+            const double dt = scene.dt;
+            const Ladders ladders{dts.empty() ? std::vector<double>{4 * dt, 2 * dt, dt, dt / 2, dt / 4, dt / 8} : dts, tols};
+            const auto methods = select_methods(orders, peer_names);
+            summary["work_precision"] = work_precision(pr, methods, ladders, x0, t_end_opt.value_or(100.0), csv_file);
+            if (!plot_file.empty()) plot_work_precision(csv_file, plot_file, scene.name);
             if (!drift_file.empty()) summary["drift"] = drift(pr, methods, x0, drift_t_end, drift_file);
             if (long_t_end > 0) summary["long"] = long_table(pr, methods, x0, long_t_end);
         }

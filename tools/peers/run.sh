@@ -12,9 +12,9 @@ cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j "$(nproc)" --target pgi_peers
 mkdir -p "$out"
 for scene in rigid_body lotka_volterra henon_heiles; do
-    ./build/pgi_peers "tools/scenes/$scene.toml" --csv "$out/$scene-work-precision.csv" --drift "$out/$scene-drift.csv" \
-        --drift-t-end "$drift_t" > "$out/$scene-peers.json"
-    gnuplot -e "scene='$scene'; dir='$out'" tools/peers/plot.gp
+    ./build/pgi_peers "tools/scenes/$scene.toml" --csv "$out/$scene-work-precision.csv" --plot "$out/$scene-work-precision.svg" \
+        --drift "$out/$scene-drift.csv" --drift-t-end "$drift_t" > "$out/$scene-peers.json"
+    gnuplot -e "kind='drift'; csv='$out/$scene-drift.csv'; out='$out/$scene-drift.svg'; name='$scene'" tools/peers/plot.gp
 done
 python3 tools/peers/suite.py --json "$out/suite.json" --md "$out/suite.md"
 echo "figures in $out"
