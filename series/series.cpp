@@ -170,12 +170,18 @@ std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const st
     if (u.size() != vars.size()) throw std::invalid_argument("pgi::inverse_near_identity: one displacement per variable");
     if (u.empty()) return {};
     const RingPtr& ring = u.front().ring();
-    std::vector<Series> v(u.size(), Series(ring, N));
+    std::vector<Series> v(u.size(), Series(ring, std::min<std::size_t>(N, 1)));
     for (std::size_t sweep = 1; sweep < N; ++sweep) {
-        // v <- -u(id + v)
+        // v <- -u(id + v). v is exact through e^(sweep-1) and u = O(e), so this sweep is exact through
+        // e^sweep: it needs order sweep + 1 only (computing every sweep to order N cost ~N times more).
+        const std::size_t M = sweep + 1;
         std::vector<std::optional<Series>> images(ring->size());
-        for (std::size_t i = 0; i < vars.size(); ++i) images[vars[i]] = Series::constant(Poly::gen(ring, vars[i]), N) + v[i];
-        v = compose(u, images, N);
+        for (std::size_t i = 0; i < vars.size(); ++i) {
+            Series image = Series::constant(Poly::gen(ring, vars[i]), M);
+            for (std::size_t m = 0; m < v[i].order(); ++m) image[m] += v[i][m];
+            images[vars[i]] = std::move(image);
+        }
+        v = compose(u, images, M);
         for (auto& s : v) s *= Rational(-1);
     }
     return v;
