@@ -21,11 +21,12 @@ std::vector<Series> bisection_displacement(const PhaseSpace& M, const Realisatio
 }
 
 std::vector<std::vector<Poly>> base_point_series(const PhaseSpace& M, const Realisation& r, const std::vector<Poly>& S,
-                                                 std::size_t P) {
+                                                 std::size_t P, const std::function<bool(const std::vector<Series>&)>& enough) {
     const std::size_t n = M.dim();
-    auto v = inverse_near_identity(bisection_displacement(M, r, Side::alpha, S, P + 1), M.coordinate_vars(), P + 1);
-    std::vector<std::vector<Poly>> out(P, std::vector<Poly>(n, Poly(M.ring())));
-    for (std::size_t m = 1; m <= P; ++m)
+    auto v = inverse_near_identity(bisection_displacement(M, r, Side::alpha, S, P + 1), M.coordinate_vars(), P + 1, enough);
+    const std::size_t orders = v.empty() ? 0 : v.front().order() - 1;
+    std::vector<std::vector<Poly>> out(orders, std::vector<Poly>(n, Poly(M.ring())));
+    for (std::size_t m = 1; m <= orders; ++m)
         for (std::size_t l = 0; l < n; ++l) out[m - 1][l] = v[l][m];
     return out;
 }

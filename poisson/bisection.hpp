@@ -15,8 +15,11 @@ std::vector<Series> bisection_displacement(const PhaseSpace& M, const Realisatio
                                            std::size_t N);
 
 /// The base point of the step, xb = x + sum_{m=1..P} t^m u_m + O(t^{P+1}) with alpha(xb, grad S_t(xb)) = x:
-/// the inverse of the source map. Returns u_1..u_P (index m - 1), one polynomial per coordinate.
+/// the inverse of the source map. Returns u_1..u_P (index m - 1), one polynomial per coordinate. If
+/// enough is given, it sees xb - x after each order (t-series exact to their order) and may stop the
+/// computation early by returning true: fewer than P orders are then returned.
 std::vector<std::vector<Poly>> base_point_series(const PhaseSpace& M, const Realisation& r, const std::vector<Poly>& S,
-                                                 std::size_t P);
+                                                 std::size_t P,
+                                                 const std::function<bool(const std::vector<Series>&)>& enough = {});
 
 }  // namespace pgi

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 namespace pgi {
@@ -80,6 +81,55 @@ std::size_t choose_degree(const PoissonStructure& pi, const StepOptions& opt, st
     }
 }
 
+// One Newton iteration's cost in multiply-adds, roughly: grad and Hess of S_dt, the realisation with its
+// derivatives, the LU solve.
+double iteration_cost(const CompiledMap& gradient, const RealisationEvaluator& r, std::size_t n) {
+    const double N = static_cast<double>(n);
+    return static_cast<double>(gradient.num_terms() + gradient.num_monomials() + r.cost()) + N * N * N / 3 + 2 * N * N;
+}
+
+// Newton iterations from a start of relative error e: each squares the error, and the step stops after
+// the first correction below tol (the next would be ~tol^2).
+int expected_iterations(double e, double tol) {
+    int it = 1;
+    for (; e > tol && it < 8; ++it) e *= e;
+    return it;
+}
+
+// The predictor order P minimising (terms of the predictor) + (expected iterations) x (one iteration's
+// cost), the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
+// Fed the base point's series order by order (base_point_series' `enough`); stops at the first order
+// expecting one iteration, or once the predictor's terms alone cost more than the best choice so far. Deterministic: the choice depends on the scene only.
+class PredictorChoice {
+public:
+    PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale)
+        : opt_(opt), iteration_cost_(iteration_cost), point_(std::move(point)), scale_(scale),
+          limit_(std::max<std::size_t>(opt.k + 1, 6)) {}
+    bool operator()(const std::vector<Series>& v) {
+        const std::size_t s = v.front().order() - 1;  // exact through dt^s: scores the order P = s - 1
+        double e = 0, terms = 0;
+        for (const auto& vl : v) {
+            e = std::max(e, std::abs(std::pow(opt_.dt, double(s)) * evaluate(vl[s], point_)) / scale_);
+            for (std::size_t m = 1; m < s; ++m) terms += static_cast<double>(vl[m].length());
+        }
+        const int iterations = expected_iterations(e, opt_.newton_tol);
+        const double cost = terms + iterations * iteration_cost_;
+        if (!best_ || cost < best_cost_) best_ = s - 1, best_cost_ = cost;
+        // higher orders only add terms once one iteration suffices, or once the terms alone cost more
+        return iterations == 1 || terms >= best_cost_ || s >= limit_ + 1;
+    }
+    std::size_t order() const { return best_.value_or(0); }
+
+private:
+    const StepOptions& opt_;
+    double iteration_cost_;
+    std::vector<double> point_;
+    double scale_;
+    std::size_t limit_;
+    std::optional<std::size_t> best_;
+    double best_cost_ = 0;
+};
+
 // dx = J^{-1} r by Eigen's partial-pivoting LU; at the common small sizes on fixed-size matrices,
 // which live on the stack and unroll, otherwise by the stepper's preallocated dynamic LU.
 template <int N>
@@ -116,8 +166,9 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     const Rational dt = Rational::from_double(opt.dt);
     const StructureClass cls = pi.structure_class();
     const bool closed = opt.realisation != RealisationChoice::radial && has_closed_form(cls);
-    const std::size_t P = opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 6);
-    s.info_.predictor_order = P;
+    // the predictor's order: as asked, or chosen below among 0..max(k + 1, 6) (which needs one order more)
+    const std::size_t P_limit = opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 6);
+    const std::size_t P = opt.predictor_order ? P_limit : P_limit + 1;
 
     // S_1..S_k need the realisation through degree k - 1, the predictor through degree P.
     const std::size_t D_min = std::max<std::size_t>(realisation_degree_for_order(opt.k), 1);
@@ -135,7 +186,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     const auto point = phase_point(x_typical, p0);
 
     if (closed && cls == StructureClass::log_canonical) {
-        s.info_ = {probe.method + " (closed form)", 0, true, 0.0, P};
+        s.info_ = {probe.method + " (closed form)", 0, true, 0.0, 0};
         s.realisation_ = RealisationEvaluator::log_canonical(pi);
     } else {
         const std::size_t D = choose_degree(pi, opt, D_min, probe, point, scale, s.info_.truncation_estimate);
@@ -143,7 +194,6 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
         s.info_.method = used.method;
         s.info_.degree = D;
         s.info_.exact_realisation = cls == StructureClass::constant && closed;
-        s.info_.predictor_order = P;
         s.realisation_ = closed && cls == StructureClass::linear ? RealisationEvaluator::lie_poisson(pi, D)
                                                                  : RealisationEvaluator::polynomial(pi, used);
     }
@@ -155,13 +205,15 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
         for (std::size_t r = 0; r < n; ++r) g.push_back(derivative(g[c], M.x(r)));
     s.gradient_ = CompiledMap::build(g, M.coordinate_vars());
 
-    // xb = x + sum_m dt^m u_m, from the exact series of the base point.
-    auto u = base_point_series(M, probe, S, P);
+    // xb = x + sum_m dt^m u_m, from the exact series of the base point, to the order chosen.
+    PredictorChoice choice(opt, iteration_cost(s.gradient_, s.realisation_, n), phase_point(x_typical, zero), scale);
+    auto u = opt.predictor_order ? base_point_series(M, probe, S, P) : base_point_series(M, probe, S, P, std::ref(choice));
+    s.info_.predictor_order = opt.predictor_order ? P : choice.order();
     std::vector<Poly> xb;
     for (std::size_t l = 0; l < n; ++l) {
         std::vector<Poly> c;
-        for (std::size_t m = 0; m < P; ++m) c.push_back(u[m][l]);
-        xb.push_back(M.x_gen(l) + sum_powers(c, dt, 1));
+        for (std::size_t m = 0; m < s.info_.predictor_order; ++m) c.push_back(u[m][l]);
+        xb.push_back(c.empty() ? M.x_gen(l) : M.x_gen(l) + sum_powers(c, dt, 1));
     }
     s.predictor_ = CompiledMap::build(xb, M.coordinate_vars());
 

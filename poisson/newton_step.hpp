@@ -20,7 +20,7 @@ struct StepOptions {
     std::size_t max_degree = 24;          // cap on the p-degree D of a truncated realisation
     int newton_max_iter = 20;
     double newton_tol = 1e-9;             // stop once |dx| <= tol |x|: the next correction is ~|dx|^2
-    std::size_t predictor_order = 0;      // P of the base point's series; 0 chooses max(k + 1, 6)
+    std::size_t predictor_order = 0;      // P of the base point's series; 0 chooses it by cost, up to max(k + 1, 6)
 };
 
 /// How the step was built: the realisation's method and degree, and the size of the neglected

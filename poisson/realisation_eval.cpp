@@ -76,6 +76,16 @@ RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& p
     return e;
 }
 
+std::size_t RealisationEvaluator::cost() const {
+    const std::size_t n = n_;
+    switch (form_) {
+        case Form::log_canonical: return 6 * n * n + 20 * n;
+        case Form::lie_poisson: return b_.size() * (2 * n * n * n + 3 * n * n);
+        case Form::polynomial: break;
+    }
+    return map_.num_terms() + map_.num_monomials();
+}
+
 void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
     switch (form_) {
         case Form::log_canonical: eval_log_canonical(x, p, v); return;

@@ -26,6 +26,9 @@ public:
     static RealisationEvaluator log_canonical(const PoissonStructure& pi);
     static RealisationEvaluator lie_poisson(const PoissonStructure& pi, std::size_t D);
 
+    /// One evaluation's cost in multiply-adds, roughly (transcendentals counted as 20): for cost models.
+    std::size_t cost() const;
+
     /// Writes every block of v. Allocates nothing.
     void eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
 

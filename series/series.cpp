@@ -166,7 +166,8 @@ std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std
     return out;
 }
 
-std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars, std::size_t N) {
+std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars, std::size_t N,
+                                          const std::function<bool(const std::vector<Series>&)>& enough) {
     if (u.size() != vars.size()) throw std::invalid_argument("pgi::inverse_near_identity: one displacement per variable");
     if (u.empty()) return {};
     const RingPtr& ring = u.front().ring();
@@ -183,6 +184,7 @@ std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const st
         }
         v = compose(u, images, M);
         for (auto& s : v) s *= Rational(-1);
+        if (enough && enough(v)) break;
     }
     return v;
 }

@@ -297,3 +297,32 @@ TEST_CASE("newton_step: stiff coupled oscillators (frequencies 1e3 and 1, omega 
         CHECK(summary.mean_iterations <= 3.0);
     }
 }
+
+TEST_CASE("newton_step: the predictor order follows its cost model, and the iterations it expects are the ones measured") {
+    struct Case {
+        const char* scene;
+        std::size_t k, min_order, max_order;
+        double iterations;
+    };
+    // the rigid body's Newton system is costly (the Bernoulli series with its derivatives): a long
+    // predictor and one iteration; the n = 6 lattice's is cheap next to its predictor's terms: order 2
+    // and two iterations at k = 2
+    for (const Case c : {Case{"rigid_body", 4, 4, 6, 1.0}, Case{"volterra_chain", 2, 1, 3, 2.0}}) {
+        CAPTURE(c.scene);
+        const Scene s = test::bundled(c.scene);
+        NewtonStepper st = stepper(s, c.k, s.dt, vec(*s.x0));
+        CHECK(st.info().predictor_order >= c.min_order);
+        CHECK(st.info().predictor_order <= c.max_order);
+        Eigen::VectorXd x = vec(*s.x0);
+        auto summary = integrate_steps(st, x, 200, [](std::size_t, double, const Eigen::VectorXd&) { return false; });
+        REQUIRE(summary.status == StepStatus::ok);
+        CHECK(summary.mean_iterations == doctest::Approx(c.iterations));
+    }
+    // an order asked for is the order used
+    const Scene s = test::bundled("volterra_chain");
+    StepOptions opt;
+    opt.k = 2;
+    opt.dt = s.dt;
+    opt.predictor_order = 6;
+    CHECK(NewtonStepper::build(s.pi, s.H, opt, vec(*s.x0)).info().predictor_order == 6);
+}
