@@ -188,6 +188,9 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     if (closed && cls == StructureClass::log_canonical) {
         s.info_ = {probe.method + " (closed form)", 0, true, 0.0, 0};
         s.realisation_ = RealisationEvaluator::log_canonical(pi);
+    } else if (closed && cls == StructureClass::linear && RealisationEvaluator::has_rotation_form(pi)) {
+        s.info_ = {probe.method + " (closed form, so(3))", 0, true, 0.0, 0};
+        s.realisation_ = RealisationEvaluator::rotation(pi);
     } else {
         const std::size_t D = choose_degree(pi, opt, D_min, probe, point, scale, s.info_.truncation_estimate);
         Realisation used = truncated(probe, D);

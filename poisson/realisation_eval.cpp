@@ -50,12 +50,13 @@ RealisationEvaluator RealisationEvaluator::log_canonical(const PoissonStructure&
     return e;
 }
 
-RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& pi, std::size_t D) {
+namespace {
+
+// C_j(i, k) = c_ij^k = d pi_ij / d x_k, so that L(p) = sum_j p_j C_j and L(p) x = pi(x) p.
+std::vector<Eigen::MatrixXd> structure_matrices(const PoissonStructure& pi) {
     const PhaseSpace& M = pi.phase_space();
     const auto n = static_cast<Eigen::Index>(pi.dim());
-    RealisationEvaluator e;
-    e.n_ = pi.dim();
-    e.form_ = Form::lie_poisson;
+    std::vector<Eigen::MatrixXd> Cs;
     for (Eigen::Index j = 0; j < n; ++j) {
         Eigen::MatrixXd C = Eigen::MatrixXd::Zero(n, n);
         for (Eigen::Index i = 0; i < n; ++i)
@@ -63,8 +64,19 @@ RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& p
                 Poly c = derivative(pi(static_cast<std::size_t>(i), static_cast<std::size_t>(j)), M.x(static_cast<std::size_t>(k)));
                 if (!c.is_zero()) C(i, k) = c.term_coeff(0).to_double();
             }
-        e.C_.push_back(std::move(C));
+        Cs.push_back(std::move(C));
     }
+    return Cs;
+}
+
+}  // namespace
+
+RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& pi, std::size_t D) {
+    const auto n = static_cast<Eigen::Index>(pi.dim());
+    RealisationEvaluator e;
+    e.n_ = pi.dim();
+    e.form_ = Form::lie_poisson;
+    e.C_ = structure_matrices(pi);
     for (std::size_t m = 0; m <= D; ++m) e.b_.push_back((bernoulli(m) * inverse_factorial(m)).to_double());
     e.v_prev_.resize(n);
     e.v_next_.resize(n);
@@ -76,11 +88,33 @@ RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& p
     return e;
 }
 
+bool RealisationEvaluator::has_rotation_form(const PoissonStructure& pi) {
+    if (pi.dim() != 3 || pi.structure_class() != StructureClass::linear) return false;
+    for (const auto& C : structure_matrices(pi))
+        if (C != -C.transpose()) return false;
+    return true;
+}
+
+RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) {
+    if (!has_rotation_form(pi)) throw std::invalid_argument("RealisationEvaluator::rotation: pi is not of so(3) type");
+    RealisationEvaluator e;
+    e.n_ = 3;
+    e.form_ = Form::rotation;
+    e.C_ = structure_matrices(pi);
+    // the even Bernoulli coefficients b_2j = B_2j/(2j)!, j = 1..20, for h(s) near s = 0
+    for (std::size_t j = 1; j <= 20; ++j) e.b_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
+    e.L_.resize(3, 3);
+    e.v_prev_.resize(3);
+    e.v_next_.resize(3);
+    return e;
+}
+
 std::size_t RealisationEvaluator::cost() const {
     const std::size_t n = n_;
     switch (form_) {
         case Form::log_canonical: return 6 * n * n + 20 * n;
         case Form::lie_poisson: return b_.size() * (2 * n * n * n + 3 * n * n);
+        case Form::rotation: return 150;
         case Form::polynomial: break;
     }
     return map_.num_terms() + map_.num_monomials();
@@ -90,6 +124,7 @@ void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd&
     switch (form_) {
         case Form::log_canonical: eval_log_canonical(x, p, v); return;
         case Form::lie_poisson: eval_lie_poisson(x, p, v); return;
+        case Form::rotation: eval_rotation(x, p, v); return;
         case Form::polynomial: break;
     }
     const auto n = static_cast<Eigen::Index>(n_);
@@ -177,6 +212,50 @@ void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eige
     matvec<0>(L_.data(), x.data(), v.delta.data(), n);
     v.delta_x = L_;
     for (Eigen::Index j = 0; j < n; ++j) matvec<0>(C_[static_cast<std::size_t>(j)].data(), x.data(), v.delta_p.col(j).data(), n);
+}
+
+namespace {
+
+// h(s) = sum_{j>=1} b_2j (-s)^(j-1) = (1 - (t/2) cot(t/2)) / s with s = t^2, and dh/ds: by the series
+// (b = b_2, b_4, ...) for s <= 4, where it converges like (s / 4 pi^2)^j, in closed form beyond.
+std::pair<double, double> rotation_coefficient(double s, const std::vector<double>& b) {
+    if (s <= 4.0) {
+        double h = 0, dh = 0, power = 1;  // power = (-s)^(j-1)
+        for (std::size_t j = 0; j < b.size(); ++j) {
+            h += b[j] * power;
+            if (j + 1 < b.size()) dh += -static_cast<double>(j + 1) * b[j + 1] * power;  // d/ds (-s)^j = -j (-s)^(j-1)
+            power *= -s;
+        }
+        return {h, dh};
+    }
+    const double t = std::sqrt(s), half = t / 2, cot = std::cos(half) / std::sin(half);
+    const double q = half * cot, dq_dt = cot / 2 - half / (2 * std::sin(half) * std::sin(half));
+    const double h = (1 - q) / s;
+    return {h, (-dq_dt / (2 * t) - h) / s};
+}
+
+}  // namespace
+
+// L(p) skew 3 x 3, so L^3 = -s L with s = |L|_F^2 / 2, and g(L) = I - L/2 + h(s) L^2 exactly (MATH.md 3,
+// g(z) = z / (e^z - 1) = 1 - z/2 + sum_j b_2j z^2j; its even part at z = i t is (t/2) cot(t/2)).
+void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
+    const Eigen::Matrix3d L = p[0] * C_[0] + p[1] * C_[1] + p[2] * C_[2];
+    const double s = 0.5 * L.squaredNorm();
+    const auto [h, dh] = rotation_coefficient(s, b_);
+    const Eigen::Vector3d X = x, Lx = L * X, L2x = L * Lx;
+    const Eigen::Matrix3d L2 = L * L;
+    v.alpha = X - 0.5 * Lx + h * L2x;
+    v.alpha_x = Eigen::Matrix3d::Identity() - 0.5 * L + h * L2;
+    for (Eigen::Index j = 0; j < 3; ++j) {
+        const Eigen::Matrix3d C = C_[static_cast<std::size_t>(j)];
+        const Eigen::Vector3d Cx = C * X;
+        const double ds = (L.array() * C.array()).sum();  // d s / d p_j
+        v.alpha_p.col(j) = -0.5 * Cx + h * (C * Lx + L * Cx) + dh * ds * L2x;
+        v.delta_p.col(j) = Cx;
+    }
+    // delta = beta - alpha = L(p) x, as in the series form
+    v.delta = Lx;
+    v.delta_x = L;
 }
 
 void RealisationEvaluator::eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {

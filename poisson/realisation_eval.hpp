@@ -25,6 +25,10 @@ public:
     static RealisationEvaluator polynomial(const PoissonStructure& pi, const Realisation& r);
     static RealisationEvaluator log_canonical(const PoissonStructure& pi);
     static RealisationEvaluator lie_poisson(const PoissonStructure& pi, std::size_t D);
+    /// so(3)*-type structures (n = 3, linear, every C_j skew, so L(p) is skew and L^3 = -s L): the
+    /// series summed in closed form, alpha = x - L x / 2 + h(s) L^2 x, exact in floating point.
+    static bool has_rotation_form(const PoissonStructure& pi);
+    static RealisationEvaluator rotation(const PoissonStructure& pi);
 
     /// One evaluation's cost in multiply-adds, roughly (transcendentals counted as 20): for cost models.
     std::size_t cost() const;
@@ -33,15 +37,16 @@ public:
     void eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
 
 private:
-    enum class Form { polynomial, log_canonical, lie_poisson };
+    enum class Form { polynomial, log_canonical, lie_poisson, rotation };
     void eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
+    void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
 
     std::size_t n_ = 0;
     Form form_ = Form::polynomial;
     Eigen::MatrixXd a_;                 // log-canonical: a_ij
     std::vector<Eigen::MatrixXd> C_;    // Lie-Poisson: C_[j](i, k) = c_ij^k = dL(p)/dp_j
-    std::vector<double> b_;             // Lie-Poisson: B_m / m!, m = 0..D
+    std::vector<double> b_;             // Lie-Poisson: B_m / m!, m = 0..D; rotation: B_2j / (2j)!, j = 1..20
     CompiledMap map_;                   // polynomial: alpha, delta, alpha_x, alpha_p, delta_x, delta_p
     mutable Eigen::VectorXd in_, out_, u_, v_prev_, v_next_;
     mutable Eigen::MatrixXd L_, W_prev_, W_next_, power_, tmp_;
