@@ -42,7 +42,8 @@ NewtonStepper build_stepper(const Scene& scene) {
 
 json stepper_info(const NewtonStepper& s) {
     return {{"realisation", s.info().method}, {"degree", s.info().degree}, {"exact_realisation", s.info().exact_realisation},
-            {"truncation_estimate", s.info().truncation_estimate}, {"order", s.order()}};
+            {"truncation_estimate", s.info().truncation_estimate}, {"order", s.order()},
+            {"predictor_order", s.info().predictor_order}};
 }
 
 // H and the Casimirs compiled over the coordinates, for the observer.
