@@ -41,6 +41,12 @@ def main():
     # order 8
     k8 = suite(peers, f"{scenes}/rigid_body.toml", "--order", "8", "--dt", "0.2", "--t-end", "10")
     claim(k8["pgi-k8"]["ok"] and k8["pgi-k8"]["energy_error_max"] < 1e-11, "k = 8 at dt = 0.2: energy error below 1e-11")
+    # bad input: exit 2 and a message naming the problem, before any run
+    for args, message in ((["--peers", "bogus"], "unknown peer 'bogus'"), (["--orders", "0"], "--orders"),
+                          (["--tols", "0"], "--tols"), (["--plot", "x.svg"], "--plot draws from the --csv file"),
+                          (["--x0", "1,2"], "x0")):
+        r = subprocess.run([peers, f"{scenes}/rigid_body.toml", *args], capture_output=True, text=True)
+        claim(r.returncode == 2 and message in r.stderr and not r.stdout, f"pgi_peers {' '.join(args)}: exit 2, says {message!r}")
     return 1 if failures else 0
 
 

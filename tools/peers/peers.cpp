@@ -263,6 +263,13 @@ int main(int argc, char** argv) {
     app.add_option("--tol", suite_tol, "the adaptive peers' tolerance in --suite (default 1e-6)");
     CLI11_PARSE(app, argc, argv);
     try {
+        for (std::size_t k : orders)
+            if (k < 1) throw std::invalid_argument("--orders: the order k must be at least 1");
+        for (double v : dts)
+            if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--dts: {} is not a positive step", v));
+        for (double v : tols)
+            if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--tols: {} is not a positive tolerance", v));
+        if (!plot_file.empty() && csv_file.empty()) throw std::invalid_argument("--plot draws from the --csv file: give both");
         const pgi::Scene scene = pgi::load_scene(scene_file, overrides);
         pgi::require_valid(scene);
         if (!scene.x0) throw std::invalid_argument(scene_file + ": [run] x0 is needed (or --x0)");
@@ -271,11 +278,6 @@ int main(int argc, char** argv) {
         const Problem pr(scene, watched);
         const State x0 = *scene.x0;
         json summary{{"scene", scene.name}, {"dt", scene.dt}, {"x0", x0}, {"watched", watched_text}};
-        for (double v : dts)
-            if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--dts: {} is not a positive step", v));
-        for (double v : tols)
-            if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--tols: {} is not a positive tolerance", v));
-        if (!plot_file.empty() && csv_file.empty()) throw std::invalid_argument("--plot draws from the --csv file: give both");
         if (run_suite) {
             const auto methods = select_methods({scene.order}, peer_names);
             summary["suite"] = suite(pr, methods, x0, t_end_opt.value_or(scene.t_end.value_or(100.0)), suite_tol);
