@@ -10,14 +10,19 @@ set logscale xy
 set format x "1e%L"; set format y "1e%L"
 set output out
 methods = system(sprintf("awk -F, 'NR > 1 && !seen[$1]++ {print $1}' '%s'", csv))
+# one colour per method (gnuplot's default cycle repeats after 8); pgi's curves drawn thicker
+colors = "#000000 #e41a1c #377eb8 #4daf4a #984ea3 #ff7f00 #a65628 #f781bf #17becf #999999 #bcbd22 #1b9e77"
+color(i) = word(colors, (i - 1) % words(colors) + 1)
+width(m) = strstrt(m, "pgi") == 1 ? 3 : 1.5
 
 if (kind eq "work-precision") {
     set title "work-precision, ".name." (T = 100)"
     set xlabel "wall time (s, best of 3)"; set ylabel "final error (max norm)"
-    plot for [m in methods] sprintf("< awk -F, '$1==\"%s\" && $9==1' '%s'", m, csv) using 4:3 with linespoints title m
+    plot for [i=1:words(methods)] sprintf("< awk -F, '$1==\"%s\" && $9==1' '%s'", word(methods,i), csv) using 4:3 \
+         with linespoints lc rgb color(i) lw width(word(methods,i)) pt i title word(methods,i)
 } else {
     set title "long run, ".name.": relative energy error (solid), Casimir error (dashed)"
     set xlabel "t"; set ylabel "relative error"
-    plot for [i=1:words(methods)] sprintf("< awk -F, '$1==\"%s\" && $3>0' '%s'", word(methods,i), csv) using 2:3 with lines lc i lw 2 title word(methods,i), \
-         for [i=1:words(methods)] sprintf("< awk -F, '$1==\"%s\" && $4>0' '%s'", word(methods,i), csv) using 2:4 with lines lc i dt 2 notitle
+    plot for [i=1:words(methods)] sprintf("< awk -F, '$1==\"%s\" && $3>0' '%s'", word(methods,i), csv) using 2:3 with lines lc rgb color(i) lw width(word(methods,i)) title word(methods,i), \
+         for [i=1:words(methods)] sprintf("< awk -F, '$1==\"%s\" && $4>0' '%s'", word(methods,i), csv) using 2:4 with lines lc rgb color(i) lw width(word(methods,i)) dt 2 notitle
 }
