@@ -82,10 +82,11 @@ std::size_t choose_degree(const PoissonStructure& pi, const StepOptions& opt, st
 }
 
 // One Newton iteration's cost in multiply-adds, roughly: grad and Hess of S_dt, the realisation with its
-// derivatives, the LU solve.
+// derivatives, the LU solve, and a fixed 150 for what is not arithmetic (calls, pivoting, the update),
+// which measured F+J times on the bundled scenes put at 100-200 predictor terms' worth.
 double iteration_cost(const CompiledMap& gradient, const RealisationEvaluator& r, std::size_t n) {
     const double N = static_cast<double>(n);
-    return static_cast<double>(gradient.num_terms() + gradient.num_monomials() + r.cost()) + N * N * N / 3 + 2 * N * N;
+    return static_cast<double>(gradient.num_terms() + gradient.num_monomials() + r.cost()) + N * N * N / 3 + 2 * N * N + 150;
 }
 
 // Newton iterations from a start of relative error e: each squares the error, and the step stops after
@@ -104,7 +105,7 @@ class PredictorChoice {
 public:
     PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale)
         : opt_(opt), iteration_cost_(iteration_cost), point_(std::move(point)), scale_(scale),
-          limit_(std::max<std::size_t>(opt.k + 1, 6)) {}
+          limit_(std::max<std::size_t>(opt.k + 1, 8)) {}
     bool operator()(const std::vector<Series>& v) {
         const std::size_t s = v.front().order() - 1;  // exact through dt^s: scores the order P = s - 1
         double e = 0, terms = 0;
@@ -166,8 +167,8 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     const Rational dt = Rational::from_double(opt.dt);
     const StructureClass cls = pi.structure_class();
     const bool closed = opt.realisation != RealisationChoice::radial && has_closed_form(cls);
-    // the predictor's order: as asked, or chosen below among 0..max(k + 1, 6) (which needs one order more)
-    const std::size_t P_limit = opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 6);
+    // the predictor's order: as asked, or chosen below among 0..max(k + 1, 8) (which needs one order more)
+    const std::size_t P_limit = opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 8);
     const std::size_t P = opt.predictor_order ? P_limit : P_limit + 1;
 
     // S_1..S_k need the realisation through degree k - 1, the predictor through degree P.
