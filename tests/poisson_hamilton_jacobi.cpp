@@ -69,3 +69,28 @@ TEST_CASE("hamilton_jacobi: for the oscillator, S_t generates the exact flow's m
     auto S = terms(s, RealisationChoice::automatic, 3);
     CHECK(S[2] == Rational(1, 12) * s.H);
 }
+
+TEST_CASE("hamilton_jacobi: the radial realisation has p . (alpha - x) = 0, so a linear H has S_t = t H exactly") {
+    // The radial (spray) realisation moves x orthogonally to p in every degree; then H(alpha(x, t dH)) = H(x)
+    // for linear H and the Hamilton-Jacobi recursion stops at S_1: the step is H's exact flow.
+    for (const char* name : {"lotka_volterra", "volterra_chain", "rigid_body", "nambu", "plane_quadratic"}) {
+        CAPTURE(name);
+        const Scene s = test::bundled(name);
+        const PhaseSpace& M = s.phase_space();
+        const auto r = build_realisation(s.pi, RealisationChoice::radial, 6);
+        for (std::size_t m = 1; m <= 6; ++m) {
+            Poly dot(M.ring());
+            for (std::size_t i = 0; i < M.dim(); ++i) dot += M.p_gen(i) * r.alpha[i][m];
+            CHECK(dot.is_zero());
+        }
+    }
+    for (const char* name : {"lotka_volterra", "volterra_chain"}) {  // H = sum x_i
+        CAPTURE(name);
+        const Scene s = test::bundled(name);
+        const auto S = terms(s, RealisationChoice::radial, 7);
+        CHECK(S[0] == s.H);
+        for (std::size_t j = 1; j < S.size(); ++j) CHECK(S[j].is_zero());
+        // the log-canonical closed form is not radial: its S_3 is not zero
+        CHECK_FALSE(terms(s, RealisationChoice::closed_form, 3)[2].is_zero());
+    }
+}

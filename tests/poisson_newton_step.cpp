@@ -326,3 +326,19 @@ TEST_CASE("newton_step: the predictor order follows its cost model, and the iter
     opt.predictor_order = 6;
     CHECK(NewtonStepper::build(s.pi, s.H, opt, vec(*s.x0)).info().predictor_order == 6);
 }
+
+TEST_CASE("newton_step: with the radial realisation a linear H is integrated exactly (S_t = t H), for any k") {
+    const Scene s = test::bundled("lotka_volterra");  // H = x1 + x2 + x3
+    const VectorField f(s);
+    const Eigen::VectorXd x0 = vec(*s.x0);
+    const Eigen::VectorXd exact = rk4(f, x0, 1e-4, 100000);  // t = 10; RK4's error ~1e-15 at this step
+    for (std::size_t k : {1, 2, 4}) {
+        CAPTURE(k);
+        NewtonStepper radial = stepper(s, k, 0.1, x0, RealisationChoice::radial);
+        NewtonStepper closed = stepper(s, k, 0.1, x0, RealisationChoice::closed_form);
+        const double radial_error = (run(radial, x0, 100) - exact).lpNorm<Eigen::Infinity>();
+        const double closed_error = (run(closed, x0, 100) - exact).lpNorm<Eigen::Infinity>();
+        CHECK(radial_error < 1e-12);   // round-off over 100 steps, whatever the order
+        CHECK(closed_error > 1e-6);    // the closed form's truncation error at dt = 0.1, order 2 ceil(k/2)
+    }
+}

@@ -251,6 +251,7 @@ int main(int argc, char** argv) {
     app.add_option("--tols", tols, "the tolerance ladder (default 1e-4,1e-6,1e-8,1e-10,1e-12)")->delimiter(',');
     app.add_option("--plot", plot_file, "the work-precision diagram, an SVG drawn by gnuplot (needs --csv)");
     app.add_option("--order", overrides.order, "pgi's order k (suite)");
+    app.add_option("--realisation", overrides.realisation, "pgi's realisation: auto, closed or radial");
     app.add_option("--dt", overrides.dt, "the step (the ladders' middle)");
     app.add_option("--x0", overrides.x0, "the initial state, e.g. 1,2,0.5");
     app.add_option("--t-end", t_end_opt, "final time (default 100; the scene's t_end for --suite)");
