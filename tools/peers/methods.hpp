@@ -3,9 +3,12 @@
 // fed by the same compiled vector field; and the long double reference solution.
 #include "tools/peers/problem.hpp"
 
+#include <optional>
+
 namespace pgi::peers {
 
-Method pgi_method(std::size_t k);
+/// pgi at order k with the scene's realisation ("pgi-k4"), or with the one given ("pgi-k4-radial").
+Method pgi_method(std::size_t k, std::optional<RealisationChoice> realisation = std::nullopt);
 /// rk2imp (implicit midpoint), rk4imp (2-stage Gauss, order 4): fixed step; rk8pd, rkf45, msbdf: adaptive.
 std::vector<Method> gsl_methods();
 /// runge_kutta4: fixed step; runge_kutta_dopri5 (controlled), bulirsch_stoer: adaptive.

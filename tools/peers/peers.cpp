@@ -2,7 +2,7 @@
 // part of the core library: only this program links the peers. The same compiled vector field (pi grad
 // H, and its Jacobian for the implicit peers) feeds every method, so the comparison measures the methods.
 //
-//   pgi_peers SCENE [--orders 2,4,6] [--peers rk4imp,rk8pd,...] [--dts ...] [--tols ...]
+//   pgi_peers SCENE [--orders 2,4,6] [--realisations radial] [--peers rk4imp,rk8pd,...] [--dts ...] [--tols ...]
 //                   [--order K] [--dt DT] [--x0 A,B,...] [--t-end T] [--watch POLY]...
 //                   [--csv FILE] [--plot FILE.svg] [--drift FILE] [--drift-t-end T2] [--long T3] [--suite]
 //
@@ -37,8 +37,10 @@ namespace {
 using namespace pgi::peers;
 using nlohmann::json;
 
-// pgi at each order, then the peers named (all of them if none is); an unknown name is an error.
-std::vector<Method> select_methods(const std::vector<std::size_t>& orders, const std::vector<std::string>& names) {
+// pgi at each order (with the scene's realisation, then with each extra one), then the peers named
+// (all of them if none is); an unknown name is an error.
+std::vector<Method> select_methods(const std::vector<std::size_t>& orders, const std::vector<pgi::RealisationChoice>& extra,
+                                   const std::vector<std::string>& names) {
     std::vector<Method> peers = gsl_methods(), chosen;
     for (auto& o : odeint_methods()) peers.push_back(std::move(o));
     for (const auto& name : names)
@@ -48,6 +50,8 @@ std::vector<Method> select_methods(const std::vector<std::size_t>& orders, const
             throw std::invalid_argument("--peers: unknown peer '" + name + "' (known:" + known + ")");
         }
     for (std::size_t k : orders) chosen.push_back(pgi_method(k));
+    for (auto r : extra)
+        for (std::size_t k : orders) chosen.push_back(pgi_method(k, r));
     for (auto& m : peers)
         if (names.empty() || std::find(names.begin(), names.end(), m.name) != names.end()) chosen.push_back(std::move(m));
     return chosen;
@@ -251,7 +255,9 @@ int main(int argc, char** argv) {
     app.add_option("--tols", tols, "the tolerance ladder (default 1e-4,1e-6,1e-8,1e-10,1e-12)")->delimiter(',');
     app.add_option("--plot", plot_file, "the work-precision diagram, an SVG drawn by gnuplot (needs --csv)");
     app.add_option("--order", overrides.order, "pgi's order k (suite)");
-    app.add_option("--realisation", overrides.realisation, "pgi's realisation: auto, closed or radial");
+    std::vector<std::string> extra_realisations;
+    app.add_option("--realisations", extra_realisations, "pgi also with these realisations (closed-form, radial), e.g. radial")
+        ->delimiter(',');
     app.add_option("--dt", overrides.dt, "the step (the ladders' middle)");
     app.add_option("--x0", overrides.x0, "the initial state, e.g. 1,2,0.5");
     app.add_option("--t-end", t_end_opt, "final time (default 100; the scene's t_end for --suite)");
@@ -271,6 +277,12 @@ int main(int argc, char** argv) {
         for (double v : tols)
             if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--tols: {} is not a positive tolerance", v));
         if (!plot_file.empty() && csv_file.empty()) throw std::invalid_argument("--plot draws from the --csv file: give both");
+        std::vector<pgi::RealisationChoice> extra;
+        for (const auto& r : extra_realisations) try {
+                extra.push_back(pgi::parse_realisation_choice(r));
+            } catch (const std::invalid_argument& e) {
+                throw std::invalid_argument(std::string("--realisations: ") + e.what());
+            }
         const pgi::Scene scene = pgi::load_scene(scene_file, overrides);
         pgi::require_valid(scene);
         if (!scene.x0) throw std::invalid_argument(scene_file + ": [run] x0 is needed (or --x0)");
@@ -280,12 +292,12 @@ int main(int argc, char** argv) {
         const State x0 = *scene.x0;
         json summary{{"scene", scene.name}, {"dt", scene.dt}, {"x0", x0}, {"watched", watched_text}};
         if (run_suite) {
-            const auto methods = select_methods({scene.order}, peer_names);
+            const auto methods = select_methods({scene.order}, extra, peer_names);
             summary["suite"] = suite(pr, methods, x0, t_end_opt.value_or(scene.t_end.value_or(100.0)), suite_tol);
         } else {
             const double dt = scene.dt;
             const Ladders ladders{dts.empty() ? std::vector<double>{4 * dt, 2 * dt, dt, dt / 2, dt / 4, dt / 8} : dts, tols};
-            const auto methods = select_methods(orders, peer_names);
+            const auto methods = select_methods(orders, extra, peer_names);
             summary["work_precision"] = work_precision(pr, methods, ladders, x0, t_end_opt.value_or(100.0), csv_file);
             if (!plot_file.empty()) plot_work_precision(csv_file, plot_file, scene.name);
             if (!drift_file.empty()) summary["drift"] = drift(pr, methods, x0, drift_t_end, drift_file);
