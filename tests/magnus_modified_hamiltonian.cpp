@@ -197,3 +197,17 @@ TEST_CASE("modified: over 1e5 steps the truncated Htilde is conserved far better
         CHECK(worst[1] < worst[0] / 100);
     }
 }
+
+TEST_CASE("modified_hamiltonian: with the radial realisation a linear H is its own modified Hamiltonian") {
+    // S_t = t H exactly (p . (alpha - x) = 0), so the step is H's flow and Htilde = H to every order;
+    // the log-canonical closed form, by contrast, has H_2 != 0
+    const Scene s = test::bundled("lotka_volterra");
+    for (std::size_t k : {1, 2, 4}) {
+        CAPTURE(k);
+        const auto radial = modified_hamiltonian(s.pi, s.H, k, RealisationChoice::radial, 5);
+        REQUIRE(radial.size() == 6);
+        CHECK(radial[0] == s.H);
+        for (std::size_t j = 1; j < radial.size(); ++j) CHECK(radial[j].is_zero());
+    }
+    CHECK_FALSE(modified_hamiltonian(s.pi, s.H, 2, RealisationChoice::closed_form, 2)[2].is_zero());
+}
