@@ -25,13 +25,16 @@ Monitor::Monitor(const Problem& p, const double* x0, Samples* s)
     pr.invariants.eval(x0, initial.data());
 }
 
+double Monitor::relative_change(std::size_t i) const {
+    return std::abs(value[i] - initial[i]) / std::max(std::abs(initial[i]), 1e-300);
+}
+
 void Monitor::operator()(double t, const double* x) {
     pr.invariants.eval(x, value.data());
-    for (std::size_t i = 0; i < value.size(); ++i)
-        worst[i] = std::max(worst[i], std::abs(value[i] - initial[i]) / std::max(std::abs(initial[i]), 1e-300));
+    for (std::size_t i = 0; i < value.size(); ++i) worst[i] = std::max(worst[i], relative_change(i));
     if (samples && t >= next_sample) {
-        samples->push_back({t, worst.size() ? std::abs(value[0] - initial[0]) / std::abs(initial[0]) : 0.0,
-                            value.size() - pr.num_watched > 1 ? std::abs(value[1] - initial[1]) / std::abs(initial[1]) : 0.0});
+        const bool has_casimir = value.size() - pr.num_watched > 1;
+        samples->push_back({t, relative_change(0), has_casimir ? relative_change(1) : 0.0});
         next_sample = next_sample == 0 ? t * 1.05 + 1e-9 : next_sample * 1.05;  // log-spaced in t
     }
 }

@@ -43,6 +43,9 @@ struct Monitor {
     double energy_error() const { return worst[0]; }
     double casimir_error() const;       // the worst Casimir (0 without Casimirs)
     std::vector<double> watched_ratios() const;
+
+private:
+    double relative_change(std::size_t i) const;  // |value_i - initial_i| / |initial_i|
 };
 
 struct Outcome {
