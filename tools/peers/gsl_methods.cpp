@@ -49,6 +49,7 @@ Outcome run_gsl(const gsl_odeiv2_step_type* type, bool fixed, const Problem& pr,
         }
         ++steps;
         monitor(t, x.data());
+        if (failure = stop_reason(x.data(), x.size(), steps, t); !failure.empty()) break;
     }
     Outcome o = finish(std::move(x), steps, start, monitor, failure);
     gsl_odeiv2_driver_free(d);

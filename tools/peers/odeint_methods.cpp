@@ -18,9 +18,7 @@ struct Stop : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-constexpr std::size_t step_budget = 50'000'000;
-
-// integrate(system, x, observer) runs one odeint integration; value is the step or the tolerance.
+// integrate(system, x, observer) runs one odeint integration from x.
 template <class Integrate>
 Outcome run_odeint(const Problem& pr, const State& x0, Samples* samples, Integrate&& integrate) {
     State x = x0;
@@ -32,9 +30,7 @@ Outcome run_odeint(const Problem& pr, const State& x0, Samples* samples, Integra
     auto observer = [&](const State& y, double t) {
         if (calls++ == 0) return;  // odeint observes the initial state too
         monitor(t, y.data());
-        for (double v : y)
-            if (!std::isfinite(v)) throw Stop(fmt::format("non-finite state at t = {:g}", t));
-        if (calls > step_budget) throw Stop(fmt::format("more than {} steps by t = {:g}", step_budget, t));
+        if (auto why = stop_reason(y.data(), y.size(), calls - 1, t); !why.empty()) throw Stop(why);
     };
     const auto start = Clock::now();
     try {

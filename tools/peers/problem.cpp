@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 namespace pgi::peers {
 
 Problem::Problem(const Scene& s, const std::vector<Poly>& watched)
@@ -48,6 +50,14 @@ std::vector<double> Monitor::watched_ratios() const {
     std::vector<double> r;
     for (std::size_t i = value.size() - pr.num_watched; i < value.size(); ++i) r.push_back(value[i] / initial[i]);
     return r;
+}
+
+std::string stop_reason(const double* x, std::size_t n, std::size_t steps, double t) {
+    constexpr std::size_t step_budget = 50'000'000;
+    for (std::size_t i = 0; i < n; ++i)
+        if (!std::isfinite(x[i])) return fmt::format("non-finite state at t = {:g}", t);
+    if (steps > step_budget) return fmt::format("more than {} steps by t = {:g}", step_budget, t);
+    return {};
 }
 
 Outcome finish(State x, std::size_t steps, Clock::time_point start, const Monitor& monitor, std::string failure) {

@@ -58,6 +58,10 @@ struct Outcome {
     std::string failure;          // why the run stopped, if it did
 };
 
+/// Why a run must stop after `steps` steps at t with state x (non-finite, or past the step budget of
+/// 5e7 steps), or empty if it may go on: one rule for every peer's loop.
+std::string stop_reason(const double* x, std::size_t n, std::size_t steps, double t);
+
 /// The outcome of a run that ended at x after `steps` steps, started at `start` (clock read now),
 /// with the monitor's errors and the problem's evaluation count.
 Outcome finish(State x, std::size_t steps, Clock::time_point start, const Monitor& monitor, std::string failure = {});
