@@ -100,7 +100,8 @@ int expected_iterations(double e, double tol) {
 // The predictor order P minimising (terms of the predictor) + (expected iterations) x (one iteration's
 // cost), the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
 // Fed the base point's series order by order (base_point_series' `enough`); stops at the first order
-// expecting one iteration, or once the predictor's terms alone cost more than the best choice so far. Deterministic: the choice depends on the scene only.
+// expecting one iteration, or once the predictor's terms alone cost more than the best choice so far.
+// Deterministic: the choice depends on the scene only.
 class PredictorChoice {
 public:
     PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale)

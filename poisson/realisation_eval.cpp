@@ -103,9 +103,6 @@ RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) 
     e.C_ = structure_matrices(pi);
     // the even Bernoulli coefficients b_2j = B_2j/(2j)!, j = 1..20, for h(s) near s = 0
     for (std::size_t j = 1; j <= 20; ++j) e.b_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
-    e.L_.resize(3, 3);
-    e.v_prev_.resize(3);
-    e.v_next_.resize(3);
     return e;
 }
 

@@ -46,25 +46,6 @@ json stepper_info(const NewtonStepper& s) {
             {"predictor_order", s.info().predictor_order}};
 }
 
-// H and the Casimirs compiled over the coordinates, for the observer.
-CompiledMap invariants(const Scene& scene, const std::optional<Poly>& modified) {
-    std::vector<Poly> f{scene.H};
-    f.insert(f.end(), scene.casimirs.begin(), scene.casimirs.end());
-    if (modified) f.push_back(*modified);
-    return CompiledMap::build(f, scene.phase_space().coordinate_vars());
-}
-
-double relative_error(double value, double initial) {
-    const double d = std::abs(value - initial);
-    return initial != 0 ? d / std::abs(initial) : d;
-}
-
-std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus status) {
-    return fmt::format("step {} (from t = {:.17g}) failed: {} after {} Newton iterations, residual {:.3g}, last correction {:.3g}",
-                       step, double(step - 1) * s.dt(), to_string(status), s.last_iterations(), s.last_residual(),
-                       s.last_correction());
-}
-
 // A one-line progress indication on a terminal, for runs longer than about a second and a half.
 class Progress {
 public:
@@ -89,6 +70,24 @@ private:
 
 }  // namespace
 
+CompiledMap invariants(const Scene& scene, const std::vector<Poly>& extra) {
+    std::vector<Poly> f{scene.H};
+    f.insert(f.end(), scene.casimirs.begin(), scene.casimirs.end());
+    f.insert(f.end(), extra.begin(), extra.end());
+    return CompiledMap::build(f, scene.phase_space().coordinate_vars());
+}
+
+double relative_error(double value, double initial) {
+    const double d = std::abs(value - initial);
+    return initial != 0 ? d / std::abs(initial) : d;
+}
+
+std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus status) {
+    return fmt::format("step {} (from t = {:.17g}) failed: {} after {} Newton iterations, residual {:.3g}, last correction {:.3g}",
+                       step, double(step - 1) * s.dt(), to_string(status), s.last_iterations(), s.last_residual(),
+                       s.last_correction());
+}
+
 json step_report(const Scene& scene) {
     NewtonStepper s = build_stepper(scene);
     Eigen::VectorXd x = to_vector(require_x0(scene)), increment(x.size());
@@ -108,7 +107,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     NewtonStepper s = build_stepper(scene);
     const double build_seconds = std::chrono::duration<double>(Clock::now() - built).count();
     const auto N = static_cast<std::size_t>(std::ceil(*scene.t_end / scene.dt - 1e-9));  // whole steps reaching t_end
-    CompiledMap inv = invariants(scene, options.modified);
+    CompiledMap inv = invariants(scene, options.modified ? std::vector<Poly>{*options.modified} : std::vector<Poly>{});
     std::vector<double> values(inv.num_outputs()), initial(inv.num_outputs()), worst(inv.num_outputs(), 0.0);
     std::optional<AtomicFile> csv;
     if (options.csv) {

@@ -1,6 +1,7 @@
 // pgi as a method of the comparison: the stepper is built (exact phase, compilation) before the clock
 // starts; that time is reported apart, as setup_seconds.
 #include "poisson/integrate.hpp"
+#include "tools/commands.hpp"
 #include "tools/peers/methods.hpp"
 
 #include <fmt/format.h>
@@ -29,11 +30,8 @@ Method pgi_method(std::size_t k, std::optional<RealisationChoice> realisation) {
                     if (n > 0) monitor(t, y.data());
                     return false;
                 });
-                std::string failure;
-                if (summary.status != StepStatus::ok)
-                    failure = fmt::format("{} at step {} (t = {:g}), residual {:.2e} after {} iterations", to_string(summary.status),
-                                          summary.steps + 1, double(summary.steps + 1) * dt, stepper.last_residual(),
-                                          stepper.last_iterations());
+                const std::string failure =
+                    summary.status == StepStatus::ok ? "" : failure_message(stepper, summary.steps + 1, summary.status);
                 Outcome o = finish(State(x.data(), x.data() + x.size()), summary.steps, start, monitor, failure);
                 o.evaluations = static_cast<std::size_t>(std::llround(summary.mean_iterations * double(summary.steps)));  // Newton systems
                 o.setup_seconds = setup_seconds;

@@ -1,5 +1,7 @@
 #include "tools/peers/problem.hpp"
 
+#include "tools/commands.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -14,12 +16,9 @@ Problem::Problem(const Scene& s, const std::vector<Poly>& watched)
     std::vector<Poly> J;
     for (const auto& fi : fs)
         for (std::size_t j = 0; j < n; ++j) J.push_back(derivative(fi, xs[j]));
-    std::vector<Poly> inv{s.H};
-    inv.insert(inv.end(), s.casimirs.begin(), s.casimirs.end());
-    inv.insert(inv.end(), watched.begin(), watched.end());
     field = CompiledMap::build(fs, xs);
     jacobian = CompiledMap::build(J, xs);
-    invariants = CompiledMap::build(inv, xs);
+    invariants = pgi::invariants(s, watched);
 }
 
 Monitor::Monitor(const Problem& p, const double* x0, Samples* s)
@@ -27,9 +26,7 @@ Monitor::Monitor(const Problem& p, const double* x0, Samples* s)
     pr.invariants.eval(x0, initial.data());
 }
 
-double Monitor::relative_change(std::size_t i) const {
-    return std::abs(value[i] - initial[i]) / std::max(std::abs(initial[i]), 1e-300);
-}
+double Monitor::relative_change(std::size_t i) const { return relative_error(value[i], initial[i]); }
 
 void Monitor::operator()(double t, const double* x) {
     pr.invariants.eval(x, value.data());

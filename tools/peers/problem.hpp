@@ -45,7 +45,7 @@ struct Monitor {
     std::vector<double> watched_ratios() const;
 
 private:
-    double relative_change(std::size_t i) const;  // |value_i - initial_i| / |initial_i|
+    double relative_change(std::size_t i) const;  // of invariant i, as pgi's own reports measure it
 };
 
 struct Outcome {
