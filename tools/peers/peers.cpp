@@ -75,6 +75,8 @@ void log_outcome(const std::string& label, const std::string& parameter, const O
                              parameter, err, o.seconds, o.steps, o.energy_error, o.casimir_error, o.ok ? "" : "  FAILED: " + o.failure);
 }
 
+bool is_pgi(const Method& m) { return m.name.rfind("pgi-", 0) == 0; }
+
 std::string parameter(const Method& m, double value) { return fmt::format("{}={:g}", m.fixed_step ? "dt" : "tol", value); }
 
 // Time a method needs for a given error, by log-log interpolation along its ladder (NaN if out of range).
@@ -98,9 +100,9 @@ double time_at_error(const std::vector<json>& rows, const std::string& method, d
 json matched_error_ratios(const std::vector<json>& rows, const std::vector<Method>& methods) {
     json out;
     for (const auto& p : methods) {
-        if (p.name.rfind("pgi-", 0) != 0) continue;
+        if (!is_pgi(p)) continue;
         for (const auto& q : methods) {
-            if (q.name.rfind("pgi-", 0) == 0) continue;
+            if (is_pgi(q)) continue;
             std::vector<double> ratios;
             for (const auto& r : rows)
                 if (r["method"] == p.name && r["usable"].get<bool>()) {
@@ -156,7 +158,7 @@ json drift(const Problem& pr, const std::vector<Method>& methods, const State& x
     pgi::AtomicFile f(file);
     f.stream() << "method,t,energy_error,casimir_error\n";
     for (const auto& m : methods) {
-        if (m.name.rfind("pgi-", 0) == 0 && m.name != "pgi-k4") continue;
+        if (is_pgi(m) && m.name != "pgi-k4") continue;
         for (double v : {m.fixed_step ? pr.scene.dt : 1e-12}) {
             const std::string label = m.fixed_step ? m.name : fmt::format("{}-{:g}", m.name, v);
             Samples samples;
@@ -179,7 +181,7 @@ json long_table(const Problem& pr, const std::vector<Method>& methods, const Sta
     log_outcome("pgi-k4", fmt::format("T={:g}", T), p);
     json table{{"t_end", T}, {"pgi-k4", outcome_json(p)}};
     for (const auto& m : methods) {
-        if (m.name.rfind("pgi-", 0) == 0) continue;
+        if (is_pgi(m)) continue;
         json entry{{"matched", false}};
         const auto values = m.fixed_step ? std::vector<double>{pr.scene.dt, pr.scene.dt / 2, pr.scene.dt / 4}
                                          : std::vector<double>{1e-8, 1e-10, 1e-12, 1e-13};
@@ -277,6 +279,12 @@ int main(int argc, char** argv) {
         for (double v : tols)
             if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--tols: {} is not a positive tolerance", v));
         if (!plot_file.empty() && csv_file.empty()) throw std::invalid_argument("--plot draws from the --csv file: give both");
+        // output directories are checked before hours of runs, not after
+        for (const auto& [option, path] : {std::pair<std::string, std::string>{"--csv", csv_file}, {"--plot", plot_file}, {"--drift", drift_file}}) {
+            const std::filesystem::path dir = std::filesystem::path(path).has_parent_path() ? std::filesystem::path(path).parent_path() : ".";
+            if (!path.empty() && !std::filesystem::is_directory(dir))
+                throw std::invalid_argument(option + ": " + path + ": directory '" + dir.string() + "' does not exist");
+        }
         std::vector<pgi::RealisationChoice> extra;
         for (const auto& r : extra_realisations) try {
                 extra.push_back(pgi::parse_realisation_choice(r));
