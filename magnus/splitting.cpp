@@ -1,0 +1,207 @@
+#include "magnus/splitting.hpp"
+
+#include "magnus/magnus.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace pgi {
+
+namespace {
+
+// Q(w) = Q[w]/(w^d - sum_i rel[i] w^i): d = 1 with no relation is Q itself. An element is a vector of d
+// coefficients on 1, w, ..., w^{d-1}.
+struct NumberField {
+    std::size_t d = 1;
+    std::vector<Rational> relation;  // w^d = sum_i relation[i] w^i
+    // w^e on the basis, for e < 2d - 1 (products of two basis elements)
+    std::vector<Rational> power(std::size_t e) const {
+        std::vector<Rational> v(d);
+        if (e < d) {
+            v[e] = Rational(1);
+            return v;
+        }
+        const auto lower = power(e - 1);  // multiply by w: shift, then replace w^d
+        for (std::size_t i = 0; i + 1 < d; ++i) v[i + 1] = lower[i];
+        for (std::size_t i = 0; i < d; ++i) v[i] = v[i] + lower[d - 1] * relation[i];
+        return v;
+    }
+    std::vector<Rational> multiply(const std::vector<Rational>& a, const std::vector<Rational>& b) const {
+        std::vector<Rational> r(d);
+        for (std::size_t i = 0; i < d; ++i)
+            for (std::size_t j = 0; j < d; ++j) {
+                const auto wij = power(i + j);
+                for (std::size_t c = 0; c < d; ++c) r[c] = r[c] + a[i] * b[j] * wij[c];
+            }
+        return r;
+    }
+};
+
+// w = 1/(2 - 2^{1/3}) satisfies 2w^3 + (1 - 2w)^3 = 0, i.e. w^3 = 2w^2 - w + 1/6
+NumberField yoshida_field() { return {3, {Rational(1, 6), Rational(-1), Rational(2)}}; }
+
+// A Lie algebra element over the field: one e-series per basis element.
+using Element = std::vector<Series>;
+
+Element zero_element(const NumberField& F, const RingPtr& ring, std::size_t N) { return Element(F.d, Series(ring, N)); }
+
+void add_scaled(Element& a, const Rational& c, const Element& b) {
+    for (std::size_t i = 0; i < a.size(); ++i) a[i] += c * b[i];
+}
+
+Element truncated(const Element& a, std::size_t N) {
+    Element r;
+    for (const auto& s : a) r.push_back(s.truncated(N));
+    return r;
+}
+
+Element bracket(const PoissonStructure& pi, const NumberField& F, const Element& a, const Element& b) {
+    Element r = zero_element(F, pi.phase_space().ring(), std::min(a[0].order(), b[0].order()));
+    for (std::size_t i = 0; i < F.d; ++i)
+        for (std::size_t j = 0; j < F.d; ++j) {
+            const Series ab = poisson_bracket(pi, a[i], b[j]);
+            const auto w = F.power(i + j);
+            for (std::size_t c = 0; c < F.d; ++c)
+                if (!w[c].is_zero()) r[c] += w[c] * ab;
+        }
+    return r;
+}
+
+// X(c e): the coefficient of e^m multiplied by c^m, c in the field
+Element rescaled(const NumberField& F, const Element& X, const std::vector<Rational>& c) {
+    const std::size_t N = X[0].order();
+    Element r = zero_element(F, X[0].ring(), N);
+    std::vector<Rational> cm = F.power(0);
+    for (std::size_t m = 0; m < N; ++m) {
+        for (std::size_t i = 0; i < F.d; ++i)
+            for (std::size_t j = 0; j < F.d; ++j) {
+                const auto w = F.multiply(F.power(i), cm);  // w^i c^m on the basis, applied to X's w^i part
+                if (!w[j].is_zero()) r[j][m] += w[j] * X[i][m];
+            }
+        cm = F.multiply(cm, c);
+    }
+    return r;
+}
+
+// The s-polynomial form of the Magnus equation: Z(s) = sum_j s^j Z[j], dZ/ds = sum_i B_i/i! ad_Z^i Y,
+// Z(0) = X. ad_Z raises the order in e by one (X, Y = O(e)), so the e^m coefficient of the right-hand
+// side needs Z through e^{m-1} only: solved order by order, as magnus_series does.
+Element compose(const PoissonStructure& pi, const NumberField& F, const Element& X, const Element& Y, std::size_t N) {
+    for (const Element* E : {&X, &Y})
+        for (const auto& s : *E)
+            if (s.order() != N || !s[0].is_zero())
+                throw std::invalid_argument("compose_flows: the series must be O(e) and of the requested order");
+    const RingPtr& ring = pi.phase_space().ring();
+    std::vector<Element> Z{X};  // Z[j]: the s^j part
+    for (std::size_t m = 1; m < N; ++m) {
+        // the right-hand side through e^m, as a polynomial in s: ad_Z^i Y with Z truncated at order m + 1
+        std::vector<Element> Zm;
+        for (const auto& z : Z) Zm.push_back(truncated(z, m + 1));
+        std::vector<Element> term{truncated(Y, m + 1)}, rhs = term;
+        for (std::size_t i = 1; i < m; ++i) {
+            std::vector<Element> next(Zm.size() + term.size() - 1, zero_element(F, ring, m + 1));
+            for (std::size_t a = 0; a < Zm.size(); ++a)
+                for (std::size_t b = 0; b < term.size(); ++b) add_scaled(next[a + b], Rational(1), bracket(pi, F, Zm[a], term[b]));
+            term = std::move(next);
+            const Rational c = bernoulli(i) * inverse_factorial(i);
+            if (c.is_zero()) continue;
+            while (rhs.size() < term.size()) rhs.push_back(zero_element(F, ring, m + 1));
+            for (std::size_t j = 0; j < term.size(); ++j) add_scaled(rhs[j], c, term[j]);
+        }
+        // integrate in s: Z[j + 1] gets rhs[j]/(j + 1) at e^m
+        while (Z.size() < rhs.size() + 1) Z.push_back(zero_element(F, ring, N));
+        for (std::size_t j = 0; j < rhs.size(); ++j)
+            for (std::size_t c = 0; c < F.d; ++c)
+                Z[j + 1][c][m] += Rational(1, static_cast<unsigned long>(j + 1)) * rhs[j][c][m];
+    }
+    Element total = zero_element(F, ring, N);  // Z(1)
+    for (const auto& z : Z) add_scaled(total, Rational(1), z);
+    return total;
+}
+
+// the flow of A for time c dt as an element: c A e
+Element flow_of(const NumberField& F, const Poly& A, const std::vector<Rational>& c, std::size_t N) {
+    Element r = zero_element(F, A.ring(), N);
+    for (std::size_t i = 0; i < F.d; ++i) r[i][1] = c[i] * A;
+    return r;
+}
+
+std::vector<Rational> scalar(const NumberField& F, const Rational& q) {
+    std::vector<Rational> v(F.d);
+    v[0] = q;
+    return v;
+}
+
+}  // namespace
+
+SplittingMethod parse_splitting_method(const std::string& name) {
+    if (name == "lie-trotter") return SplittingMethod::lie_trotter;
+    if (name == "strang") return SplittingMethod::strang;
+    if (name == "yoshida") return SplittingMethod::yoshida;
+    throw std::invalid_argument("unknown splitting method '" + name + "' (choose lie-trotter, strang or yoshida)");
+}
+
+std::string to_string(SplittingMethod method) {
+    switch (method) {
+        case SplittingMethod::lie_trotter: return "lie-trotter";
+        case SplittingMethod::strang: return "strang";
+        case SplittingMethod::yoshida: return "yoshida";
+    }
+    return "?";
+}
+
+std::size_t method_order(SplittingMethod method) {
+    return method == SplittingMethod::lie_trotter ? 1 : method == SplittingMethod::strang ? 2 : 4;
+}
+
+double yoshida_weight() { return 1.0 / (2.0 - std::cbrt(2.0)); }
+
+Series compose_flows(const PoissonStructure& pi, const Series& X, const Series& Y, std::size_t N) {
+    return compose(pi, NumberField{}, Element{X}, Element{Y}, N).front();
+}
+
+SplittingModified splitting_modified_hamiltonian(const PoissonStructure& pi, const Poly& A, const Poly& B,
+                                                 SplittingMethod method, std::size_t m) {
+    const std::size_t N = m + 2;  // Z through e^{m+1}: Htilde = Z/dt through dt^m
+    const NumberField F = method == SplittingMethod::yoshida ? yoshida_field() : NumberField{};
+    auto strang = [&] {
+        const Element half = flow_of(F, A, scalar(F, Rational(1, 2)), N);
+        return compose(pi, F, compose(pi, F, half, flow_of(F, B, scalar(F, Rational(1)), N), N), half, N);
+    };
+    Element Z;
+    if (method == SplittingMethod::lie_trotter)
+        Z = compose(pi, F, flow_of(F, A, scalar(F, Rational(1)), N), flow_of(F, B, scalar(F, Rational(1)), N), N);
+    else if (method == SplittingMethod::strang)
+        Z = strang();
+    else {
+        const Element S = strang();
+        const std::vector<Rational> w{Rational(0), Rational(1), Rational(0)}, w0{Rational(1), Rational(-2), Rational(0)};
+        const Element outer = rescaled(F, S, w);
+        Z = compose(pi, F, compose(pi, F, outer, rescaled(F, S, w0), N), outer, N);
+    }
+    SplittingModified r{method, {}};
+    for (std::size_t j = 0; j <= m; ++j) {
+        r.H.emplace_back();
+        for (std::size_t c = 0; c < F.d; ++c) r.H.back().push_back(Z[c][j + 1]);
+    }
+    return r;
+}
+
+double SplittingModified::evaluate(const std::vector<double>& x, double dt) const {
+    const double w = yoshida_weight();
+    std::vector<double> point(x);
+    if (!H.empty()) point.resize(H[0][0].ring()->size(), 0.0);  // the ring's other variables (momenta p) at 0
+    double sum = 0, dtj = 1;
+    for (const auto& Hj : H) {
+        double wc = 1, term = 0;
+        for (const auto& P : Hj) {
+            if (!P.is_zero()) term += wc * pgi::evaluate(P, point);
+            wc *= w;
+        }
+        sum += dtj * term;
+        dtj *= dt;
+    }
+    return sum;
+}
+
+}  // namespace pgi
