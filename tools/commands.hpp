@@ -1,5 +1,6 @@
 #pragma once
 // The pgi commands, each a function from a scene to a JSON document; pgi.cpp renders it as JSON or text.
+#include "magnus/splitting.hpp"
 #include "poisson/newton_step.hpp"
 #include "tools/scene.hpp"
 
@@ -51,6 +52,11 @@ nlohmann::json integrate_report(const Scene& scene, const IntegrateOptions& opti
 nlohmann::json magnus_report(const Scene& scene, std::size_t m);
 /// H_0..H_m of the modified Hamiltonian of the order-k scheme: {"coordinates", "order", "modified"}.
 nlohmann::json modified_report(const Scene& scene, std::size_t m);
+
+/// H_0..H_m of the splitting method for the scene's [splitting] H = A + B (magnus/splitting), with a run of
+/// the splitting checking its order of conservation when the flows of A and B are polynomial.
+nlohmann::json splitting_report(const Scene& scene, SplittingMethod method, std::size_t m);
+std::string splitting_text(const nlohmann::json& report);
 
 /// The whole story of a scene: structure and checks, realisation, S_1..S_k, the modified Hamiltonian
 /// through dt^m, and (with [run]) a run comparing the conservation of H and of the truncated Htilde.

@@ -22,6 +22,7 @@ struct Options {
     std::string format = "markdown", out;
     pgi::IntegrateOptions integrate;
     std::string csv;
+    std::string splitting;  // pgi modified --splitting
 };
 
 void scene_options(CLI::App* cmd, Options& o) {
@@ -56,7 +57,9 @@ int run_command(const std::string& name, const Options& o) {
     if (name == "terms") emit(o, pgi::terms_report(scene), pgi::terms_text);
     if (name == "realisation") emit(o, pgi::realisation_report(scene, o.degree), pgi::realisation_text);
     if (name == "magnus") emit(o, pgi::magnus_report(scene, o.upto), pgi::series_text);
-    if (name == "modified") emit(o, pgi::modified_report(scene, o.upto), pgi::series_text);
+    if (name == "modified" && !o.splitting.empty())
+        emit(o, pgi::splitting_report(scene, pgi::parse_splitting_method(o.splitting), o.upto), pgi::splitting_text);
+    else if (name == "modified") emit(o, pgi::modified_report(scene, o.upto), pgi::series_text);
     if (name == "report") {
         auto data = pgi::report_data(scene, o.upto);
         std::string text = o.format == "json" ? data.dump(2) + "\n" : o.format == "latex" ? pgi::report_latex(data) : pgi::report_markdown(data);
@@ -103,6 +106,8 @@ int main(int argc, char** argv) {
     report->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian (default 4)");
     magnus->add_option("--upto", o.upto, "last power of eps (default 4)");
     modified->add_option("--upto", o.upto, "last power of dt (default 4)");
+    modified->add_option("--splitting", o.splitting, "lie-trotter | strang | yoshida: the splitting method's for [splitting] H = A + B")
+        ->check(CLI::IsMember({"lie-trotter", "strang", "yoshida"}));
     for (auto* cmd : {integrate, run}) {
         cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
         cmd->add_option("--every", o.integrate.every, "one CSV row every M steps")->check(CLI::PositiveNumber);

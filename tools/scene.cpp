@@ -23,7 +23,7 @@ public:
 
     Scene read_text(std::string_view text) {
         toml::table doc = parse_document(text);
-        check_keys(doc, "", {"name", "coordinates", "brackets", "hamiltonian", "integrator", "run", "magnus"});
+        check_keys(doc, "", {"name", "coordinates", "brackets", "hamiltonian", "integrator", "run", "magnus", "splitting"});
         std::string name = string_at(doc, "name", true).value_or("");
         PhaseSpace M(read_coordinates(doc), ov_.max_terms);
         PoissonStructure pi = read_brackets(doc, M);
@@ -41,10 +41,11 @@ public:
                 casimirs.push_back(poly(M, key, *s));
             }
         }
-        Scene scene{file_, name, std::move(pi), std::move(H), std::move(casimirs), 2, 0.1, "1/10", RealisationChoice::automatic, std::nullopt, std::nullopt, std::nullopt};
+        Scene scene{file_, name, std::move(pi), std::move(H), std::move(casimirs), 2, 0.1, "1/10", RealisationChoice::automatic, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
         read_integrator(doc, scene);
         read_run(doc, scene);
         read_magnus(doc, scene);
+        read_splitting(doc, scene);
         return scene;
     }
 
@@ -267,6 +268,18 @@ private:
             } catch (const std::exception& e) {
                 fail("magnus.h", e.what());
             }
+        }
+    }
+
+    // [splitting] A: H = A + (H - A), both parts non-zero (a split with an empty part is no splitting)
+    void read_splitting(const toml::table& doc, Scene& scene) const {
+        const toml::table& t = table_at(doc, "splitting", false);
+        check_keys(t, "splitting", {"A"});
+        if (auto a = string_at(t, "A", false, "splitting.")) {
+            Poly A = poly(scene.phase_space(), "splitting.A", *a);
+            if (A.is_zero() || A == scene.H)
+                fail("splitting.A", "must be a part of H other than 0 and H itself (B = H - A is the other part)");
+            scene.splitting_A = std::move(A);
         }
     }
 

@@ -36,6 +36,7 @@ struct Scene {
     std::optional<std::vector<double>> x0;
     std::optional<double> t_end;
     std::optional<Series> magnus_h;             // [magnus] h, a t-series
+    std::optional<Poly> splitting_A;            // [splitting] A: H = A + B, B = H - A, for splitting methods
 
     const PhaseSpace& phase_space() const { return pi.phase_space(); }
 };
