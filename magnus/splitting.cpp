@@ -85,37 +85,58 @@ Element rescaled(const NumberField& F, const Element& X, const std::vector<Ratio
 
 // The s-polynomial form of the Magnus equation: Z(s) = sum_j s^j Z[j], dZ/ds = sum_i B_i/i! ad_Z^i Y,
 // Z(0) = X. ad_Z raises the order in e by one (X, Y = O(e)), so the e^m coefficient of the right-hand
-// side needs Z through e^{m-1} only: solved order by order, as magnus_series does.
+// side needs Z through e^{m-1} only: solved order by order. The terms T_i = ad_Z^i Y are kept between
+// orders, so that order m adds only the e^m coefficient of each, T_i[m] = sum_{a+b=m} {Z[a], T_{i-1}[b]}.
 Element compose(const PoissonStructure& pi, const NumberField& F, const Element& X, const Element& Y, std::size_t N) {
     for (const Element* E : {&X, &Y})
         for (const auto& s : *E)
             if (s.order() != N || !s[0].is_zero())
                 throw std::invalid_argument("compose_flows: the series must be O(e) and of the requested order");
     const RingPtr& ring = pi.phase_space().ring();
-    std::vector<Element> Z{X};  // Z[j]: the s^j part
+    // Graded[j][c][k]: the s^j w^c e^k coefficient; the s-degree of an e^k coefficient is at most k
+    using Graded = std::vector<std::vector<std::vector<Poly>>>;
+    const Graded zero(N, std::vector<std::vector<Poly>>(F.d, std::vector<Poly>(N, Poly(ring))));
+    Graded Z = zero;
+    for (std::size_t c = 0; c < F.d; ++c)
+        for (std::size_t k = 0; k < N; ++k) Z[0][c][k] = X[c][k];
+    std::vector<Graded> T(N > 1 ? N - 1 : 1, zero);  // T[i] = ad_Z^i Y
+    for (std::size_t c = 0; c < F.d; ++c)
+        for (std::size_t k = 0; k < N; ++k) T[0][0][c][k] = Y[c][k];
+    std::vector<std::vector<Rational>> w;  // w^e on the basis, e < 2d - 1
+    for (std::size_t e = 0; e + 1 < 2 * F.d; ++e) w.push_back(F.power(e));
     for (std::size_t m = 1; m < N; ++m) {
-        // the right-hand side through e^m, as a polynomial in s: ad_Z^i Y with Z truncated at order m + 1
-        std::vector<Element> Zm;
-        for (const auto& z : Z) Zm.push_back(truncated(z, m + 1));
-        std::vector<Element> term{truncated(Y, m + 1)}, rhs = term;
-        for (std::size_t i = 1; i < m; ++i) {
-            std::vector<Element> next(Zm.size() + term.size() - 1, zero_element(F, ring, m + 1));
-            for (std::size_t a = 0; a < Zm.size(); ++a)
-                for (std::size_t b = 0; b < term.size(); ++b) add_scaled(next[a + b], Rational(1), bracket(pi, F, Zm[a], term[b]));
-            term = std::move(next);
-            const Rational c = bernoulli(i) * inverse_factorial(i);
-            if (c.is_zero()) continue;
-            while (rhs.size() < term.size()) rhs.push_back(zero_element(F, ring, m + 1));
-            for (std::size_t j = 0; j < term.size(); ++j) add_scaled(rhs[j], c, term[j]);
-        }
-        // integrate in s: Z[j + 1] gets rhs[j]/(j + 1) at e^m
-        while (Z.size() < rhs.size() + 1) Z.push_back(zero_element(F, ring, N));
-        for (std::size_t j = 0; j < rhs.size(); ++j)
-            for (std::size_t c = 0; c < F.d; ++c)
-                Z[j + 1][c][m] += Rational(1, static_cast<unsigned long>(j + 1)) * rhs[j][c][m];
+        for (std::size_t i = 1; i < m; ++i)
+            for (std::size_t a = 1; a < m; ++a) {  // Z[.][a] with T_{i-1}[.][m - a]
+                const std::size_t b = m - a;
+                for (std::size_t ja = 0; ja <= a; ++ja)
+                    for (std::size_t jb = 0; jb <= b && ja + jb < N; ++jb)
+                        for (std::size_t ca = 0; ca < F.d; ++ca) {
+                            const Poly& za = Z[ja][ca][a];
+                            if (za.is_zero()) continue;
+                            for (std::size_t cb = 0; cb < F.d; ++cb) {
+                                const Poly& tb = T[i - 1][jb][cb][b];
+                                if (tb.is_zero()) continue;
+                                const Poly br = pi.bracket(za, tb);
+                                for (std::size_t c = 0; c < F.d; ++c)
+                                    if (!w[ca + cb][c].is_zero()) T[i][ja + jb][c][m] += w[ca + cb][c] * br;
+                            }
+                        }
+            }
+        // the right-hand side's e^m coefficient, integrated in s: Z[j + 1] += rhs[j]/(j + 1)
+        for (std::size_t j = 0; j + 1 < N; ++j)
+            for (std::size_t c = 0; c < F.d; ++c) {
+                Poly rhs = T[0][j][c][m];
+                for (std::size_t i = 1; i < m; ++i) {
+                    const Rational coefficient = bernoulli(i) * inverse_factorial(i);
+                    if (!coefficient.is_zero() && !T[i][j][c][m].is_zero()) rhs += coefficient * T[i][j][c][m];
+                }
+                if (!rhs.is_zero()) Z[j + 1][c][m] += Rational(1, static_cast<unsigned long>(j + 1)) * rhs;
+            }
     }
     Element total = zero_element(F, ring, N);  // Z(1)
-    for (const auto& z : Z) add_scaled(total, Rational(1), z);
+    for (std::size_t j = 0; j < N; ++j)
+        for (std::size_t c = 0; c < F.d; ++c)
+            for (std::size_t k = 0; k < N; ++k) total[c][k] += Z[j][c][k];
     return total;
 }
 

@@ -1,9 +1,19 @@
 // The report side of pgi: splitting reports from scenes, LaTeX that fits the page (pdflatex when installed),
 // plots of a run.
+#include "series/latex.hpp"
 #include "tools/commands.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <regex>
+#include <sstream>
 
 using namespace pgi;
 
@@ -25,4 +35,82 @@ TEST_CASE("splitting_report: refuses a scene without [splitting], says why a non
     auto r = splitting_report(s, SplittingMethod::lie_trotter, 2);
     CHECK(r["run"].contains("skipped"));
     CHECK(r["modified"].size() == 3);
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// the widths (pt) of the overfull \hbox warnings in a pdflatex log
+std::vector<double> overfull_widths(const std::string& log) {
+    std::vector<double> widths;
+    const std::string key = "Overfull \\hbox (";
+    for (auto at = log.find(key); at != std::string::npos; at = log.find(key, at + 1))
+        widths.push_back(std::stod(log.substr(at + key.size())));
+    return widths;
+}
+
+// compiles the LaTeX text with pdflatex in a fresh directory; the log, or nothing when pdflatex is missing
+std::optional<std::string> pdflatex_log(const std::string& tex, const std::string& name) {
+    if (std::system("command -v pdflatex >/dev/null 2>&1") != 0) return std::nullopt;
+    const fs::path dir = fs::temp_directory_path() / ("pgi_latex_" + std::to_string(::getpid()) + "_" + name);
+    fs::create_directories(dir);
+    std::ofstream(dir / "report.tex") << tex;
+    const std::string cmd = "cd '" + dir.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error report.tex >/dev/null 2>&1";
+    const int status = std::system(cmd.c_str());
+    std::ifstream in(dir / "report.log");
+    std::stringstream log;
+    log << in.rdbuf();
+    const bool pdf = fs::exists(dir / "report.pdf");
+    fs::remove_all(dir);
+    CHECK_MESSAGE(status == 0, "pdflatex failed on the ", name, " report");
+    CHECK(pdf);
+    return log.str();
+}
+
+}  // namespace
+
+TEST_CASE("latex_number: numbers typeset as numbers, not as math italic words") {
+    CHECK(latex_number(6.266e-12) == "6.266\\times 10^{-12}");
+    CHECK(latex_number(-2.5e7) == "-2.5\\times 10^{7}");
+    CHECK(latex_number(1e-20) == "10^{-20}");
+    CHECK(latex_number(9.99999e-5) == "10^{-4}");  // rounded before the exponent is read
+    CHECK(latex_number(0.1) == "0.1");
+    CHECK(latex_number(100) == "100");
+    CHECK(latex_number(0) == "0");
+}
+
+TEST_CASE("latex_lines: breaks at + and - signs within the width, keeps every term once") {
+    PhaseSpace M({"x1", "x2", "x3"});
+    const Poly f = pow(M.parse("x1 + x2/3 - 5*x3/7 + 1"), 4);
+    const auto lines = latex_lines(f, 20, 18);
+    REQUIRE(lines.size() > 2);
+    std::string joined;
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+        if (i > 0) CHECK((lines[i].rfind("+ ", 0) == 0 || lines[i].rfind("- ", 0) == 0));  // a line starts at a sign
+        joined += (i ? " " : "") + lines[i];
+    }
+    CHECK(joined == to_latex(f));
+    // each line within its budget by the same estimate
+    double total = 0;
+    for (const auto& t : latex_terms(f)) total += t.width;
+    CHECK(total > 20 * double(lines.size() - 1) / 2);  // not broken needlessly: lines are at least half full on average
+    CHECK(to_latex(M.parse("-x1^2/3 + 2")) == "-\\tfrac{1}{3} x_{1}^{2} + 2");
+}
+
+TEST_CASE("LaTeX reports of the Volterra lattice (k = 6) and Henon-Heiles (through dt^6) fit the page under pdflatex") {
+    // any overfull \hbox wider than 1pt is a line running into the margin
+    for (auto [name, order, upto] : {std::tuple{"volterra_chain", "6", std::size_t(6)}, std::tuple{"henon_heiles", "4", std::size_t(6)}}) {
+        SceneOverrides o;
+        o.order = order;
+        Scene s = load_scene(test::scene_path(name), o);
+        const std::string tex = report_latex(report_data(s, upto));
+        CHECK_FALSE(std::regex_search(tex, std::regex(R"([0-9]e[-+]?[0-9])")));  // no "6.266e-12" in math italic
+        const auto log = pdflatex_log(tex, name);
+        if (!log) {
+            MESSAGE("pdflatex is not installed: the LaTeX reports were not compiled");
+            return;
+        }
+        for (double w : overfull_widths(*log)) CHECK_MESSAGE(w <= 1.0, name, ": overfull \\hbox of ", w, "pt");
+    }
 }

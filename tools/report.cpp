@@ -7,15 +7,21 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 namespace pgi {
 
 using nlohmann::json;
 
 namespace {
 
-// "latex" inline; "latex_lines" broken every six terms, for align environments
+// the room of an align* row right of "lhs &= " on an A4 page with 2 cm margins at 11pt (44 em of text), less
+// the left column and the continuation's \quad: measured with pdflatex on the Volterra and Henon-Heiles reports
+constexpr double line_em = 36;
+
+// "latex" inline; "latex_lines" broken by width at + and - signs, for align* rows
 json poly_entry(const Poly& f) {
-    return {{"text", f.to_string()}, {"latex", to_latex(f)}, {"latex_lines", to_latex(f, 6, " \\\\\n  &\\quad ")}};
+    return {{"text", f.to_string()}, {"latex", to_latex(f)}, {"latex_lines", latex_lines(f, line_em, line_em - 1)}};
 }
 
 json poly_entries(const std::vector<Poly>& v) {
@@ -55,6 +61,16 @@ json report_data(const Scene& scene, std::size_t m) {
            {"H", poly_entry(scene.H)}, {"casimirs", poly_entries(scene.casimirs)}, {"check", check_report(scene)},
            {"order", scene.order}, {"method_order", 2 * ((scene.order + 1) / 2)}, {"realisation", terms["realisation"]},
            {"S", poly_entries(S)}, {"modified", poly_entries(Ht)}, {"modified_upto", m}};
+    if (scene.splitting_A) {
+        r["splitting"] = json::array();
+        for (auto method : {SplittingMethod::lie_trotter, SplittingMethod::strang, SplittingMethod::yoshida}) {
+            json s = splitting_report(scene, method, m);
+            s["A"] = poly_entry(*scene.splitting_A);
+            for (auto& Hj : s["modified"])
+                for (auto& P : Hj) P = poly_entry(M.parse(P.get<std::string>()));
+            r["splitting"].push_back(s);
+        }
+    }
     if (scene.x0 && scene.t_end) {
         IntegrateOptions options;
         options.modified = sum_powers(Ht, Rational::from_double(scene.dt));  // Htilde at the scene's dt
@@ -92,6 +108,29 @@ std::string report_markdown(const json& r) {
                        r["modified_upto"].get<std::size_t>(), r["modified_upto"].get<std::size_t>(), r["modified_upto"].get<std::size_t>() + 1);
     for (std::size_t j = 0; j < r["modified"].size(); ++j)
         out += fmt::format("- `H_{} = {}`\n", j, r["modified"][j]["text"].get<std::string>());
+    if (r.contains("splitting")) {
+        out += fmt::format("\n## Splitting methods\n\nH = A + B with A = `{}`; exact BCH series in Poisson brackets "
+                           "(Yoshida's in Q(w), w = 1/(2 - 2^(1/3)): H_j = P_j0 + w P_j1 + w^2 P_j2):\n",
+                           r["splitting"][0]["A"]["text"].get<std::string>());
+        for (const auto& s : r["splitting"]) {
+            out += fmt::format("\n### {} (order {})\n\n", s["splitting"].get<std::string>(), s["method_order"].get<std::size_t>());
+            for (std::size_t j = 0; j < s["modified"].size(); ++j) {
+                const json& c = s["modified"][j];
+                for (std::size_t k = 0; k < c.size(); ++k)
+                    if (c[k]["text"] != "0" || (k == 0 && c.size() == 1))
+                        out += fmt::format("- `{} = {}`\n", c.size() == 1 ? fmt::format("H_{}", j) : fmt::format("P_{}{}", j, k),
+                                           c[k]["text"].get<std::string>());
+            }
+            const json& run = s["run"];
+            if (run.contains("skipped")) out += fmt::format("\nNo numerical check: {}.\n", run["skipped"].get<std::string>());
+            else
+                out += fmt::format("\nRun with exact flows ({} steps of dt = {}): max relative error of H {:.3e} (order {:.2f} "
+                                   "measured at dt/2), of Htilde {:.3e} (order {:.2f}, {} expected).\n",
+                                   run["steps"].get<std::size_t>(), run["dt"].get<double>(), run["energy_error_max"].get<double>(),
+                                   run["energy_order_measured"].get<double>(), run["modified_energy_error_max"].get<double>(),
+                                   run["modified_order_measured"].get<double>(), run["modified_order_expected"].get<std::size_t>());
+        }
+    }
     if (r.contains("run")) {
         const json& run = r["run"];
         out += fmt::format("\n## Numerical check\n\n{} steps of dt = {} to t = {}: max relative error of H {:.3e}, of Htilde through dt^{} {:.3e}",
@@ -104,35 +143,130 @@ std::string report_markdown(const json& r) {
     return out;
 }
 
+namespace {
+
+// the rows "lhs &= line \\ &\quad line ..." of one polynomial in an align* block
+std::string align_rows(const std::string& lhs, const json& entry) {
+    std::string out;
+    const auto& lines = entry["latex_lines"];
+    for (std::size_t i = 0; i < lines.size(); ++i)
+        out += (i == 0 ? lhs + " &= " : " \\\\\n  &\\quad ") + lines[i].get<std::string>();
+    return out;
+}
+
+// an align* block of rows, or nothing
+std::string align_block(const std::vector<std::string>& rows) {
+    if (rows.empty()) return "";
+    std::string out = "\\begin{align*}\n";
+    for (std::size_t i = 0; i < rows.size(); ++i) out += rows[i] + (i + 1 < rows.size() ? " \\\\\n" : "\n");
+    return out + "\\end{align*}\n";
+}
+
+// "H_1 = H_2 = H_3 = 0" for the zero terms, rows for the others
+std::string series_block(const std::string& symbol, const json& terms) {
+    std::vector<std::string> rows, zeros;
+    for (std::size_t j = 0; j < terms.size(); ++j) {
+        const std::string lhs = fmt::format("{}_{{{}}}", symbol, j);
+        if (terms[j]["text"] == "0") zeros.push_back(lhs);
+        else rows.push_back(align_rows(lhs, terms[j]));
+    }
+    std::string out = align_block(rows);
+    if (!zeros.empty()) out += fmt::format("and ${} = 0$.\n", fmt::join(zeros, " = "));
+    return out;
+}
+
+std::string splitting_latex(const json& s) {
+    const json& run = s["run"];
+    const std::string name = s["splitting"] == "lie-trotter" ? "Lie--Trotter" : s["splitting"] == "strang" ? "Strang" : "Yoshida";
+    std::string out = fmt::format("\\paragraph{{{} (order {}).}}\n", name, s["method_order"].get<std::size_t>());
+    if (s["splitting"] == "lie-trotter") out += "One step is the flow of $A$ for $\\Delta t$, then the flow of $B$ for $\\Delta t$.\n";
+    if (s["splitting"] == "strang") out += "One step is the flows of $A$ for $\\Delta t/2$, $B$ for $\\Delta t$, $A$ for $\\Delta t/2$.\n";
+    if (s["splitting"] == "yoshida")
+        out += "One step is Strang's with steps $w\\Delta t$, $(1-2w)\\Delta t$, $w\\Delta t$, $w = 1/(2 - 2^{1/3})$, the real root of "
+               "$6w^3 - 12w^2 + 6w - 1$; the series lies in $\\mathbb{Q}(w)$ and is shown as $H_j = P_{j,0} + w P_{j,1} + w^2 P_{j,2}$.\n";
+    if (s["splitting"] == "yoshida") {
+        std::vector<std::string> rows, zeros;
+        for (std::size_t j = 0; j < s["modified"].size(); ++j) {
+            const json& c = s["modified"][j];
+            if (std::all_of(c.begin(), c.end(), [](const json& p) { return p["text"] == "0"; })) {
+                zeros.push_back(fmt::format("H_{{{}}}", j));
+                continue;
+            }
+            for (std::size_t k = 0; k < c.size(); ++k)
+                if (c[k]["text"] != "0") rows.push_back(align_rows(fmt::format("P_{{{},{}}}", j, k), c[k]));
+        }
+        out += align_block(rows);
+        if (!zeros.empty()) out += fmt::format("and ${} = 0$.\n", fmt::join(zeros, " = "));
+    } else {
+        json terms = json::array();
+        for (const auto& c : s["modified"]) terms.push_back(c[0]);
+        out += series_block("H", terms);
+    }
+    if (run.contains("skipped")) out += fmt::format("No numerical check: {}.\n", latex_escape(run["skipped"].get<std::string>()));
+    else
+        out += fmt::format("Run of the splitting with the exact flows of $A$ and $B$ ({} steps of $\\Delta t = {}$): maximum relative "
+                           "error of $H$ ${}$ (order {:.2f} measured against $\\Delta t/2$), of $\\tilde H$ through $\\Delta t^{{{}}}$ ${}$ "
+                           "(order {:.2f} measured, {} expected).\n",
+                           run["steps"].get<std::size_t>(), latex_number(run["dt"].get<double>()),
+                           latex_number(run["energy_error_max"].get<double>()), run["energy_order_measured"].get<double>(),
+                           s["modified"].size() - 1, latex_number(run["modified_energy_error_max"].get<double>()),
+                           run["modified_order_measured"].get<double>(), run["modified_order_expected"].get<std::size_t>());
+    return out;
+}
+
+}  // namespace
+
 std::string report_latex(const json& r) {
-    std::string out = "\\documentclass[11pt]{article}\n\\usepackage{amsmath,amssymb}\n\\usepackage[margin=2cm]{geometry}\n\\begin{document}\n";
-    out += fmt::format("\\section*{{{}}}\n", latex_escape(r["scene"].get<std::string>()));
-    out += "\\subsection*{Poisson structure}\n\\begin{align*}\n";
+    std::string out =
+        "\\documentclass[11pt,a4paper]{article}\n\\usepackage{amsmath,amssymb}\n\\usepackage[margin=2cm]{geometry}\n"
+        "\\allowdisplaybreaks\n\\begin{document}\n";
+    std::vector<std::string> coords;
+    for (const auto& c : r["coordinates"]) coords.push_back(latex_name(c.get<std::string>()));
+    out += fmt::format("\\section*{{{}}}\nScene \\texttt{{{}}}, coordinates ${}$; brackets $\\{{f, g\\}} = \\nabla f^T \\pi\\, \\nabla g$, "
+                       "flows $\\dot x = \\{{x, H\\}}$.\n",
+                       latex_escape(r["scene"].get<std::string>()), latex_escape(r["file"].get<std::string>()), fmt::join(coords, ", "));
+    out += "\\subsection*{Poisson structure}\nThe non-zero brackets of the coordinates ($i < j$) and the Hamiltonian:\n";
+    std::vector<std::string> rows;
     for (const auto& b : r["brackets"])
-        out += fmt::format("\\{{{}, {}\\}} &= {} \\\\\n", b["i_latex"].get<std::string>(), b["j_latex"].get<std::string>(),
-                           b["value"]["latex_lines"].get<std::string>());
-    out += fmt::format("H &= {}\n\\end{{align*}}\n", r["H"]["latex_lines"].get<std::string>());
+        rows.push_back(align_rows(fmt::format("\\{{{}, {}\\}}", b["i_latex"].get<std::string>(), b["j_latex"].get<std::string>()), b["value"]));
+    rows.push_back(align_rows("H", r["H"]));
+    out += align_block(rows);
     const json& c = r["check"];
-    out += fmt::format("Class: {}; the Jacobi identity {}", latex_escape(c["class"].get<std::string>()),
-                       c["jacobi"]["holds"] ? "holds" : "fails");
+    out += fmt::format("Class: {}; the Jacobi identity {}", latex_escape(c["class"].get<std::string>()), c["jacobi"]["holds"] ? "holds" : "fails");
     for (std::size_t i = 0; i < r["casimirs"].size(); ++i)
         out += fmt::format("; ${}$ is {}a Casimir", r["casimirs"][i]["latex"].get<std::string>(), c["casimirs"][i]["holds"] ? "" : "not ");
-    out += fmt::format(".\n\\subsection*{{Hamilton--Jacobi terms}}\nOrder $k = {}$ (a method of order {}), {} realisation.\n\\begin{{align*}}\n",
+    out += fmt::format(".\n\\subsection*{{Hamilton--Jacobi terms}}\nOrder $k = {}$ (a method of order {}), {} realisation; the step's "
+                       "generating function is $S_t = \\sum_{{j=1}}^{{k}} t^j S_j$.\n",
                        r["order"].get<std::size_t>(), r["method_order"].get<std::size_t>(), latex_escape(r["realisation"].get<std::string>()));
-    for (std::size_t j = 0; j < r["S"].size(); ++j)
-        out += fmt::format("S_{{{}}} &= {}{}\n", j + 1, r["S"][j]["latex_lines"].get<std::string>(), j + 1 < r["S"].size() ? " \\\\" : "");
-    out += "\\end{align*}\n\\subsection*{Modified Hamiltonian}\n";
-    out += fmt::format("$\\tilde H = \\sum_{{j=0}}^{{{}}} \\Delta t^j H_j + O(\\Delta t^{{{}}})$, exact over $\\mathbb{{Q}}$, unique modulo Casimirs:\n\\begin{{align*}}\n",
-                       r["modified_upto"].get<std::size_t>(), r["modified_upto"].get<std::size_t>() + 1);
-    for (std::size_t j = 0; j < r["modified"].size(); ++j)
-        out += fmt::format("H_{{{}}} &= {}{}\n", j, r["modified"][j]["latex_lines"].get<std::string>(), j + 1 < r["modified"].size() ? " \\\\" : "");
-    out += "\\end{align*}\n";
+    std::vector<std::string> srows, zeros;
+    for (std::size_t j = 0; j < r["S"].size(); ++j) {
+        const std::string lhs = fmt::format("S_{{{}}}", j + 1);
+        if (r["S"][j]["text"] == "0") zeros.push_back(lhs);
+        else srows.push_back(align_rows(lhs, r["S"][j]));
+    }
+    out += align_block(srows);
+    if (!zeros.empty()) out += fmt::format("and ${} = 0$.\n", fmt::join(zeros, " = "));
+    const auto m = r["modified_upto"].get<std::size_t>();
+    out += fmt::format("\\subsection*{{Modified Hamiltonian}}\nThe time-$\\Delta t$ flow of $\\tilde H = \\sum_{{j=0}}^{{{}}} \\Delta t^j H_j "
+                       "+ O(\\Delta t^{{{}}})$ is one step of the scheme to that order; the $H_j$ are exact over $\\mathbb{{Q}}$ and "
+                       "unique modulo Casimirs.\n",
+                       m, m + 1);
+    out += series_block("H", r["modified"]);
+    if (r.contains("splitting")) {
+        out += fmt::format("\\subsection*{{Splitting methods}}\nWith $H = A + B$, $A = {}$ and $B = H - A$, the modified Hamiltonians of "
+                           "three splitting methods, from the Baker--Campbell--Hausdorff series in Poisson brackets (exact):\n",
+                           r["splitting"][0]["A"]["latex"].get<std::string>());
+        for (const auto& s : r["splitting"]) out += splitting_latex(s);
+    }
     if (r.contains("run")) {
         const json& run = r["run"];
-        out += fmt::format("\\subsection*{{Numerical check}}\n{} steps of $\\Delta t = {}$ to $t = {}$: maximum relative error of $H$ ${}$, of $\\tilde H$ through $\\Delta t^{{{}}}$ ${}$.\n",
-                           run["steps"].get<std::size_t>(), run["dt"].get<double>(), run["t"].get<double>(),
-                           fmt::format("{:.3e}", run["energy_error_max"].get<double>()), r["modified_upto"].get<std::size_t>(),
-                           fmt::format("{:.3e}", run["modified_energy_error_max"].get<double>()));
+        out += fmt::format("\\subsection*{{Numerical check}}\n{} steps of $\\Delta t = {}$ to $t = {}$: maximum relative error of $H$ ${}$, "
+                           "of $\\tilde H$ through $\\Delta t^{{{}}}$ ${}$",
+                           run["steps"].get<std::size_t>(), latex_number(run["dt"].get<double>()), latex_number(run["t"].get<double>()),
+                           latex_number(run["energy_error_max"].get<double>()), m,
+                           latex_number(run["modified_energy_error_max"].get<double>()));
+        for (const auto& e : run["casimir_error_max"]) out += fmt::format(", of a Casimir ${}$", latex_number(e.get<double>()));
+        out += fmt::format("; {:.2f} Newton iterations per step.\n", run["newton_iterations_mean"].get<double>());
     }
     out += "\\end{document}\n";
     return out;
