@@ -2,6 +2,7 @@
 // plots of a run.
 #include "series/latex.hpp"
 #include "tools/commands.hpp"
+#include "tools/plot.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>
@@ -113,4 +114,54 @@ TEST_CASE("LaTeX reports of the Volterra lattice (k = 6) and Henon-Heiles (throu
         }
         for (double w : overfull_widths(*log)) CHECK_MESSAGE(w <= 1.0, name, ": overfull \\hbox of ", w, "pt");
     }
+}
+
+TEST_CASE("RunSeries: at most the requested number of bins, and every bin keeps its largest error") {
+    RunSeries s(10000, 1, {"H"}, 100);
+    double x = 0;
+    for (std::size_t n = 0; n <= 10000; ++n) {
+        // the error peaks once, at step 4321, between two bins' first steps
+        const double value = 1.0 + (n == 4321 ? 1e-3 : 1e-9 * double(n % 7));
+        x = double(n);
+        s.record(n, 0.01 * double(n), &x, {value});
+    }
+    CHECK(s.bins().size() <= 101);
+    CHECK(s.bins().size() >= 90);
+    double peak = 0, peak_t = 0;
+    for (const auto& b : s.bins())
+        if (b.error[0] > peak) peak = b.error[0], peak_t = b.error_t[0];
+    CHECK(peak == doctest::Approx(1e-3).epsilon(1e-9));
+    CHECK(peak_t == doctest::Approx(43.21));
+    CHECK(s.bins().front().x[0] == 0);  // the trajectory keeps each bin's first state
+}
+
+TEST_CASE("RunPlot: a bad directory is refused before the run; a run draws four non-empty figures") {
+    Scene scene = test::bundled("harmonic_oscillator");
+    CHECK_THROWS_AS(RunPlot(scene, "/nonexistent/pgi"), SceneError);
+    if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+        MESSAGE("gnuplot is not installed: no figures drawn");
+        return;
+    }
+    const fs::path dir = fs::temp_directory_path() / ("pgi_plot_test_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    scene.t_end = 5;
+    RunPlot plot(scene, dir);
+    IntegrateOptions options;
+    plot.attach(options);
+    REQUIRE(options.modified);  // the modified Hamiltonian is watched too
+    integrate_report(scene, options);
+    const auto files = plot.write();
+    CHECK(files.size() == 4);
+    for (const auto& f : files) {
+        CHECK(fs::file_size(f) > 1000);
+        std::ifstream in(f, std::ios::binary);
+        std::string head(8, '\0');
+        in.read(head.data(), 8);
+        if (f.extension() == ".png") CHECK(head.substr(1, 3) == "PNG");
+        else CHECK(head.find('<') != std::string::npos);
+    }
+    std::size_t entries = 0;
+    for (const auto& e : fs::directory_iterator(dir)) entries += e.is_regular_file();
+    CHECK(entries == 4);  // no temporary left behind
+    fs::remove_all(dir);
 }

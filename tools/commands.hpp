@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 
 namespace pgi {
@@ -40,6 +41,9 @@ struct IntegrateOptions {
     double max_csv_mb = 1024;         // refuse (before running) a CSV that would be larger than this
     bool progress = false;            // a progress line on stderr for runs longer than a second or two
     std::optional<Poly> modified;     // also track this (a truncated modified Hamiltonian) along the run
+    /// Called at every step n (0 = x0) at time t with the state and the watched values (H, the Casimirs,
+    /// then the modified Hamiltonian when set): how --plot records a run.
+    std::function<void(std::size_t n, double t, const Eigen::VectorXd& x, const std::vector<double>& values)> observe;
 };
 
 /// One step from x0: {"x", "newton_iterations", "residual", ...}. Throws NumericalFailure.

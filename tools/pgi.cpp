@@ -2,6 +2,7 @@
 // (Newton did not converge or the state overflowed), 1 internal error.
 #include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
+#include "tools/plot.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -23,6 +24,7 @@ struct Options {
     pgi::IntegrateOptions integrate;
     std::string csv;
     std::string splitting;  // pgi modified --splitting
+    std::string plot;       // pgi run/integrate --plot DIR
 };
 
 void scene_options(CLI::App* cmd, Options& o) {
@@ -75,12 +77,19 @@ int run_command(const std::string& name, const Options& o) {
     pgi::IntegrateOptions io = o.integrate;
     if (!o.csv.empty()) io.csv = o.csv;
     io.progress = !o.json;
+    std::optional<pgi::RunPlot> plot;  // checked before the run
+    if (!o.plot.empty() && (name == "integrate" || name == "run")) {
+        plot.emplace(scene, o.plot);
+        plot->attach(io);
+    }
     if (name == "integrate") emit(o, pgi::integrate_report(scene, io), pgi::integrate_text);
     if (name == "run") {
         std::cout << pgi::check_text(pgi::check_report(scene)) << "\n" << pgi::terms_text(pgi::terms_report(scene)) << "\n"
                   << std::flush;
         if (scene.x0 && scene.t_end) std::cout << pgi::integrate_text(pgi::integrate_report(scene, io));
     }
+    if (plot)
+        for (const auto& f : plot->write()) std::cerr << "pgi: wrote " << f.string() << "\n";
     return 0;
 }
 
@@ -111,6 +120,7 @@ int main(int argc, char** argv) {
     for (auto* cmd : {integrate, run}) {
         cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
         cmd->add_option("--every", o.integrate.every, "one CSV row every M steps")->check(CLI::PositiveNumber);
+        cmd->add_option("--plot", o.plot, "draw the trajectory and the invariants' errors (SVG and PNG, by gnuplot) into this directory");
         cmd->add_option("--max-csv-mb", o.integrate.max_csv_mb, "refuse a CSV larger than this (default 1024)")
             ->check(CLI::PositiveNumber);
     }

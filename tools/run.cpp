@@ -133,6 +133,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
         inv.eval(y.data(), values.data());
         if (n == 0) initial = values;
         for (std::size_t i = 0; i < values.size(); ++i) worst[i] = std::max(worst[i], relative_error(values[i], initial[i]));
+        if (options.observe) options.observe(n, t, y, values);
         if (csv && (n % options.every == 0 || n == N)) {
             csv->stream() << fmt::format("{:.17g}", t);
             for (Eigen::Index i = 0; i < y.size(); ++i) csv->stream() << fmt::format(",{:.17g}", y[i]);

@@ -1,0 +1,243 @@
+#include "tools/plot.hpp"
+
+#include "magnus/modified_hamiltonian.hpp"
+
+#include <fmt/format.h>
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <sstream>
+
+extern char** environ;
+
+namespace pgi {
+
+namespace fs = std::filesystem;
+
+RunSeries::RunSeries(std::size_t steps, std::size_t dim, std::vector<std::string> invariant_names, std::size_t bins)
+    : stride_(std::max<std::size_t>(1, (steps + bins) / bins)), dim_(dim), names_(std::move(invariant_names)) {}
+
+void RunSeries::record(std::size_t n, double t, const double* x, const std::vector<double>& invariants) {
+    if (n == 0) initial_ = invariants;
+    if (n % stride_ == 0 || bins_.empty()) {
+        bins_.push_back({t, std::vector<double>(x, x + dim_), std::vector<double>(names_.size(), 0.0), std::vector<double>(names_.size(), t)});
+    }
+    Bin& b = bins_.back();
+    for (std::size_t i = 0; i < names_.size() && i < invariants.size(); ++i) {
+        const double e = relative_error(invariants[i], initial_[i]);
+        if (!(e <= b.error[i])) {  // NaN too: a non-finite value is a peak to show
+            b.error[i] = e;
+            b.error_t[i] = t;
+        }
+    }
+}
+
+namespace {
+
+// a directory removed with everything in it when it goes out of scope
+struct TempDir {
+    fs::path path;
+    TempDir() {
+        static std::size_t counter = 0;
+        path = fs::temp_directory_path() / fmt::format("pgi_plot_{}_{}", ::getpid(), counter++);
+        fs::create_directories(path);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::remove_all(path, ec);
+    }
+};
+
+bool on_path(const std::string& program) {
+    const char* path = std::getenv("PATH");
+    std::stringstream dirs(path ? path : "/usr/bin:/bin");
+    for (std::string d; std::getline(dirs, d, ':');)
+        if (!d.empty() && ::access((fs::path(d) / program).c_str(), X_OK) == 0) return true;
+    return false;
+}
+
+// gnuplot's string literal: double quotes, backslashes and quotes escaped
+std::string quoted(const std::string& s) {
+    std::string out = "\"";
+    for (char c : s) {
+        if (c == '"' || c == '\\') out += '\\';
+        out += c;
+    }
+    return out + "\"";
+}
+
+void run_gnuplot(const fs::path& script, const fs::path& log) {
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    const std::string script_path = script.string();
+    const char* argv[] = {"gnuplot", script_path.c_str(), nullptr};
+    pid_t pid;
+    const int spawned = posix_spawnp(&pid, "gnuplot", &actions, nullptr, const_cast<char* const*>(argv), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (spawned != 0) throw std::runtime_error("--plot: gnuplot is not installed (Debian: gnuplot-nox)");
+    int status = 0;
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        std::ifstream in(log);
+        std::stringstream text;
+        text << in.rdbuf();
+        throw std::runtime_error("--plot: gnuplot failed: " + text.str());
+    }
+}
+
+std::string trajectory_plot(const RunSeries& s, const std::vector<std::string>& coords, const std::string& data) {
+    if (s.dim() == 2)
+        return fmt::format("set xlabel {}; set ylabel {}\nset title title.\": phase portrait\"\n"
+                           "plot {} using 2:3 with lines lw 1.5 lc rgb \"#377eb8\" title \"orbit\", "
+                           "{} every ::0::0 using 2:3 with points pt 7 ps 1.2 lc rgb \"#e41a1c\" title \"x0\"\n",
+                           quoted(coords[0]), quoted(coords[1]), quoted(data), quoted(data));
+    if (s.dim() == 3)
+        return fmt::format("set xlabel {}; set ylabel {}; set zlabel {}; set view 60, 35; set ticslevel 0\n"
+                           "set title title.\": phase portrait\"\n"
+                           "splot {} using 2:3:4 with lines lw 1.2 lc rgb \"#377eb8\" title \"orbit\", "
+                           "{} every ::0::0 using 2:3:4 with points pt 7 ps 1.2 lc rgb \"#e41a1c\" title \"x0\"\n",
+                           quoted(coords[0]), quoted(coords[1]), quoted(coords[2]), quoted(data), quoted(data));
+    std::string out = "set xlabel \"t\"; set ylabel \"coordinates\"\nset key outside right\nset title title.\": time series\"\nplot ";
+    for (std::size_t i = 0; i < s.dim(); ++i)
+        out += fmt::format("{}{} using 1:{} with lines lw 1.2 title {}", i ? ", " : "", quoted(data), i + 2, quoted(coords[i]));
+    return out + "\n";
+}
+
+std::string errors_plot(const RunSeries& s, double dt, const std::string& data, const std::vector<bool>& has_points) {
+    std::string out = fmt::format("set xrange [{:.17g}:{:.17g}]\n", dt, std::max(2 * dt, s.bins().empty() ? dt : s.bins().back().t)) + "set logscale xy; set format x \"1e%L\"; set format y \"1e%L\"\nset xlabel \"t\"; set ylabel \"relative error\"\n"
+                      "set key outside below\nset title title.\": invariants (largest error per bin of steps)\"\n";
+    std::vector<std::string> exact;
+    std::string plot;
+    const char* colors[] = {"#000000", "#e41a1c", "#377eb8", "#4daf4a", "#984ea3", "#ff7f00", "#a65628", "#f781bf"};
+    for (std::size_t i = 0; i < s.invariant_names().size(); ++i) {
+        if (!has_points[i]) {
+            exact.push_back(s.invariant_names()[i]);
+            continue;
+        }
+        plot += fmt::format("{} index {} using 1:2 with lines lw {} lc rgb \"{}\" title {}, ", quoted(data), i, i == 0 ? 2.0 : 1.5,
+                            colors[i % 8], quoted(s.invariant_names()[i]));
+    }
+    // Brouwer's law: round-off in a conserved quantity of a well-implemented integrator walks like u sqrt(n)
+    plot += fmt::format("2.0**-53 * sqrt(x / {:.17g}) with lines dt 2 lw 1.5 lc rgb \"#777777\" title \"round-off floor u sqrt(n), u = 2^-53\"",
+                        dt);
+    if (!exact.empty())
+        out += fmt::format("set label 1 {} at graph 0.02, graph 0.04\n", quoted("exactly conserved (error 0): " + fmt::format("{}", fmt::join(exact, ", "))));
+    return out + "plot " + plot + "\n";
+}
+
+}  // namespace
+
+std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string>& coords, double dt, const std::string& title,
+                               const fs::path& dir, const std::string& name) {
+    TempDir tmp;
+    const fs::path traj = tmp.path / "trajectory.dat", errs = tmp.path / "errors.dat";
+    {
+        std::ofstream out(traj);
+        for (const auto& b : s.bins()) {
+            out << fmt::format("{:.17g}", b.t);
+            for (double v : b.x) out << fmt::format(" {:.17g}", v);
+            out << "\n";
+        }
+    }
+    std::vector<bool> has_points(s.invariant_names().size(), false);
+    {
+        std::ofstream out(errs);
+        for (std::size_t i = 0; i < s.invariant_names().size(); ++i) {
+            out << "# " << s.invariant_names()[i] << "\n";
+            for (const auto& b : s.bins())
+                if (b.error[i] > 0 && b.error_t[i] > 0) {  // log axes: zero errors (and t = 0) cannot be drawn
+                    out << fmt::format("{:.17g} {:.17g}\n", b.error_t[i], std::isfinite(b.error[i]) ? b.error[i] : 1e300);
+                    has_points[i] = true;
+                }
+            if (!has_points[i]) out << "1 NaN\n";  // an empty block would shift the indices
+            out << "\n\n";
+        }
+    }
+    std::vector<fs::path> written;
+    std::string script = fmt::format("title = {}\nset grid\nset encoding utf8\n", quoted(title));
+    std::vector<std::pair<fs::path, fs::path>> renames;
+    for (const auto& [figure, body] : {std::pair{std::string("trajectory"), trajectory_plot(s, coords, traj.string())},
+                                       std::pair{std::string("errors"), errors_plot(s, dt, errs.string(), has_points)}})
+        for (const auto& [ext, terminal] : {std::pair{"svg", "svg size 900,560 font \"sans,12\" background \"white\" noenhanced"},
+                                            std::pair{"png", "pngcairo size 900,560 font \"sans,11\" noenhanced"}}) {
+            const fs::path target = dir / fmt::format("{}-{}.{}", name, figure, ext);
+            const fs::path temp = target.string() + ".tmp" + std::to_string(::getpid());
+            script += fmt::format("reset\nset grid\nset terminal {}\nset output {}\n{}set output\n", terminal, quoted(temp.string()), body);
+            renames.push_back({temp, target});
+        }
+    {
+        std::ofstream out(tmp.path / "plot.gp");
+        out << script;
+    }
+    try {
+        run_gnuplot(tmp.path / "plot.gp", tmp.path / "gnuplot.log");
+        for (const auto& [temp, target] : renames) {
+            if (!fs::exists(temp) || fs::file_size(temp) == 0) throw std::runtime_error("--plot: gnuplot wrote no " + target.string());
+            fs::rename(temp, target);
+            written.push_back(target);
+        }
+    } catch (...) {
+        std::error_code ec;
+        for (const auto& r : renames) fs::remove(r.first, ec);
+        throw;
+    }
+    return written;
+}
+
+RunPlot::RunPlot(const Scene& scene, fs::path dir) : scene_(scene), dir_(std::move(dir)) {
+    if (!fs::is_directory(dir_))
+        throw SceneError(scene.file, "--plot", "'" + dir_.string() + "' is not an existing directory (create it first)");
+    {  // a real file, not access(): root passes access() on read-only file systems and /proc
+        const fs::path probe = dir_ / (".pgi_plot_probe" + std::to_string(::getpid()));
+        const bool writable = std::ofstream(probe).good();
+        std::error_code ec;
+        fs::remove(probe, ec);
+        if (!writable) throw SceneError(scene.file, "--plot", "cannot write into '" + dir_.string() + "'");
+    }
+    if (!on_path("gnuplot")) throw SceneError(scene.file, "--plot", "gnuplot is not installed (Debian: gnuplot-nox)");
+    if (!scene.x0 || !scene.t_end) throw SceneError(scene.file, "--plot", "nothing to plot: the scene has no [run] x0 and t_end");
+    // Htilde through dt^{method order}: the first power whose term is not zero for the order-k scheme
+    modified_upto_ = 2 * ((scene.order + 1) / 2);
+    try {
+        modified_ = sum_powers(modified_hamiltonian(scene.pi, scene.H, scene.order, scene.realisation, modified_upto_),
+                               Rational::from_double(scene.dt));
+    } catch (const ResourceLimitError& e) {
+        std::cerr << "pgi: " << scene.file.string() << ": --plot: no modified Hamiltonian in the figure (" << e.what() << ")\n";
+    }
+}
+
+void RunPlot::attach(IntegrateOptions& options) {
+    std::vector<std::string> names{"H"};
+    for (const auto& c : scene_.casimirs) {
+        std::string text = c.to_string();
+        if (text.size() > 28) text = text.substr(0, 25) + "...";
+        names.push_back("Casimir " + text);
+    }
+    if (!options.modified && modified_) options.modified = modified_;
+    if (options.modified) names.push_back(fmt::format("modified H through dt^{}", modified_upto_));
+    const auto steps = static_cast<std::size_t>(std::ceil(*scene_.t_end / scene_.dt - 1e-9));
+    series_.emplace(steps, scene_.phase_space().dim(), names);
+    options.observe = [this](std::size_t n, double t, const Eigen::VectorXd& x, const std::vector<double>& values) {
+        series_->record(n, t, x.data(), values);
+    };
+}
+
+std::vector<fs::path> RunPlot::write() const {
+    if (!series_) throw std::logic_error("RunPlot::write before attach");
+    const std::string title = fmt::format("{} (order {}, dt = {})", scene_.name.empty() ? scene_.file.stem().string() : scene_.name,
+                                          scene_.order, scene_.dt);
+    return draw_run(*series_, scene_.phase_space().coordinates(), scene_.dt, title, dir_, scene_.file.stem().string());
+}
+
+}  // namespace pgi
