@@ -116,7 +116,7 @@ std::string trajectory_plot(const RunSeries& s, const std::vector<std::string>& 
 
 std::string errors_plot(const RunSeries& s, double dt, const std::string& data, const std::vector<bool>& has_points) {
     std::string out = fmt::format("set xrange [{:.17g}:{:.17g}]\n", dt, std::max(2 * dt, s.bins().empty() ? dt : s.bins().back().t)) + "set logscale xy; set format x \"1e%L\"; set format y \"1e%L\"\nset xlabel \"t\"; set ylabel \"relative error\"\n"
-                      "set key outside below\nset title title.\": invariants (largest error per bin of steps)\"\n";
+                      "set key outside top center horizontal\nset title title.\": invariants (largest error per bin of steps)\"\n";
     std::vector<std::string> exact;
     std::string plot;
     const char* colors[] = {"#000000", "#e41a1c", "#377eb8", "#4daf4a", "#984ea3", "#ff7f00", "#a65628", "#f781bf"};
