@@ -165,3 +165,20 @@ TEST_CASE("RunPlot: a bad directory is refused before the run; a run draws four 
     CHECK(entries == 4);  // no temporary left behind
     fs::remove_all(dir);
 }
+
+TEST_CASE("[splitting] A: refused when it is 0, H itself, or not a polynomial in the coordinates") {
+    const std::string head = "name = \"s\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = \"(q^2 + p^2)/2\"\n";
+    for (const auto& [a, message] : {std::pair{"0", "splitting.A"}, std::pair{"p^2/2 + q^2/2", "splitting.A"},
+                                     std::pair{"q^2 + r", "splitting.A"}}) {
+        try {
+            parse_scene(head + "[splitting]\nA = \"" + a + "\"\n", "s.toml");
+            FAIL("accepted A = ", a);
+        } catch (const SceneError& e) {
+            CHECK(std::string(e.what()).find(message) != std::string::npos);
+        }
+    }
+    CHECK_THROWS_AS(parse_scene(head + "[splitting]\nB = \"q\"\n", "s.toml"), SceneError);  // unknown key
+    Scene s = parse_scene(head + "[splitting]\nA = \"q^2/2\"\n", "s.toml");
+    REQUIRE(s.splitting_A);
+    CHECK(s.H - *s.splitting_A == s.phase_space().parse("p^2/2"));
+}

@@ -16,23 +16,47 @@ using nlohmann::json;
 
 namespace {
 
+// H and sum_j dt^j sum_c w^c H[j][c], compiled: outputs 1 + j d + c
+class Watched {
+public:
+    Watched(const Scene& scene, const SplittingModified& Ht) : d_(Ht.H.front().size()) {
+        std::vector<Poly> f{scene.H};
+        for (const auto& Hj : Ht.H) f.insert(f.end(), Hj.begin(), Hj.end());
+        map_ = CompiledMap::build(f, scene.phase_space().coordinate_vars());
+        out_.resize(map_.num_outputs());
+    }
+    // {H(x), Htilde(x)} at step dt
+    std::pair<double, double> operator()(const std::vector<double>& x, double dt) {
+        map_.eval(x.data(), out_.data());
+        const double w = yoshida_weight();
+        double sum = 0, dtj = 1;
+        for (std::size_t j = 0; 1 + j * d_ < out_.size(); ++j, dtj *= dt) {
+            double wc = 1;
+            for (std::size_t c = 0; c < d_; ++c, wc *= w) sum += dtj * wc * out_[1 + j * d_ + c];
+        }
+        return {out_[0], sum};
+    }
+
+private:
+    std::size_t d_;
+    CompiledMap map_;
+    std::vector<double> out_;
+};
+
 // the largest changes of H and of Htilde (through dt^m) along the splitting's orbit from x0 to t_end
 std::pair<double, double> splitting_drifts(const Scene& scene, const SplittingModified& Ht, const PolynomialFlow& A,
                                            const PolynomialFlow& B, double dt, std::size_t steps) {
-    SplittingModified H0{Ht.method, {Ht.H.front()}};
-    CompiledMap h = invariants(scene);
-    std::vector<double> x = *scene.x0, values(h.num_outputs());
-    h.eval(x.data(), values.data());
-    const double e0 = values[0], m0 = Ht.evaluate(x, dt);
+    Watched watched(scene, Ht);
+    std::vector<double> x = *scene.x0;
+    const auto [e0, m0] = watched(x, dt);
     double worst_H = 0, worst_m = 0;
     for (std::size_t n = 1; n <= steps; ++n) {
         splitting_step(Ht.method, A, B, dt, x);
-        h.eval(x.data(), values.data());
-        const double m = Ht.evaluate(x, dt);
-        if (!std::isfinite(values[0]) || !std::isfinite(m))
+        const auto [e, m] = watched(x, dt);
+        if (!std::isfinite(e) || !std::isfinite(m))
             throw NumericalFailure(fmt::format("{} splitting: non-finite state at step {} (t = {:.17g})", to_string(Ht.method), n,
                                                double(n) * dt));
-        worst_H = std::max(worst_H, relative_error(values[0], e0));
+        worst_H = std::max(worst_H, relative_error(e, e0));
         worst_m = std::max(worst_m, relative_error(m, m0));
     }
     return {worst_H, worst_m};
