@@ -1,7 +1,9 @@
 // Modified Hamiltonians of splitting methods (magnus/splitting): the BCH terms against a hand computation,
 // their structure (symmetric methods have even powers only, Yoshida's composition is of order 4), and the
 // order to which a splitting's orbit keeps the truncated series, measured with exact kick and drift flows.
+#include "magnus/modified_hamiltonian.hpp"
 #include "magnus/polynomial_flow.hpp"
+#include "magnus/polynomial_in.hpp"
 #include "magnus/splitting.hpp"
 #include "test_util.hpp"
 
@@ -144,4 +146,24 @@ TEST_CASE("The splitting's orbit keeps Htilde through dt^m to O(dt^{m+1}): fitte
         INFO(to_string(c.method), " through dt^", c.m, ": slope ", slope, ", drifts ", errs[0], " .. ", errs.back());
         CHECK(std::abs(slope - c.slope) < 0.3);
     }
+}
+
+TEST_CASE("as_polynomial_in: the midpoint rule's H_2 = -H/12 and H_4 = H/80; the rigid body's H_2 is not in H and C") {
+    Scene ho = test::bundled("harmonic_oscillator");
+    auto Ht = modified_hamiltonian(ho.pi, ho.H, 1, ho.realisation, 4);
+    auto q2 = as_polynomial_in(Ht[2], {ho.H}, {"H"});
+    REQUIRE(q2);
+    CHECK(*q2 == Rational(-1, 12) * Poly::gen(q2->ring(), 0));
+    auto q4 = as_polynomial_in(Ht[4], {ho.H}, {"H"});
+    REQUIRE(q4);
+    CHECK(*q4 == Rational(1, 80) * Poly::gen(q4->ring(), 0));
+    // x1^4, x2^4, x3^4 in a H^2 + b H C + c C^2 form a Vandermonde system in the inverse inertias: only
+    // zero has none, and H_2 = -x1^2 x2^2/64 - ... has none
+    Scene rb = test::bundled("rigid_body");
+    auto Hr = modified_hamiltonian(rb.pi, rb.H, 2, rb.realisation, 2);
+    CHECK_FALSE(as_polynomial_in(Hr[2], {rb.H, rb.casimirs[0]}, {"H", "C1"}));
+    // a product found exactly: (H + C)^2 - 3 C
+    auto f = as_polynomial_in(pow(rb.H + rb.casimirs[0], 2) - Rational(3) * rb.casimirs[0], {rb.H, rb.casimirs[0]}, {"H", "C1"});
+    REQUIRE(f);
+    CHECK(f->to_string() == Poly::parse(f->ring(), "H^2 + 2*H*C1 + C1^2 - 3*C1").to_string());
 }

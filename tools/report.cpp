@@ -2,6 +2,7 @@
 #include "tools/commands.hpp"
 
 #include "magnus/modified_hamiltonian.hpp"
+#include "magnus/polynomial_in.hpp"
 #include "poisson/hamilton_jacobi.hpp"
 #include "series/latex.hpp"
 
@@ -42,6 +43,23 @@ std::string latex_escape(const std::string& s) {
     return out;
 }
 
+// the H_j (j >= 1, non-zero) that are polynomials in H and the Casimirs: {"j", "text", "latex"}
+json in_invariants(const Scene& scene, const std::vector<Poly>& Ht) {
+    std::vector<Poly> G{scene.H};
+    std::vector<std::string> names{"H"};
+    for (std::size_t c = 0; c < scene.casimirs.size(); ++c) {
+        G.push_back(scene.casimirs[c]);
+        names.push_back("C" + std::to_string(c + 1));
+    }
+    json found = json::array();
+    if (scene.H.total_degree() < 1) return found;
+    for (std::size_t j = 1; j < Ht.size(); ++j) {
+        if (Ht[j].is_zero()) continue;
+        if (auto Q = as_polynomial_in(Ht[j], G, names)) found.push_back({{"j", j}, {"text", Q->to_string()}, {"latex", to_latex(*Q)}});
+    }
+    return found;
+}
+
 }  // namespace
 
 json report_data(const Scene& scene, std::size_t m) {
@@ -61,6 +79,7 @@ json report_data(const Scene& scene, std::size_t m) {
            {"H", poly_entry(scene.H)}, {"casimirs", poly_entries(scene.casimirs)}, {"check", check_report(scene)},
            {"order", scene.order}, {"method_order", 2 * ((scene.order + 1) / 2)}, {"realisation", terms["realisation"]},
            {"S", poly_entries(S)}, {"modified", poly_entries(Ht)}, {"modified_upto", m}};
+    r["modified_in_invariants"] = in_invariants(scene, Ht);
     if (scene.splitting_A) {
         r["splitting"] = json::array();
         for (auto method : {SplittingMethod::lie_trotter, SplittingMethod::strang, SplittingMethod::yoshida}) {
@@ -108,6 +127,12 @@ std::string report_markdown(const json& r) {
                        r["modified_upto"].get<std::size_t>(), r["modified_upto"].get<std::size_t>(), r["modified_upto"].get<std::size_t>() + 1);
     for (std::size_t j = 0; j < r["modified"].size(); ++j)
         out += fmt::format("- `H_{} = {}`\n", j, r["modified"][j]["text"].get<std::string>());
+    if (!r["modified_in_invariants"].empty()) {
+        std::vector<std::string> forms;
+        for (const auto& f : r["modified_in_invariants"])
+            forms.push_back(fmt::format("`H_{} = {}`", f["j"].get<std::size_t>(), f["text"].get<std::string>()));
+        out += fmt::format("\nIn terms of H and the Casimirs C1, C2, ... (in the order listed), exactly: {}.\n", fmt::join(forms, ", "));
+    }
     if (r.contains("splitting")) {
         out += fmt::format("\n## Splitting methods\n\nH = A + B with A = `{}`; exact BCH series in Poisson brackets "
                            "(Yoshida's in Q(w), w = 1/(2 - 2^(1/3)): H_j = P_j0 + w P_j1 + w^2 P_j2):\n",
@@ -252,6 +277,13 @@ std::string report_latex(const json& r) {
                        "unique modulo Casimirs.\n",
                        m, m + 1);
     out += series_block("H", r["modified"]);
+    if (!r["modified_in_invariants"].empty()) {
+        std::vector<std::string> forms;
+        for (const auto& f : r["modified_in_invariants"])
+            forms.push_back(fmt::format("$H_{{{}}} = {}$", f["j"].get<std::size_t>(), f["latex"].get<std::string>()));
+        out += fmt::format("In terms of $H${} (found by exact linear algebra over $\\mathbb{{Q}}$ on the monomials): {}.\n",
+                           r["casimirs"].empty() ? "" : " and the Casimirs $C_i$ listed above", fmt::join(forms, ", "));
+    }
     if (r.contains("splitting")) {
         out += fmt::format("\\subsection*{{Splitting methods}}\nWith $H = A + B$, $A = {}$ and $B = H - A$, the modified Hamiltonians of "
                            "three splitting methods, from the Baker--Campbell--Hausdorff series in Poisson brackets (exact):\n",
