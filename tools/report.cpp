@@ -259,7 +259,8 @@ std::string report_latex(const json& r) {
     const json& c = r["check"];
     out += fmt::format("Class: {}; the Jacobi identity {}", latex_escape(c["class"].get<std::string>()), c["jacobi"]["holds"] ? "holds" : "fails");
     for (std::size_t i = 0; i < r["casimirs"].size(); ++i)
-        out += fmt::format("; ${}$ is {}a Casimir", r["casimirs"][i]["latex"].get<std::string>(), c["casimirs"][i]["holds"] ? "" : "not ");
+        out += fmt::format("; $C_{{{}}} = {}$ is {}a Casimir", i + 1, r["casimirs"][i]["latex"].get<std::string>(),
+                           c["casimirs"][i]["holds"] ? "" : "not ");
     out += fmt::format(".\n\\subsection*{{Hamilton--Jacobi terms}}\nOrder $k = {}$ (a method of order {}), {} realisation; the step's "
                        "generating function is $S_t = \\sum_{{j=1}}^{{k}} t^j S_j$.\n",
                        r["order"].get<std::size_t>(), r["method_order"].get<std::size_t>(), latex_escape(r["realisation"].get<std::string>()));
@@ -297,7 +298,8 @@ std::string report_latex(const json& r) {
                            run["steps"].get<std::size_t>(), latex_number(run["dt"].get<double>()), latex_number(run["t"].get<double>()),
                            latex_number(run["energy_error_max"].get<double>()), m,
                            latex_number(run["modified_energy_error_max"].get<double>()));
-        for (const auto& e : run["casimir_error_max"]) out += fmt::format(", of a Casimir ${}$", latex_number(e.get<double>()));
+        for (std::size_t i = 0; i < run["casimir_error_max"].size(); ++i)
+            out += fmt::format(", of $C_{{{}}}$ ${}$", i + 1, latex_number(run["casimir_error_max"][i].get<double>()));
         out += fmt::format("; {:.2f} Newton iterations per step.\n", run["newton_iterations_mean"].get<double>());
     }
     out += "\\end{document}\n";
