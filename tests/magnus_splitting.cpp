@@ -148,6 +148,27 @@ TEST_CASE("The splitting's orbit keeps Htilde through dt^m to O(dt^{m+1}): fitte
     }
 }
 
+TEST_CASE("The same on the harmonic oscillator: Strang through dt^2 and dt^4, Lie-Trotter through dt^2") {
+    Split s = oscillator();
+    const std::vector<double> x0{1.0, 0.0}, dts{0.2, 0.1, 0.05, 0.025};
+    struct Case { SplittingMethod method; std::size_t m; double slope; };
+    for (const Case& c : {Case{SplittingMethod::lie_trotter, 2, 3}, Case{SplittingMethod::strang, 2, 4},
+                          Case{SplittingMethod::strang, 4, 6}}) {
+        auto Ht = splitting_modified_hamiltonian(s.pi, s.A, s.B, c.method, c.m);
+        std::vector<double> errs;
+        for (double dt : dts) errs.push_back(drift(s, Ht, dt, 10, x0));
+        const double slope = fitted_slope(dts, errs);
+        INFO(to_string(c.method), " through dt^", c.m, ": slope ", slope, ", drifts ", errs[0], " .. ", errs.back());
+        CHECK(std::abs(slope - c.slope) < 0.3);
+    }
+    // symplectic Euler keeps q^2 + p^2 - dt q p exactly, and Lie-Trotter's series through an odd power is a
+    // multiple of it ((1 + dt^2/6 + ...)(q^2 + p^2 - dt q p)/2): its drift is round-off only
+    for (std::size_t m : {1, 3}) {
+        auto Ht = splitting_modified_hamiltonian(s.pi, s.A, s.B, SplittingMethod::lie_trotter, m);
+        for (double dt : dts) CHECK(drift(s, Ht, dt, 10, x0) < 1e-13);
+    }
+}
+
 TEST_CASE("as_polynomial_in: the midpoint rule's H_2 = -H/12 and H_4 = H/80; the rigid body's H_2 is not in H and C") {
     Scene ho = test::bundled("harmonic_oscillator");
     auto Ht = modified_hamiltonian(ho.pi, ho.H, 1, ho.realisation, 4);
