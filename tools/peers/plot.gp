@@ -21,8 +21,13 @@ if (kind eq "work-precision") {
     plot for [i=1:words(methods)] sprintf("< awk -F, '$1==\"%s\" && $9==1' '%s'", word(methods,i), csv) using 4:3 \
          with linespoints lc rgb color(i) lw width(word(methods,i)) pt i title word(methods,i)
 } else {
-    set title "long run, ".name.": relative energy error (solid), Casimir error (dashed)"
-    set xlabel "t"; set ylabel "relative error"
-    plot for [i=1:words(methods)] sprintf("< awk -F, '$1==\"%s\" && $3>0' '%s'", word(methods,i), csv) using 2:3 with lines lc rgb color(i) lw width(word(methods,i)) title word(methods,i), \
+    set title "long run, ".name.": relative errors of the invariants against t"
+    set xlabel "t (log scale)"; set ylabel "relative error (log scale)"
+    # the line styles explained in the key, then one colour per method; the dotted grey line is the unit
+    # round-off u = 2^-53, below which no relative error of a double can be resolved
+    plot NaN with lines lc rgb "black" lw 1.5 title "relative error of H (solid)", \
+         NaN with lines lc rgb "black" lw 1.5 dt 2 title "of the Casimir (dashed)", \
+         2.0**-53 with lines lc rgb "#777777" dt 3 lw 1.5 title "unit round-off u = 2^-53", \
+         for [i=1:words(methods)] sprintf("< awk -F, '$1==\"%s\" && $3>0' '%s'", word(methods,i), csv) using 2:3 with lines lc rgb color(i) lw width(word(methods,i)) title word(methods,i), \
          for [i=1:words(methods)] sprintf("< awk -F, '$1==\"%s\" && $4>0' '%s'", word(methods,i), csv) using 2:4 with lines lc rgb color(i) lw width(word(methods,i)) dt 2 notitle
 }
