@@ -1,7 +1,5 @@
 #include "magnus/splitting.hpp"
 
-#include "magnus/magnus.hpp"
-
 #include <cmath>
 #include <stdexcept>
 
@@ -44,28 +42,6 @@ NumberField yoshida_field() { return {3, {Rational(1, 6), Rational(-1), Rational
 using Element = std::vector<Series>;
 
 Element zero_element(const NumberField& F, const RingPtr& ring, std::size_t N) { return Element(F.d, Series(ring, N)); }
-
-void add_scaled(Element& a, const Rational& c, const Element& b) {
-    for (std::size_t i = 0; i < a.size(); ++i) a[i] += c * b[i];
-}
-
-Element truncated(const Element& a, std::size_t N) {
-    Element r;
-    for (const auto& s : a) r.push_back(s.truncated(N));
-    return r;
-}
-
-Element bracket(const PoissonStructure& pi, const NumberField& F, const Element& a, const Element& b) {
-    Element r = zero_element(F, pi.phase_space().ring(), std::min(a[0].order(), b[0].order()));
-    for (std::size_t i = 0; i < F.d; ++i)
-        for (std::size_t j = 0; j < F.d; ++j) {
-            const Series ab = poisson_bracket(pi, a[i], b[j]);
-            const auto w = F.power(i + j);
-            for (std::size_t c = 0; c < F.d; ++c)
-                if (!w[c].is_zero()) r[c] += w[c] * ab;
-        }
-    return r;
-}
 
 // X(c e): the coefficient of e^m multiplied by c^m, c in the field
 Element rescaled(const NumberField& F, const Element& X, const std::vector<Rational>& c) {

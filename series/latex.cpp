@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 namespace pgi {
 
@@ -11,14 +12,19 @@ namespace {
 
 constexpr double digit_em = 0.5, letter_em = 0.55, script = 0.7, sign_em = 1.25, fraction_pad_em = 0.3;
 
-// the printed width of a name as latex_name sets it: base letters, then subscripts at script size
-double name_width(const std::string& name, double scale) {
-    if (auto u = name.find('_'); u != std::string::npos && u + 1 < name.size())
-        return name_width(name.substr(0, u), scale) + name_width(name.substr(u + 1), scale * script);
+// a variable name in LaTeX and its printed width: a trailing run of digits and the part after an
+// underscore become subscripts (at script size)
+std::pair<std::string, double> typeset_name(const std::string& name, double scale) {
+    if (auto u = name.find('_'); u != std::string::npos && u + 1 < name.size()) {
+        const auto [base, wb] = typeset_name(name.substr(0, u), scale);
+        const auto [sub, ws] = typeset_name(name.substr(u + 1), scale * script);
+        return {base + "_{" + sub + "}", wb + ws};
+    }
     std::size_t d = name.size();
     while (d > 0 && std::isdigit(static_cast<unsigned char>(name[d - 1]))) --d;
-    if (d == 0 || d == name.size()) return scale * letter_em * double(name.size());
-    return scale * (letter_em * double(d) + script * digit_em * double(name.size() - d));
+    if (d == 0 || d == name.size()) return {name, scale * letter_em * double(name.size())};
+    return {name.substr(0, d) + "_{" + name.substr(d) + "}",
+            scale * (letter_em * double(d) + script * digit_em * double(name.size() - d))};
 }
 
 std::string coefficient_latex(const Rational& c, bool monomial, double& width) {
@@ -37,14 +43,7 @@ std::string coefficient_latex(const Rational& c, bool monomial, double& width) {
 
 }  // namespace
 
-std::string latex_name(const std::string& name) {
-    if (auto u = name.find('_'); u != std::string::npos && u + 1 < name.size())
-        return latex_name(name.substr(0, u)) + "_{" + latex_name(name.substr(u + 1)) + "}";
-    std::size_t d = name.size();
-    while (d > 0 && std::isdigit(static_cast<unsigned char>(name[d - 1]))) --d;
-    if (d == 0 || d == name.size()) return name;
-    return name.substr(0, d) + "_{" + name.substr(d) + "}";
-}
+std::string latex_name(const std::string& name) { return typeset_name(name, 1.0).first; }
 
 std::vector<LatexTerm> latex_terms(const Poly& f) {
     if (f.is_zero()) return {{"0", digit_em}};
@@ -58,8 +57,9 @@ std::vector<LatexTerm> latex_terms(const Poly& f) {
         std::string vars;
         for (std::size_t v = 0; v < e.size(); ++v) {
             if (e[v] == 0) continue;
-            vars += (vars.empty() ? "" : " ") + latex_name(f.ring()->names()[v]);
-            term.width += name_width(f.ring()->names()[v], 1.0);
+            const auto [text, width] = typeset_name(f.ring()->names()[v], 1.0);
+            vars += (vars.empty() ? "" : " ") + text;
+            term.width += width;
             if (e[v] > 1) {
                 const std::string k = std::to_string(e[v]);
                 vars += "^{" + k + "}";
