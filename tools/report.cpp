@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <filesystem>
 
 namespace pgi {
 
@@ -247,9 +248,9 @@ std::string report_latex(const json& r) {
         "\\allowdisplaybreaks\n\\begin{document}\n";
     std::vector<std::string> coords;
     for (const auto& c : r["coordinates"]) coords.push_back(latex_name(c.get<std::string>()));
-    out += fmt::format("\\section*{{{}}}\nScene \\texttt{{{}}}, coordinates ${}$; brackets $\\{{f, g\\}} = \\nabla f^T \\pi\\, \\nabla g$, "
+    out += fmt::format("\\section*{{{}}}\nScene file \\texttt{{{}}}, coordinates ${}$; brackets $\\{{f, g\\}} = \\nabla f^T \\pi\\, \\nabla g$, "
                        "flows $\\dot x = \\{{x, H\\}}$.\n",
-                       latex_escape(r["scene"].get<std::string>()), latex_escape(r["file"].get<std::string>()), fmt::join(coords, ", "));
+                       latex_escape(r["scene"].get<std::string>()), latex_escape(std::filesystem::path(r["file"].get<std::string>()).filename().string()), fmt::join(coords, ", "));
     out += "\\subsection*{Poisson structure}\nThe non-zero brackets of the coordinates ($i < j$) and the Hamiltonian:\n";
     std::vector<std::string> rows;
     for (const auto& b : r["brackets"])
