@@ -142,9 +142,10 @@ std::string report_markdown(const json& r) {
             out += fmt::format("\n### {} (order {})\n\n", s["splitting"].get<std::string>(), s["method_order"].get<std::size_t>());
             for (std::size_t j = 0; j < s["modified"].size(); ++j) {
                 const json& c = s["modified"][j];
+                const bool zero = std::all_of(c.begin(), c.end(), [](const json& p) { return p["text"] == "0"; });
                 for (std::size_t k = 0; k < c.size(); ++k)
-                    if (c[k]["text"] != "0" || (k == 0 && c.size() == 1))
-                        out += fmt::format("- `{} = {}`\n", c.size() == 1 ? fmt::format("H_{}", j) : fmt::format("P_{}{}", j, k),
+                    if (c[k]["text"] != "0" || (k == 0 && (c.size() == 1 || zero)))
+                        out += fmt::format("- `{} = {}`\n", c.size() == 1 || zero ? fmt::format("H_{}", j) : fmt::format("P_{}{}", j, k),
                                            c[k]["text"].get<std::string>());
             }
             const json& run = s["run"];
