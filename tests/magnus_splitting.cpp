@@ -188,3 +188,20 @@ TEST_CASE("as_polynomial_in: the midpoint rule's H_2 = -H/12 and H_4 = H/80; the
     REQUIRE(f);
     CHECK(f->to_string() == Poly::parse(f->ring(), "H^2 + 2*H*C1 + C1^2 - 3*C1").to_string());
 }
+
+TEST_CASE("compose_flows is the group law: associative and with inverses, exactly through e^5") {
+    Split s = henon_heiles();
+    const auto& M = s.pi.phase_space();
+    const std::size_t N = 6;
+    auto series = [&](const std::string& f) {
+        Series r(M.ring(), N);
+        r[1] = M.parse(f);
+        return r;
+    };
+    const Series X = series("q1^2*q2 + p1"), Y = series("p1^2/2 + q2*p2"), Z = series("q1*p2 - q2^3/3");
+    CHECK(compose_flows(s.pi, compose_flows(s.pi, X, Y, N), Z, N) == compose_flows(s.pi, X, compose_flows(s.pi, Y, Z, N), N));
+    const Series zero(M.ring(), N);
+    CHECK(compose_flows(s.pi, X, Rational(-1) * X, N) == zero);
+    // flows of one Hamiltonian commute and add: Z(X, 2X) = 3X
+    CHECK(compose_flows(s.pi, X, Rational(2) * X, N) == Rational(3) * X);
+}
