@@ -24,6 +24,15 @@ struct Realisation {
 
 /// Whether a closed form (MATH.md section 3) exists for this class.
 bool has_closed_form(StructureClass c);
+
+/// The form a realisation takes: one of the closed forms of MATH.md section 3, or the radial recursion
+/// of section 4. realisation_form() is the one place that decides it from the class and the choice.
+enum class RealisationForm { constant, lie_poisson, log_canonical, radial };
+/// "constant", "lie-poisson", "log-canonical", "radial" (Realisation::method).
+std::string to_string(RealisationForm f);
+/// The closed form of the class unless the choice is radial or the class has none (then radial).
+/// Throws std::invalid_argument for closed_form on a general structure.
+RealisationForm realisation_form(StructureClass c, RealisationChoice choice);
 /// Set the result to the realisation of pi truncated at p-degree D, built as choice says.
 /// Requires: pi satisfies the Jacobi identity. Throws std::invalid_argument for closed_form on a general pi.
 Realisation build_realisation(const PoissonStructure& pi, RealisationChoice choice, std::size_t D);
@@ -35,6 +44,9 @@ Realisation lie_poisson_realisation(const PoissonStructure& pi, std::size_t D);
 Realisation log_canonical_realisation(const PoissonStructure& pi, std::size_t D);
 /// MATH.md section 4: the radial recursion, for any polynomial Poisson structure.
 Realisation radial_realisation(const PoissonStructure& pi, std::size_t D);
+
+/// The same realisation through p-degree D <= r.degree (its parts of degree above D dropped).
+Realisation truncated(const Realisation& r, std::size_t D);
 
 /// The canonical bracket of two p-graded series, truncated one degree lower (order N - 1).
 Series canonical_bracket(const PhaseSpace& M, const Series& F, const Series& G);
