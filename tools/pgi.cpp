@@ -1,6 +1,7 @@
 // pgi: the command-line program. Exit codes: 0 success, 2 bad input (nothing on stdout), 3 a step failed
 // (Newton did not converge or the state overflowed), 1 internal error.
 #include "tools/atomic_file.hpp"
+#include "scheme/version.hpp"
 #include "tools/commands.hpp"
 
 #include <CLI/CLI.hpp>
@@ -87,6 +88,7 @@ int main(int argc, char** argv) {
     std::atexit(flint_cleanup_master);  // FLINT's own caches, so memcheck sees every block freed
     CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
     app.require_subcommand(1);
+    app.set_version_flag("--version", "pgi " + std::string(pgi::version()));
     Options o;
     auto* check = app.add_subcommand("check", "class, Jacobi, Casimirs and realisation identities of a scene");
     auto* terms = app.add_subcommand("terms", "the Hamilton-Jacobi terms S_1..S_k");

@@ -30,3 +30,10 @@ message("${out}")
 if(NOT out MATCHES "Casimir drift [0-9.]+e-1[2-9]")
   message(FATAL_ERROR "the example's Casimir drift is not at round-off:\n${out}")
 endif()
+# The Python package: importable from another directory once its install directory is on sys.path (under
+# /usr/local, Debian's /usr/bin/python3 has it there already).
+if(PYTHON AND PYTHON_DIR)
+  run(${CMAKE_COMMAND} -E env PYTHONPATH=${WORK}/prefix/${PYTHON_DIR} ${PYTHON} ${SOURCE}/tests/install/import_check.py
+      ${WORK}/prefix/)
+  message("${out}")
+endif()
