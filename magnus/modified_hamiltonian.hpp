@@ -1,5 +1,5 @@
 #pragma once
-// Variation functions of the Hamilton-Jacobi scheme and its modified Hamiltonian (MATH.md 7).
+// Variation functions of the Hamilton-Jacobi scheme and its modified Hamiltonian (docs/math.md 7).
 #include "poisson/realisation.hpp"
 
 #include <vector>
