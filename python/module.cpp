@@ -131,8 +131,12 @@ py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt
     auto it = s.steppers.find(dt);
     if (it == s.steppers.end()) {
         const Eigen::VectorXd typical = s.x0 ? *s.x0 : x;
-        py::gil_scoped_release release;
-        it = s.steppers.emplace(dt, s.scheme->stepper(dt, typical)).first;
+        std::optional<pgi::NewtonStepper> built;
+        {
+            py::gil_scoped_release release;  // the exact phase; the map is touched only with the GIL held
+            built = s.scheme->stepper(dt, typical);
+        }
+        it = s.steppers.emplace(dt, std::move(*built)).first;
     }
     pgi::NewtonStepper& st = it->second;
     Eigen::VectorXd increment(x.size());

@@ -59,6 +59,7 @@ std::string report_latex(const nlohmann::json& report);
 std::string check_text(const nlohmann::json& report);
 std::string series_text(const nlohmann::json& report);
 std::string integrate_text(const nlohmann::json& report);
+std::string step_text(const nlohmann::json& report);
 std::string terms_text(const nlohmann::json& report);
 std::string realisation_text(const nlohmann::json& report);
 

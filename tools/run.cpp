@@ -147,6 +147,16 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     return r;
 }
 
+std::string step_text(const json& r) {
+    std::string out = fmt::format("one step of dt = {} (order {}, method order {}, {} realisation, degree {}):\n",
+                                  r["dt"].get<double>(), r["order"].get<std::size_t>(), r["method_order"].get<std::size_t>(),
+                                  r["realisation"].get<std::string>(), r["degree"].get<std::size_t>());
+    out += fmt::format("  x = ({:.17g})\n", fmt::join(r["x"].get<std::vector<double>>(), ", "));
+    out += fmt::format("  Newton iterations: {}; residual at the solution {:.3g}; last correction {:.3g}\n",
+                       r["newton_iterations"].get<int>(), r["residual"].get<double>(), r["correction"].get<double>());
+    return out;
+}
+
 std::string integrate_text(const json& r) {
     std::string out = fmt::format(
         "integrated {} steps of dt = {} to t = {} (order {}, method order {}, {} realisation, degree {}):\n",
