@@ -56,6 +56,7 @@ public:
            RealisationChoice choice = RealisationChoice::automatic);
     /// From strings; InputError names the entry at fault ("brackets.\"x1,x2\"", "hamiltonian.H", ...).
     static Scheme from_values(const SchemeValues& values);
+    explicit Scheme(const SchemeValues& values) : Scheme(from_values(values)) {}
 
     /// A copy shares nothing: it recomputes what it is asked for.
     Scheme(const Scheme& other);

@@ -85,6 +85,7 @@ TEST_CASE("Scheme: from strings equals the scene, and bad values name their entr
         return out;
     };
     CHECK(texts(scheme.terms()) == texts(s.scheme->terms()));
+    CHECK(texts(Scheme(v).terms()) == texts(s.scheme->terms()));
     CHECK(scheme.realisation_form() == RealisationForm::lie_poisson);
     CHECK(scheme.method_order() == 2 * ((s.order + 1) / 2));
 
