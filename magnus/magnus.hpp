@@ -1,5 +1,5 @@
 #pragma once
-// The Hamiltonian Magnus series of a time-dependent Hamiltonian (MATH.md 7, the paper's section 1).
+// The Hamiltonian Magnus series of a time-dependent Hamiltonian (docs/math.md 7, the paper's section 1).
 #include "poisson/structure.hpp"
 
 namespace pgi {

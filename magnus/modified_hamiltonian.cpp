@@ -25,7 +25,15 @@ std::vector<Poly> modified_hamiltonian(const PoissonStructure& pi, const Poly& H
     const PhaseSpace& M = pi.phase_space();
     // h through t^m needs beta through p-degree m, and S_1..S_k need alpha through degree k - 1
     Realisation r = build_realisation(pi, choice, std::max(m, realisation_degree_for_order(k)));
-    auto S = hamilton_jacobi_terms(M, r, H, k);
+    return modified_hamiltonian(pi, r, hamilton_jacobi_terms(M, r, H, k), m);
+}
+
+std::vector<Poly> modified_hamiltonian(const PoissonStructure& pi, const Realisation& r, const std::vector<Poly>& S,
+                                       std::size_t m) {
+    if (r.degree < m)
+        throw std::invalid_argument("modified_hamiltonian: H_" + std::to_string(m) + " needs beta through p-degree " +
+                                    std::to_string(m) + ", the realisation has " + std::to_string(r.degree));
+    const PhaseSpace& M = pi.phase_space();
     Series h = variation_functions(M, r, S, m + 1);
     Series Me = magnus_series(pi, h, m + 1);
     // Htilde = M_dt / dt: H_j = M_{j+1}

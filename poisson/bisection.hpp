@@ -1,6 +1,6 @@
 #pragma once
 // The Lagrangian bisection graph(dS_t) seen through the realisation: its source and target maps
-// x -> alpha(x, grad S_t(x)) and x -> beta(x, grad S_t(x)) as exact series in t (MATH.md 6-7).
+// x -> alpha(x, grad S_t(x)) and x -> beta(x, grad S_t(x)) as exact series in t (docs/math.md 6-7).
 #include "poisson/realisation.hpp"
 
 #include <vector>

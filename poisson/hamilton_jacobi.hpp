@@ -1,5 +1,5 @@
 #pragma once
-// The Hamilton-Jacobi terms S_1..S_k of the paper's theorem "num_csq" (MATH.md section 5).
+// The Hamilton-Jacobi terms S_1..S_k of the paper's theorem "num_csq" (docs/math.md section 5).
 #include "poisson/realisation.hpp"
 
 #include <vector>

@@ -48,14 +48,6 @@ std::size_t deeper_probe(const std::vector<double>& a, double target, std::size_
     return std::min(next, max_degree + 1);
 }
 
-// The same realisation through degree D <= r.degree.
-Realisation truncated(const Realisation& r, std::size_t D) {
-    Realisation t{r.method, D, {}, {}};
-    for (const auto& s : r.alpha) t.alpha.push_back(s.truncated(D + 1));
-    for (const auto& s : r.beta) t.beta.push_back(s.truncated(D + 1));
-    return t;
-}
-
 // The smallest D >= D_min whose neglected terms (two degrees at least, for the parity of symmetric
 // realisations) are below round-off at the typical state; deepens the probe until one is found or
 // max_degree is reached. Sets truncation to the size of the first neglected degree.
@@ -167,7 +159,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     s.opt_ = opt;
     const Rational dt = Rational::from_double(opt.dt);
     const StructureClass cls = pi.structure_class();
-    const bool closed = opt.realisation != RealisationChoice::radial && has_closed_form(cls);
+    const bool closed = realisation_form(cls, opt.realisation) != RealisationForm::radial;
     // the predictor's order: as asked, or chosen below among 0..max(k + 1, 8) (which needs one order more)
     const std::size_t P_limit = opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 8);
     const std::size_t P = opt.predictor_order ? P_limit : P_limit + 1;

@@ -1,5 +1,5 @@
 #pragma once
-// NewtonStepper: the paper's Poisson integrator of order k (MATH.md 6): solve alpha(xb, grad S_dt(xb)) = x
+// NewtonStepper: the paper's Poisson integrator of order k (docs/math.md 6): solve alpha(xb, grad S_dt(xb)) = x
 // for xb, then x_new = beta(xb, grad S_dt(xb)), written as x_new = x + (beta - alpha)(xb, grad S_dt(xb)).
 #include "poisson/hamilton_jacobi.hpp"
 #include "poisson/realisation_eval.hpp"

@@ -1,5 +1,5 @@
 #pragma once
-// PhaseSpace: T*R^n with coordinates x_1..x_n and momenta p_x1..p_xn (MATH.md section 2).
+// PhaseSpace: T*R^n with coordinates x_1..x_n and momenta p_x1..p_xn (docs/math.md section 2).
 // Every exact object of a scene (pi, H, Casimirs, alpha, beta, S_j) is a Poly of this one ring.
 #include "series/series.hpp"
 
@@ -41,7 +41,7 @@ private:
     VarMask momenta_;
 };
 
-/// The canonical bracket {F, G}_can = sum_i d_{x_i}F d_{p_i}G - d_{p_i}F d_{x_i}G (MATH.md section 2).
+/// The canonical bracket {F, G}_can = sum_i d_{x_i}F d_{p_i}G - d_{p_i}F d_{x_i}G (docs/math.md section 2).
 Poly canonical_bracket(const PhaseSpace& M, const Poly& F, const Poly& G);
 
 }  // namespace pgi

@@ -22,6 +22,28 @@ std::string to_string(RealisationChoice c) {
 
 bool has_closed_form(StructureClass c) { return c != StructureClass::general; }
 
+std::string to_string(RealisationForm f) {
+    switch (f) {
+        case RealisationForm::constant: return "constant";
+        case RealisationForm::lie_poisson: return "lie-poisson";
+        case RealisationForm::log_canonical: return "log-canonical";
+        case RealisationForm::radial: return "radial";
+    }
+    return "?";
+}
+
+RealisationForm realisation_form(StructureClass c, RealisationChoice choice) {
+    if (choice == RealisationChoice::radial || (choice == RealisationChoice::automatic && !has_closed_form(c)))
+        return RealisationForm::radial;
+    switch (c) {
+        case StructureClass::constant: return RealisationForm::constant;
+        case StructureClass::linear: return RealisationForm::lie_poisson;
+        case StructureClass::log_canonical: return RealisationForm::log_canonical;
+        case StructureClass::general: break;
+    }
+    throw std::invalid_argument("\"closed-form\" is not available for a general structure; use \"radial\" or \"auto\"");
+}
+
 namespace {
 
 // beta(x, p) = alpha(x, -p): the part of degree m changes sign with m odd.
@@ -76,7 +98,7 @@ Realisation constant_realisation(const PoissonStructure& pi, std::size_t D) {
     if (D >= 1)
         for (std::size_t i = 0; i < M.dim(); ++i)
             for (std::size_t j = 0; j < M.dim(); ++j) alpha[i][1] -= Rational(1, 2) * (pi(i, j) * M.p_gen(j));
-    return symmetric("constant", D, std::move(alpha));
+    return symmetric(to_string(RealisationForm::constant), D, std::move(alpha));
 }
 
 Realisation lie_poisson_realisation(const PoissonStructure& pi, std::size_t D) {
@@ -91,7 +113,7 @@ Realisation lie_poisson_realisation(const PoissonStructure& pi, std::size_t D) {
         Rational c = bernoulli(m) * inverse_factorial(m);
         for (std::size_t i = 0; i < M.dim(); ++i) alpha[i][m] = c * v[i];
     }
-    return symmetric("lie-poisson", D, std::move(alpha));
+    return symmetric(to_string(RealisationForm::lie_poisson), D, std::move(alpha));
 }
 
 Realisation log_canonical_realisation(const PoissonStructure& pi, std::size_t D) {
@@ -109,7 +131,7 @@ Realisation log_canonical_realisation(const PoissonStructure& pi, std::size_t D)
             alpha[j][m] = inverse_factorial(m) * um;
         }
     }
-    return symmetric("log-canonical", D, std::move(alpha));
+    return symmetric(to_string(RealisationForm::log_canonical), D, std::move(alpha));
 }
 
 namespace {
@@ -167,20 +189,25 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
     } catch (const ResourceLimitError& e) {
         throw ResourceLimitError("radial realisation, terms of degree " + std::to_string(m + 1) + " in p: " + e.what());
     }
-    return symmetric("radial", D, std::move(alpha));
+    return symmetric(to_string(RealisationForm::radial), D, std::move(alpha));
 }
 
 Realisation build_realisation(const PoissonStructure& pi, RealisationChoice choice, std::size_t D) {
-    const StructureClass c = pi.structure_class();
-    if (choice == RealisationChoice::radial || (choice == RealisationChoice::automatic && !has_closed_form(c)))
-        return radial_realisation(pi, D);
-    switch (c) {
-        case StructureClass::constant: return constant_realisation(pi, D);
-        case StructureClass::linear: return lie_poisson_realisation(pi, D);
-        case StructureClass::log_canonical: return log_canonical_realisation(pi, D);
-        case StructureClass::general: break;
+    switch (realisation_form(pi.structure_class(), choice)) {
+        case RealisationForm::constant: return constant_realisation(pi, D);
+        case RealisationForm::lie_poisson: return lie_poisson_realisation(pi, D);
+        case RealisationForm::log_canonical: return log_canonical_realisation(pi, D);
+        case RealisationForm::radial: break;
     }
-    throw std::invalid_argument("realisation \"closed-form\" is not available for a general structure; use \"radial\" or \"auto\"");
+    return radial_realisation(pi, D);
+}
+
+Realisation truncated(const Realisation& r, std::size_t D) {
+    if (D > r.degree) throw std::invalid_argument("truncated: degree " + std::to_string(D) + " above the realisation's " + std::to_string(r.degree));
+    Realisation t{r.method, D, {}, {}};
+    for (const auto& a : r.alpha) t.alpha.push_back(a.truncated(D + 1));
+    for (const auto& b : r.beta) t.beta.push_back(b.truncated(D + 1));
+    return t;
 }
 
 Series canonical_bracket(const PhaseSpace& M, const Series& F, const Series& G) {

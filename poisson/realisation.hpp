@@ -1,5 +1,5 @@
 #pragma once
-// Bi-realisations (alpha, beta) of pi on T*R^n as series in the momenta (MATH.md sections 2-4).
+// Bi-realisations (alpha, beta) of pi on T*R^n as series in the momenta (docs/math.md sections 2-4).
 #include "poisson/structure.hpp"
 
 #include <optional>
@@ -22,24 +22,36 @@ struct Realisation {
     std::vector<Series> beta;
 };
 
-/// Whether a closed form (MATH.md section 3) exists for this class.
+/// Whether a closed form (docs/math.md section 3) exists for this class.
 bool has_closed_form(StructureClass c);
+
+/// The form a realisation takes: one of the closed forms of docs/math.md section 3, or the radial recursion
+/// of section 4. realisation_form() is the one place that decides it from the class and the choice.
+enum class RealisationForm { constant, lie_poisson, log_canonical, radial };
+/// "constant", "lie-poisson", "log-canonical", "radial" (Realisation::method).
+std::string to_string(RealisationForm f);
+/// The closed form of the class unless the choice is radial or the class has none (then radial).
+/// Throws std::invalid_argument for closed_form on a general structure.
+RealisationForm realisation_form(StructureClass c, RealisationChoice choice);
 /// Set the result to the realisation of pi truncated at p-degree D, built as choice says.
 /// Requires: pi satisfies the Jacobi identity. Throws std::invalid_argument for closed_form on a general pi.
 Realisation build_realisation(const PoissonStructure& pi, RealisationChoice choice, std::size_t D);
-/// MATH.md section 3: alpha = x - (1/2) pi p.
+/// docs/math.md section 3: alpha = x - (1/2) pi p.
 Realisation constant_realisation(const PoissonStructure& pi, std::size_t D);
-/// MATH.md section 3: alpha = g(L(p)) x, g(z) = z/(e^z - 1) = sum B_m z^m / m!, L(p) x = pi(x) p.
+/// docs/math.md section 3: alpha = g(L(p)) x, g(z) = z/(e^z - 1) = sum B_m z^m / m!, L(p) x = pi(x) p.
 Realisation lie_poisson_realisation(const PoissonStructure& pi, std::size_t D);
-/// MATH.md section 3: alpha_j = exp((1/2) sum_i a_ij x_i p_i) x_j.
+/// docs/math.md section 3: alpha_j = exp((1/2) sum_i a_ij x_i p_i) x_j.
 Realisation log_canonical_realisation(const PoissonStructure& pi, std::size_t D);
-/// MATH.md section 4: the radial recursion, for any polynomial Poisson structure.
+/// docs/math.md section 4: the radial recursion, for any polynomial Poisson structure.
 Realisation radial_realisation(const PoissonStructure& pi, std::size_t D);
+
+/// The same realisation through p-degree D <= r.degree (its parts of degree above D dropped).
+Realisation truncated(const Realisation& r, std::size_t D);
 
 /// The canonical bracket of two p-graded series, truncated one degree lower (order N - 1).
 Series canonical_bracket(const PhaseSpace& M, const Series& F, const Series& G);
 
-/// A realisation identity of MATH.md section 2 that fails below degree D: which one, where, and the defect.
+/// A realisation identity of docs/math.md section 2 that fails below degree D: which one, where, and the defect.
 struct RealisationDefect {
     std::string identity;  // "{alpha_i, alpha_j} = pi_ij(alpha)", ...
     std::size_t i, j;

@@ -233,7 +233,7 @@ std::pair<double, double> rotation_coefficient(double s, const std::vector<doubl
 
 }  // namespace
 
-// L(p) skew 3 x 3, so L^3 = -s L with s = |L|_F^2 / 2, and g(L) = I - L/2 + h(s) L^2 exactly (MATH.md 3,
+// L(p) skew 3 x 3, so L^3 = -s L with s = |L|_F^2 / 2, and g(L) = I - L/2 + h(s) L^2 exactly (docs/math.md 3,
 // g(z) = z / (e^z - 1) = 1 - z/2 + sum_j b_2j z^2j; its even part at z = i t is (t/2) cot(t/2)).
 void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
     const Eigen::Matrix3d L = p[0] * C_[0] + p[1] * C_[1] + p[2] * C_[2];

@@ -16,7 +16,7 @@ struct RealisationValues {
 
 /// One of: a compiled polynomial realisation (any class, truncated at p-degree D); the log-canonical
 /// closed form alpha_j = x_j exp(u_j), u_j = (1/2) sum_i a_ij x_i p_i, exact in floating point; or the
-/// Lie-Poisson form alpha = sum_{m<=D} B_m/m! L(p)^m x evaluated by matrix-vector products (MATH.md 3).
+/// Lie-Poisson form alpha = sum_{m<=D} B_m/m! L(p)^m x evaluated by matrix-vector products (docs/math.md 3).
 /// delta = beta - alpha is computed as its own expression (-2 x_j sinh u_j; L(p) x, since the odd
 /// Bernoulli numbers past B_1 vanish; or the odd part of the series), so small steps do not cancel.
 class RealisationEvaluator {

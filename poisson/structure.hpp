@@ -1,5 +1,5 @@
 #pragma once
-// PoissonStructure: a skew matrix pi(x) of polynomials, its class, its bracket and its checks (MATH.md section 1).
+// PoissonStructure: a skew matrix pi(x) of polynomials, its class, its bracket and its checks (docs/math.md section 1).
 #include "poisson/phase_space.hpp"
 
 #include <optional>
@@ -8,7 +8,7 @@
 
 namespace pgi {
 
-/// The classes that have a closed-form realisation (MATH.md section 3), and the rest.
+/// The classes that have a closed-form realisation (docs/math.md section 3), and the rest.
 enum class StructureClass { constant, linear, log_canonical, general };
 std::string to_string(StructureClass c);
 

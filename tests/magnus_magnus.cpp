@@ -1,4 +1,4 @@
-// The Magnus series of a time-dependent Hamiltonian (MATH.md 7), checked exactly.
+// The Magnus series of a time-dependent Hamiltonian (docs/math.md 7), checked exactly.
 #include "magnus/magnus.hpp"
 #include "test_util.hpp"
 
@@ -37,7 +37,7 @@ TEST_CASE("magnus: low orders are h_0, h_1/2 and h_2/3 - {h_0, h_1}/12 (generic 
     CHECK_FALSE(s.pi.bracket(h[1], h[0]).is_zero());  // the bracket term is really there
 }
 
-TEST_CASE("magnus: symplectic Euler gives Hairer-Lubich-Wanner's modified Hamiltonian (MATH.md 7, corrected paper example)") {
+TEST_CASE("magnus: symplectic Euler gives Hairer-Lubich-Wanner's modified Hamiltonian (docs/math.md 7, corrected paper example)") {
     // H = V(q) + K(p), V = q^3/3 + q^2/2, K = p^2/2 + p^4/12: h_t = K(p) + V(q - t K'(p)), and
     // M_eps = eps H - (eps^2/2) V_q K_p + (eps^3/12)(K_pp V_q^2 + V_qq K_p^2) + O(eps^4).
     auto pi = test::structure({"q", "p"}, {{0, 1, "1"}});
@@ -53,7 +53,7 @@ TEST_CASE("magnus: symplectic Euler gives Hairer-Lubich-Wanner's modified Hamilt
     CHECK(Me[3] == Rational(1, 12) * (Kpp * Vq * Vq + Vqq * Kp_ * Kp_));
 }
 
-TEST_CASE("magnus: the Kahan step of Lotka-Volterra has Htilde = H + h^2 H^3/36 + h^4 H^5/400 (MATH.md 7)") {
+TEST_CASE("magnus: the Kahan step of Lotka-Volterra has Htilde = H + h^2 H^3/36 + h^4 H^5/400 (docs/math.md 7)") {
     // {x_i, x_j} = x_i x_j (i < j), H = x1 + x2 + x3, h_t = (2/t) artanh(t H/2) = H + t^2 H^3/12 + t^4 H^5/80 + ...
     auto pi = test::structure({"x1", "x2", "x3"}, {{0, 1, "x1*x2"}, {0, 2, "x1*x3"}, {1, 2, "x2*x3"}});
     const PhaseSpace& M = pi.phase_space();

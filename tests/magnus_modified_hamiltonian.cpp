@@ -1,4 +1,4 @@
-// Modified Hamiltonians of the Hamilton-Jacobi schemes (MATH.md 7): exact answers, structure, and the
+// Modified Hamiltonians of the Hamilton-Jacobi schemes (docs/math.md 7): exact answers, structure, and the
 // backward error property, exactly as series and numerically.
 #include "magnus/magnus.hpp"
 #include "magnus/modified_hamiltonian.hpp"
@@ -15,7 +15,7 @@ using namespace pgi;
 
 namespace {
 
-// The step of size t as exact t-series: phi_t = Phi^beta_t o (Phi^alpha_t)^{-1} (MATH.md 6).
+// The step of size t as exact t-series: phi_t = Phi^beta_t o (Phi^alpha_t)^{-1} (docs/math.md 6).
 std::vector<Series> step_series(const Scene& s, std::size_t k, std::size_t N) {
     const PhaseSpace& M = s.phase_space();
     Realisation r = build_realisation(s.pi, s.realisation, std::max(N, k));
@@ -85,7 +85,7 @@ TEST_CASE("modified: H_j = 0 below the order, odd H_j = 0, and {H_j, C} = 0 for 
     }
 }
 
-TEST_CASE("modified: the time-dt flow of Htilde agrees with one step to the truncation order, exactly as series (MATH.md 7)") {
+TEST_CASE("modified: the time-dt flow of Htilde agrees with one step to the truncation order, exactly as series (docs/math.md 7)") {
     // Htilde truncated after dt^m (m even, so H_{m+1} = 0 too): its time-t flow and the step agree in every
     // power t^0..t^{m+2} and differ at t^{m+3}, where the missing H_{m+2} enters.
     for (const std::string name : {"rigid_body", "lotka_volterra", "plane_quadratic"}) {

@@ -1,5 +1,5 @@
 // The compiled step: measured orders, Casimirs over long runs, the Poisson property of one step,
-// the midpoint rule, and stiff and extreme cases (MATH.md 5-6).
+// the midpoint rule, and stiff and extreme cases (docs/math.md 5-6).
 #include "poisson/integrate.hpp"
 #include "test_util.hpp"
 

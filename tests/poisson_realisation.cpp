@@ -6,7 +6,7 @@
 using namespace pgi;
 using pgi::test::structure;
 
-TEST_CASE("realisation: radial recursion reproduces the Bernoulli realisation of so(3)* to degree 6 (MATH.md 3-4)") {
+TEST_CASE("realisation: radial recursion reproduces the Bernoulli realisation of so(3)* to degree 6 (docs/math.md 3-4)") {
     for (const auto& pi : {test::bundled("rigid_body").pi,
                            structure({"x1", "x2", "x3"}, {{0, 1, "x3"}, {1, 2, "x1"}, {2, 0, "x2"}})}) {
         auto radial = radial_realisation(pi, 6);
@@ -29,7 +29,7 @@ TEST_CASE("realisation: low terms of the Lie-Poisson form are x - L x/2 + L^2 x/
     CHECK(r.alpha[0][2] == r.beta[0][2]);
 }
 
-TEST_CASE("realisation: the three identities hold for every bundled structure, closed form and radial (MATH.md 2)") {
+TEST_CASE("realisation: the three identities hold for every bundled structure, closed form and radial (docs/math.md 2)") {
     for (const auto& name : test::bundled_names()) {
         Scene s = test::bundled(name);
         for (auto choice : {RealisationChoice::automatic, RealisationChoice::radial}) {
@@ -49,7 +49,7 @@ TEST_CASE("realisation: radial gives valid realisations for (x^2+y^2) dx^dy and 
         auto r = radial_realisation(s.pi, 6);
         CHECK(r.method == "radial");
         CHECK_FALSE(realisation_defect(s.pi, r).has_value());
-        // and the radial gauge of MATH.md 4: sum_j p_j (alpha_j - x_j) = 0
+        // and the radial gauge of docs/math.md 4: sum_j p_j (alpha_j - x_j) = 0
         const auto& M = s.phase_space();
         Poly gauge(M.ring());
         for (std::size_t j = 0; j < M.dim(); ++j) gauge += M.p_gen(j) * (r.alpha[j].sum() - M.x_gen(j));

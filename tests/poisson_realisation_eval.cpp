@@ -1,4 +1,4 @@
-// The realisation evaluators in double: the so(3)* closed form against the Bernoulli series (MATH.md 3).
+// The realisation evaluators in double: the so(3)* closed form against the Bernoulli series (docs/math.md 3).
 #include "poisson/realisation_eval.hpp"
 #include "test_util.hpp"
 

@@ -6,7 +6,7 @@
 using namespace pgi;
 using pgi::test::structure;
 
-TEST_CASE("structure: Jacobi holds for every bundled structure (MATH.md 1)") {
+TEST_CASE("structure: Jacobi holds for every bundled structure (docs/math.md 1)") {
     for (const auto& name : test::bundled_names()) {
         CAPTURE(name);
         Scene s = test::bundled(name);

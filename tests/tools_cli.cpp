@@ -92,15 +92,24 @@ TEST_CASE("cli: an unreadable file and bad flags exit 2") {
     Run order_text = pgi_run({"terms", rb, "--order", "4x"});
     CHECK(order_text.exit_code == 2);
     CHECK(order_text.err == "pgi: " + rb + ": --order: '4x' is not an integer\n");
-    Run dt = pgi_run({"terms", rb, "--dt", "1/0"});
+    Run dt = pgi_run({"step", rb, "--dt", "1/0"});
     CHECK(dt.exit_code == 2);
     CHECK(dt.err == "pgi: " + rb + ": --dt: '1/0' is not a number (zero denominator)\n");
-    Run x0 = pgi_run({"terms", rb, "--x0", "1,2"});
+    Run x0 = pgi_run({"step", rb, "--x0", "1,2"});
     CHECK(x0.exit_code == 2);
     CHECK(x0.err == "pgi: " + rb + ": --x0: has 2 values for 3 coordinates\n");
-    Run x0nan = pgi_run({"terms", rb, "--x0", "1,nan,2"});
+    Run x0nan = pgi_run({"step", rb, "--x0", "1,nan,2"});
     CHECK(x0nan.exit_code == 2);
     CHECK(x0nan.out.empty());
+    // options belong to the subcommands that read them: terms reads neither dt nor x0, run prints text only
+    for (std::vector<std::string> args : {std::vector<std::string>{"terms", rb, "--dt", "1/10"},
+                                          {"terms", rb, "--x0", "1,2,3"}, {"magnus", rb, "--order", "3"},
+                                          {"run", rb, "--json"}, {"report", rb, "--json"}}) {
+        Run r = pgi_run(args);
+        CHECK(r.exit_code == 2);
+        CHECK(r.out.empty());
+        CHECK(r.err.find("not expected") != std::string::npos);
+    }
     Run unknown_flag = pgi_run({"terms", rb, "--frobnicate"});
     CHECK(unknown_flag.exit_code == 2);
     CHECK(unknown_flag.out.empty());

@@ -1,8 +1,6 @@
 #include "tools/commands.hpp"
 
 #include "magnus/magnus.hpp"
-#include "magnus/modified_hamiltonian.hpp"
-#include "poisson/hamilton_jacobi.hpp"
 
 #include <fmt/format.h>
 
@@ -35,50 +33,43 @@ std::vector<std::string> momenta_names(const PhaseSpace& M) {
 json check_report(const Scene& scene) {
     const PhaseSpace& M = scene.phase_space();
     const auto& names = M.coordinates();
+    const SchemeChecks& checks = scene.scheme->checks();
     json r{{"scene", scene.name}, {"file", scene.file.string()}, {"coordinates", names},
-           {"class", to_string(scene.pi.structure_class())}, {"skew", true}};
-    bool ok = true;
+           {"class", to_string(checks.structure_class)}, {"skew", true}};
     json jacobi{{"holds", true}};
-    if (auto f = scene.pi.jacobi_failure()) {
+    if (const auto& f = checks.jacobi)
         jacobi = {{"holds", false}, {"triple", {names[f->i], names[f->j], names[f->k]}}, {"jacobiator", f->jacobiator.to_string()}};
-        ok = false;
-    }
     r["jacobi"] = jacobi;
     r["casimirs"] = json::array();
-    for (const auto& C : scene.casimirs) {
+    for (std::size_t i = 0; i < scene.casimirs.size(); ++i) {
+        const Poly& C = scene.casimirs[i];
         json c{{"C", C.to_string()}, {"holds", true}};
-        if (auto f = scene.pi.casimir_failure(C)) {
+        if (const auto& f = checks.casimirs[i])
             c = {{"C", C.to_string()}, {"holds", false}, {"component", names[f->component]}, {"value", f->value.to_string()}};
-            ok = false;
-        }
         r["casimirs"].push_back(c);
     }
-    if (jacobi["holds"]) {
-        // S_k reads alpha through degree k - 1; the identities in degrees < k need alpha through degree k.
-        Realisation real = build_realisation(scene.pi, scene.realisation, scene.order);
-        json id{{"method", real.method}, {"checked_below_degree", real.degree}, {"holds", true}};
-        if (auto d = realisation_defect(scene.pi, real)) {
+    if (checks.realisation_checked) {
+        json id{{"method", checks.realisation_method}, {"checked_below_degree", checks.realisation_checked_below_degree},
+                {"holds", true}};
+        if (const auto& d = checks.realisation) {
             id["holds"] = false;
             id["failure"] = {{"identity", d->identity}, {"i", names[d->i]}, {"j", names[d->j]}, {"degree", d->degree},
                              {"defect", d->defect.to_string()}};
-            ok = false;
         }
         r["realisation"] = id;
     }
-    r["ok"] = ok;
+    r["ok"] = checks.ok();
     return r;
 }
 
 json terms_report(const Scene& scene) {
-    const std::size_t D = realisation_degree_for_order(scene.order);
-    Realisation real = build_realisation(scene.pi, scene.realisation, D);
-    auto S = hamilton_jacobi_terms(scene.phase_space(), real, scene.H, scene.order);
     return {{"coordinates", scene.phase_space().coordinates()}, {"class", to_string(scene.pi.structure_class())},
-            {"realisation", real.method}, {"order", scene.order}, {"S", strings(S)}};
+            {"realisation", to_string(scene.scheme->realisation_form())}, {"order", scene.order},
+            {"S", strings(scene.scheme->terms())}};
 }
 
 json realisation_report(const Scene& scene, std::size_t D) {
-    Realisation real = build_realisation(scene.pi, scene.realisation, D);
+    Realisation real = scene.scheme->realisation(D);
     const PhaseSpace& M = scene.phase_space();
     return {{"coordinates", M.coordinates()}, {"momenta", momenta_names(M)},
             {"class", to_string(scene.pi.structure_class())}, {"realisation", real.method}, {"degree", D},
@@ -95,7 +86,7 @@ json magnus_report(const Scene& scene, std::size_t m) {
 
 json modified_report(const Scene& scene, std::size_t m) {
     return {{"coordinates", scene.phase_space().coordinates()}, {"order", scene.order},
-            {"modified", strings(modified_hamiltonian(scene.pi, scene.H, scene.order, scene.realisation, m))}};
+            {"modified", strings(scene.scheme->modified_hamiltonian(m))}};
 }
 
 std::string series_text(const json& r) {

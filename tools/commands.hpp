@@ -2,6 +2,7 @@
 // The pgi commands, each a function from a scene to a JSON document; pgi.cpp renders it as JSON or text.
 #include "magnus/splitting.hpp"
 #include "poisson/newton_step.hpp"
+#include "scheme/trajectory.hpp"
 #include "tools/scene.hpp"
 
 #include <nlohmann/json.hpp>
@@ -28,9 +29,6 @@ public:
 
 /// H, the Casimirs, then the extra polynomials, compiled over the coordinates: what runs watch.
 CompiledMap invariants(const Scene& scene, const std::vector<Poly>& extra = {});
-/// How every report measures an invariant's drift: |value - initial| / |initial|, or the absolute change
-/// when the initial value is 0.
-double relative_error(double value, double initial);
 /// The message of a failed step: which step, from which t, why, the iterations, residual and last correction.
 std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus status);
 
@@ -71,6 +69,7 @@ std::string report_latex(const nlohmann::json& report);
 std::string check_text(const nlohmann::json& report);
 std::string series_text(const nlohmann::json& report);
 std::string integrate_text(const nlohmann::json& report);
+std::string step_text(const nlohmann::json& report);
 std::string terms_text(const nlohmann::json& report);
 std::string realisation_text(const nlohmann::json& report);
 

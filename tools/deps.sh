@@ -3,7 +3,8 @@
 # extras), if any is missing. Idempotent; needs root or sudo.  Usage: bash tools/deps.sh [PACKAGE...]
 set -euo pipefail
 packages=(build-essential cmake pkg-config libflint-dev libmpfr-dev libgmp-dev libeigen3-dev doctest-dev
-          libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libfmt-dev "$@")
+          libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libfmt-dev pybind11-dev python3-dev python3-numpy
+          python3-pytest "$@")
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

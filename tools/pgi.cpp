@@ -1,6 +1,7 @@
 // pgi: the command-line program. Exit codes: 0 success, 2 bad input (nothing on stdout), 3 a step failed
 // (Newton did not converge or the state overflowed), 1 internal error.
 #include "tools/atomic_file.hpp"
+#include "scheme/version.hpp"
 #include "tools/commands.hpp"
 #include "tools/plot.hpp"
 
@@ -27,14 +28,19 @@ struct Options {
     std::string plot;       // pgi run/integrate --plot DIR
 };
 
-void scene_options(CLI::App* cmd, Options& o) {
+// The options a subcommand reads, and only those: each flag of Use says which of the scene's values it uses.
+namespace use {
+enum : unsigned { json = 1, order = 2, dt = 4, realisation = 8, x0 = 16, t_end = 32 };
+}
+
+void scene_options(CLI::App* cmd, Options& o, unsigned uses) {
     cmd->add_option("scene", o.scene, "scene file (TOML)")->required();
-    cmd->add_flag("--json", o.json, "print JSON");
-    cmd->add_option("--order", o.overrides.order, "Hamilton-Jacobi order k (overrides integrator.order)");
-    cmd->add_option("--dt", o.overrides.dt, "time step, a decimal or a rational like 1/100");
-    cmd->add_option("--realisation", o.overrides.realisation, "auto | closed-form | radial");
-    cmd->add_option("--x0", o.overrides.x0, "initial state, comma-separated");
-    cmd->add_option("--t-end", o.overrides.t_end, "final time");
+    if (uses & use::json) cmd->add_flag("--json", o.json, "print JSON");
+    if (uses & use::order) cmd->add_option("--order", o.overrides.order, "Hamilton-Jacobi order k (overrides integrator.order)");
+    if (uses & use::dt) cmd->add_option("--dt", o.overrides.dt, "time step, a decimal or a rational like 1/100");
+    if (uses & use::realisation) cmd->add_option("--realisation", o.overrides.realisation, "auto | closed-form | radial");
+    if (uses & use::x0) cmd->add_option("--x0", o.overrides.x0, "initial state, comma-separated");
+    if (uses & use::t_end) cmd->add_option("--t-end", o.overrides.t_end, "final time");
     cmd->add_option("--max-terms", o.overrides.max_terms, "bound on the terms of any product of the exact phase")
         ->check(CLI::PositiveNumber);
 }
@@ -73,7 +79,7 @@ int run_command(const std::string& name, const Options& o) {
             file.commit();
         }
     }
-    if (name == "step") emit(o, pgi::step_report(scene), [](const nlohmann::json& r) { return r.dump(2) + "\n"; });
+    if (name == "step") emit(o, pgi::step_report(scene), pgi::step_text);
     pgi::IntegrateOptions io = o.integrate;
     if (!o.csv.empty()) io.csv = o.csv;
     io.progress = !o.json;
@@ -99,17 +105,26 @@ int main(int argc, char** argv) {
     std::atexit(flint_cleanup_master);  // FLINT's own caches, so memcheck sees every block freed
     CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
     app.require_subcommand(1);
+    app.set_version_flag("--version", "pgi " + std::string(pgi::version()));
     Options o;
     auto* check = app.add_subcommand("check", "class, Jacobi, Casimirs and realisation identities of a scene");
     auto* terms = app.add_subcommand("terms", "the Hamilton-Jacobi terms S_1..S_k");
     auto* realisation = app.add_subcommand("realisation", "alpha and beta truncated at a p-degree");
-    auto* step = app.add_subcommand("step", "one step from x0 (JSON)");
+    auto* step = app.add_subcommand("step", "one step from x0");
     auto* integrate = app.add_subcommand("integrate", "integrate from x0 to t_end");
     auto* run = app.add_subcommand("run", "the main job: checks, S_1..S_k, and the integration when the scene has [run]");
     auto* magnus = app.add_subcommand("magnus", "the Magnus series of the scene's [magnus] h");
     auto* modified = app.add_subcommand("modified", "the modified Hamiltonian of the order-k scheme");
     auto* report = app.add_subcommand("report", "one document: structure, checks, S_1..S_k, modified Hamiltonian, a run");
-    for (auto* cmd : {check, terms, realisation, step, integrate, run, magnus, modified, report}) scene_options(cmd, o);
+    scene_options(check, o, use::json | use::order | use::realisation);
+    scene_options(terms, o, use::json | use::order | use::realisation);
+    scene_options(realisation, o, use::json | use::realisation);
+    scene_options(step, o, use::json | use::order | use::dt | use::realisation | use::x0);
+    scene_options(integrate, o, use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);
+    scene_options(run, o, use::order | use::dt | use::realisation | use::x0 | use::t_end);  // text only: its parts have --json
+    scene_options(magnus, o, use::json);
+    scene_options(modified, o, use::json | use::order | use::realisation);
+    scene_options(report, o, use::order | use::dt | use::realisation | use::x0 | use::t_end);  // --format json
     report->add_option("--format", o.format, "markdown | latex | json")->check(CLI::IsMember({"markdown", "latex", "json"}));
     report->add_option("--out", o.out, "write to this file (atomically) instead of stdout");
     report->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian (default 4)");

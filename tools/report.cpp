@@ -1,9 +1,7 @@
 // pgi report: one document per scene, as JSON, Markdown or LaTeX.
 #include "tools/commands.hpp"
 
-#include "magnus/modified_hamiltonian.hpp"
 #include "magnus/polynomial_in.hpp"
-#include "poisson/hamilton_jacobi.hpp"
 #include "series/latex.hpp"
 
 #include <fmt/format.h>
@@ -72,13 +70,14 @@ json report_data(const Scene& scene, std::size_t m) {
             if (!scene.pi(i, j).is_zero())
                 brackets.push_back({{"i", names[i]}, {"j", names[j]}, {"i_latex", latex_name(names[i])},
                                     {"j_latex", latex_name(names[j])}, {"value", poly_entry(scene.pi(i, j))}});
-    const json terms = terms_report(scene);
-    std::vector<Poly> S;
-    for (const auto& s : terms["S"]) S.push_back(M.parse(s.get<std::string>()));
-    const auto Ht = modified_hamiltonian(scene.pi, scene.H, scene.order, scene.realisation, m);
+    // the realisation at the deepest p-degree this report reads (the checks need k, Htilde m), built once
+    scene.scheme->realisation(std::max(m, scene.order));
+    const auto Ht = scene.scheme->modified_hamiltonian(m);
+    const std::vector<Poly>& S = scene.scheme->terms();
     json r{{"scene", scene.name}, {"file", scene.file.string()}, {"coordinates", names}, {"brackets", brackets},
            {"H", poly_entry(scene.H)}, {"casimirs", poly_entries(scene.casimirs)}, {"check", check_report(scene)},
-           {"order", scene.order}, {"method_order", 2 * ((scene.order + 1) / 2)}, {"realisation", terms["realisation"]},
+           {"order", scene.order}, {"method_order", scene.scheme->method_order()},
+           {"realisation", to_string(scene.scheme->realisation_form())},
            {"S", poly_entries(S)}, {"modified", poly_entries(Ht)}, {"modified_upto", m}};
     r["modified_in_invariants"] = in_invariants(scene, Ht);
     if (scene.splitting_A) {

@@ -3,6 +3,7 @@
 #include "tools/commands.hpp"
 
 #include "poisson/integrate.hpp"
+#include "scheme/trajectory.hpp"
 
 #include <fmt/format.h>
 
@@ -27,11 +28,7 @@ Eigen::VectorXd to_vector(const std::vector<double>& v) { return Eigen::Map<cons
 std::vector<double> to_std(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
 
 NewtonStepper build_stepper(const Scene& scene) {
-    StepOptions opt;
-    opt.k = scene.order;
-    opt.dt = scene.dt;
-    opt.realisation = scene.realisation;
-    NewtonStepper s = NewtonStepper::build(scene.pi, scene.H, opt, to_vector(require_x0(scene)));
+    NewtonStepper s = scene.scheme->stepper(scene.dt, to_vector(require_x0(scene)));
     // NOTE: said on stderr, never silently: past the series' range the step is not Poisson to round-off.
     if (s.info().truncation_estimate > 1e-15)
         std::cerr << fmt::format("pgi: {}: warning: the {} realisation truncated at p-degree {} leaves terms of relative size "
@@ -40,9 +37,9 @@ NewtonStepper build_stepper(const Scene& scene) {
     return s;
 }
 
-json stepper_info(const NewtonStepper& s) {
-    return {{"realisation", s.info().method}, {"degree", s.info().degree}, {"exact_realisation", s.info().exact_realisation},
-            {"truncation_estimate", s.info().truncation_estimate}, {"order", s.order()},
+json stepper_info(const Scene& scene, const NewtonStepper& s) {
+    return {{"order", scene.order}, {"realisation", s.info().method}, {"degree", s.info().degree}, {"exact_realisation", s.info().exact_realisation},
+            {"truncation_estimate", s.info().truncation_estimate}, {"method_order", s.order()},
             {"predictor_order", s.info().predictor_order}};
 }
 
@@ -70,22 +67,10 @@ private:
 
 }  // namespace
 
-CompiledMap invariants(const Scene& scene, const std::vector<Poly>& extra) {
-    std::vector<Poly> f{scene.H};
-    f.insert(f.end(), scene.casimirs.begin(), scene.casimirs.end());
-    f.insert(f.end(), extra.begin(), extra.end());
-    return CompiledMap::build(f, scene.phase_space().coordinate_vars());
-}
-
-double relative_error(double value, double initial) {
-    const double d = std::abs(value - initial);
-    return initial != 0 ? d / std::abs(initial) : d;
-}
+CompiledMap invariants(const Scene& scene, const std::vector<Poly>& extra) { return scene.scheme->invariants(extra); }
 
 std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus status) {
-    return fmt::format("step {} (from t = {:.17g}) failed: {} after {} Newton iterations, residual {:.3g}, last correction {:.3g}",
-                       step, double(step - 1) * s.dt(), to_string(status), s.last_iterations(), s.last_residual(),
-                       s.last_correction());
+    return step_failure_message(s, step, status);
 }
 
 json step_report(const Scene& scene) {
@@ -97,7 +82,7 @@ json step_report(const Scene& scene) {
     const double correction = s.last_correction();
     json r{{"x", to_std(x + increment)}, {"newton_iterations", iterations}, {"residual", s.residual_at_solution(x)},
            {"correction", correction}, {"dt", scene.dt}};
-    r.update(stepper_info(s));
+    r.update(stepper_info(scene, s));
     return r;
 }
 
@@ -106,7 +91,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     const auto built = Clock::now();
     NewtonStepper s = build_stepper(scene);
     const double build_seconds = std::chrono::duration<double>(Clock::now() - built).count();
-    const auto N = static_cast<std::size_t>(std::ceil(*scene.t_end / scene.dt - 1e-9));  // whole steps reaching t_end
+    const std::size_t N = steps_to_reach(*scene.t_end, scene.dt);
     CompiledMap inv = invariants(scene, options.modified ? std::vector<Poly>{*options.modified} : std::vector<Poly>{});
     std::vector<double> values(inv.num_outputs()), initial(inv.num_outputs()), worst(inv.num_outputs(), 0.0);
     std::optional<AtomicFile> csv;
@@ -159,14 +144,25 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
            {"newton_iterations_mean", summary.mean_iterations}, {"wall_seconds", wall}, {"build_seconds", build_seconds},
            {"ns_per_step", wall / double(std::max<std::size_t>(summary.steps, 1)) * 1e9}, {"dt", scene.dt}};
     if (options.modified) r["modified_energy_error_max"] = worst.back();
-    r.update(stepper_info(s));
+    r.update(stepper_info(scene, s));
     return r;
+}
+
+std::string step_text(const json& r) {
+    std::string out = fmt::format("one step of dt = {} (order {}, method order {}, {} realisation, degree {}):\n",
+                                  r["dt"].get<double>(), r["order"].get<std::size_t>(), r["method_order"].get<std::size_t>(),
+                                  r["realisation"].get<std::string>(), r["degree"].get<std::size_t>());
+    out += fmt::format("  x = ({:.17g})\n", fmt::join(r["x"].get<std::vector<double>>(), ", "));
+    out += fmt::format("  Newton iterations: {}; residual at the solution {:.3g}; last correction {:.3g}\n",
+                       r["newton_iterations"].get<int>(), r["residual"].get<double>(), r["correction"].get<double>());
+    return out;
 }
 
 std::string integrate_text(const json& r) {
     std::string out = fmt::format(
-        "integrated {} steps of dt = {} to t = {} (order {}, {} realisation, degree {}):\n", r["steps"].get<std::size_t>(),
-        r["dt"].get<double>(), r["t"].get<double>(), r["order"].get<std::size_t>(), r["realisation"].get<std::string>(),
+        "integrated {} steps of dt = {} to t = {} (order {}, method order {}, {} realisation, degree {}):\n",
+        r["steps"].get<std::size_t>(), r["dt"].get<double>(), r["t"].get<double>(), r["order"].get<std::size_t>(),
+        r["method_order"].get<std::size_t>(), r["realisation"].get<std::string>(),
         r["degree"].get<std::size_t>());
     out += fmt::format("  x(t) = ({:.17g})\n", fmt::join(r["x"].get<std::vector<double>>(), ", "));
     out += fmt::format("  max relative energy error: {:.3e}\n", r["energy_error_max"].get<double>());

@@ -1,5 +1,7 @@
 #include "tools/scene.hpp"
 
+#include "scheme/input.hpp"
+
 #include <toml++/toml.h>
 
 #include <cerrno>
@@ -41,11 +43,12 @@ public:
                 casimirs.push_back(poly(M, key, *s));
             }
         }
-        Scene scene{file_, name, std::move(pi), std::move(H), std::move(casimirs), 2, 0.1, "1/10", RealisationChoice::automatic, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+        Scene scene{file_, name, std::move(pi), std::move(H), std::move(casimirs), 2, 0.1, "1/10", RealisationChoice::automatic, std::nullopt, std::nullopt, std::nullopt, std::nullopt, nullptr};
         read_integrator(doc, scene);
         read_run(doc, scene);
         read_magnus(doc, scene);
         read_splitting(doc, scene);
+        scene.scheme = std::make_shared<const Scheme>(scene.pi, scene.H, scene.casimirs, scene.order, scene.realisation);
         return scene;
     }
 
@@ -100,9 +103,9 @@ private:
 
     Poly poly(const PhaseSpace& M, const std::string& key, const std::string& text) const {
         try {
-            return M.parse(text);
-        } catch (const std::exception& e) {
-            fail(key, e.what());
+            return parse_polynomial(M, key, text);
+        } catch (const InputError& e) {
+            fail(e.key(), e.problem());
         }
     }
 
@@ -113,65 +116,29 @@ private:
         if (!arr || arr->empty()) fail("coordinates", "must be a non-empty list of names");
         std::vector<std::string> names;
         for (std::size_t i = 0; i < arr->size(); ++i) {
-            std::string key = "coordinates[" + std::to_string(i) + "]";
-            if (!(*arr)[i].is_string()) fail(key, "must be a string");
-            std::string s = *(*arr)[i].value<std::string>();
-            if (s.empty()) fail(key, "empty coordinate name");
-            if (s == "t") fail(key, "'t' is reserved for the time step");
-            for (const auto& prev : names)
-                if (prev == s) fail(key, "duplicate coordinate '" + s + "'");
-            names.push_back(std::move(s));
+            if (!(*arr)[i].is_string()) fail("coordinates[" + std::to_string(i) + "]", "must be a string");
+            names.push_back(*(*arr)[i].value<std::string>());
         }
         try {
-            Ring check(names);  // identifier syntax
-        } catch (const std::exception& e) {
-            fail("coordinates", e.what());
+            check_coordinates(names);
+        } catch (const InputError& e) {
+            fail(e.key(), e.problem());
         }
         return names;
     }
 
     PoissonStructure read_brackets(const toml::table& doc, const PhaseSpace& M) const {
         const toml::table& br = table_at(doc, "brackets", true);
-        const std::size_t n = M.dim();
-        std::vector<std::vector<std::optional<Poly>>> given(n, std::vector<std::optional<Poly>>(n));
+        std::vector<std::pair<std::string, std::string>> brackets;
         for (const auto& [k, v] : br) {
-            std::string key = "brackets.\"" + std::string(k.str()) + "\"";
-            auto [i, j] = bracket_pair(key, std::string(k.str()), M);
-            if (!v.is_string()) fail(key, "must be a polynomial string");
-            Poly f = poly(M, key, *v.value<std::string>());
-            if (i == j) {
-                if (!f.is_zero()) fail(key, "not skew: {" + M.coordinates()[i] + "," + M.coordinates()[i] + "} must be 0");
-                continue;
-            }
-            // {a,b} given as f means pi_ab = f and pi_ba = -f
-            for (auto [a, b, value] : {std::tuple{i, j, f}, std::tuple{j, i, -f}}) {
-                if (given[a][b] && !(*given[a][b] == value))
-                    fail(key, "contradicts an earlier bracket: {" + M.coordinates()[a] + "," + M.coordinates()[b] +
-                                  "} was " + given[a][b]->to_string() + ", now " + value.to_string());
-                given[a][b] = value;
-            }
+            if (!v.is_string()) fail("brackets.\"" + std::string(k.str()) + "\"", "must be a polynomial string");
+            brackets.emplace_back(std::string(k.str()), *v.value<std::string>());
         }
-        std::vector<std::vector<Poly>> pi(n, std::vector<Poly>(n, Poly(M.ring())));
-        for (std::size_t a = 0; a < n; ++a)
-            for (std::size_t b = 0; b < n; ++b)
-                if (given[a][b]) pi[a][b] = *given[a][b];
-        return PoissonStructure(M, std::move(pi));
-    }
-
-    std::pair<std::size_t, std::size_t> bracket_pair(const std::string& key, const std::string& text,
-                                                     const PhaseSpace& M) const {
-        auto comma = text.find(',');
-        if (comma == std::string::npos) fail(key, "a bracket key is \"a,b\" with two coordinates");
-        auto trim = [](std::string s) {
-            s.erase(0, s.find_first_not_of(" \t"));
-            s.erase(s.find_last_not_of(" \t") + 1);
-            return s;
-        };
-        std::string a = trim(text.substr(0, comma)), b = trim(text.substr(comma + 1));
-        long i = M.ring()->index_of(a), j = M.ring()->index_of(b);
-        if (i < 0 || static_cast<std::size_t>(i) >= M.dim()) fail(key, "unknown coordinate '" + a + "'");
-        if (j < 0 || static_cast<std::size_t>(j) >= M.dim()) fail(key, "unknown coordinate '" + b + "'");
-        return {static_cast<std::size_t>(i), static_cast<std::size_t>(j)};
+        try {
+            return structure_from_brackets(M, brackets);
+        } catch (const InputError& e) {
+            fail(e.key(), e.problem());
+        }
     }
 
     // A real number: a TOML integer or float, or a string holding a decimal or a rational "a/b".
@@ -197,9 +164,11 @@ private:
     }
 
     std::size_t order(const std::string& key, long k) const {
-        if (k < 1) fail(key, "the order k must be at least 1, got " + std::to_string(k));
-        if (k > 64) fail(key, "the order k must be at most 64, got " + std::to_string(k));
-        return static_cast<std::size_t>(k);
+        try {
+            return check_order(key, k);
+        } catch (const InputError& e) {
+            fail(e.key(), e.problem());
+        }
     }
 
     void read_integrator(const toml::table& doc, Scene& scene) const {
@@ -229,9 +198,11 @@ private:
                 fail(ov_.realisation ? "--realisation" : "integrator.realisation", e.what());
             }
         }
-        if (scene.realisation == RealisationChoice::closed_form && !has_closed_form(scene.pi.structure_class()))
-            fail(ov_.realisation ? "--realisation" : "integrator.realisation",
-                 "\"closed-form\" is not available for a general structure; use \"radial\" or \"auto\"");
+        try {
+            realisation_form(scene.pi.structure_class(), scene.realisation);
+        } catch (const std::invalid_argument& e) {
+            fail(ov_.realisation ? "--realisation" : "integrator.realisation", e.what());
+        }
     }
 
     void read_run(const toml::table& doc, Scene& scene) const {
@@ -298,16 +269,11 @@ Scene parse_scene(std::string_view text, const std::filesystem::path& file, cons
 }
 
 void require_valid(const Scene& scene) {
-    const auto& names = scene.phase_space().coordinates();
-    if (auto f = scene.pi.jacobi_failure())
-        throw SceneError(scene.file, "brackets",
-                         "the Jacobi identity fails at (" + names[f->i] + ", " + names[f->j] + ", " + names[f->k] +
-                             "): jacobiator = " + f->jacobiator.to_string());
-    for (std::size_t c = 0; c < scene.casimirs.size(); ++c)
-        if (auto f = scene.pi.casimir_failure(scene.casimirs[c]))
-            throw SceneError(scene.file, "hamiltonian.casimirs[" + std::to_string(c) + "]",
-                             "'" + scene.casimirs[c].to_string() + "' is not a Casimir: (pi grad C)_" + names[f->component] +
-                                 " = " + f->value.to_string());
+    try {
+        scene.scheme->require_valid();
+    } catch (const InputError& e) {
+        throw SceneError(scene.file, e.key(), e.problem());
+    }
 }
 
 }  // namespace pgi

@@ -1,6 +1,8 @@
 #pragma once
 // Scene: a TOML file read into exact objects (the only place that knows TOML).
-#include "poisson/realisation.hpp"
+#include "scheme/scheme.hpp"
+
+#include <memory>
 
 #include <filesystem>
 #include <optional>
@@ -37,6 +39,9 @@ struct Scene {
     std::optional<double> t_end;
     std::optional<Series> magnus_h;             // [magnus] h, a t-series
     std::optional<Poly> splitting_A;            // [splitting] A: H = A + B, B = H - A, for splitting methods
+    /// The exact work on pi, H, the Casimirs, order and realisation above (checks, realisation, S_1..S_k,
+    /// the step, the modified Hamiltonian), each computed once when a command first asks for it.
+    std::shared_ptr<const Scheme> scheme;
 
     const PhaseSpace& phase_space() const { return pi.phase_space(); }
 };

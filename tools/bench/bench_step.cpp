@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
         Eigen::VectorXd inc(x0.size());
         const double step_ns = median_ns([&](std::size_t i) { (void)st.step(states[i % states.size()], inc); sink += inc[0]; }, steps);
         const double system_ns = median_ns([&](std::size_t i) { sink += st.newton_system(states[i % states.size()])(0, 0); }, steps);
-        std::cout << nlohmann::json{{"scene", s.name}, {"k", k}, {"order", st.order()}, {"dt", s.dt},
+        std::cout << nlohmann::json{{"scene", s.name}, {"k", k}, {"method_order", st.order()}, {"dt", s.dt},
                                     {"realisation", st.info().method}, {"degree", st.info().degree}, {"predictor_order", st.info().predictor_order},
                                     {"ns_per_step", step_ns}, {"newton_iterations_mean", summary.mean_iterations},
                                     {"newton_system_ns", system_ns}, {"vector_field_ns", field_ns},

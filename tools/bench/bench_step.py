@@ -18,7 +18,7 @@ def main():
     ap.add_argument("--json", help="also write the rows to this file")
     args = ap.parse_args()
     rows = []
-    print(f"{'scene':26s} {'k':>2s} {'order':>5s} {'D':>3s} {'ns/step':>9s} {'Newton it':>9s} {'F+J ns':>8s}"
+    print(f"{'scene':26s} {'k':>2s} {'m.ord':>5s} {'D':>3s} {'ns/step':>9s} {'Newton it':>9s} {'F+J ns':>8s}"
           f" {'step/(F+J)':>10s} {'step/field':>10s}")
     for scene in ("rigid_body", "lotka_volterra", "volterra_chain"):
         out = subprocess.run([os.path.join(args.build, "pgi_bench_step"), os.path.join(ROOT, "tools", "scenes", scene + ".toml"),
@@ -26,7 +26,7 @@ def main():
         for line in out.splitlines():
             r = json.loads(line)
             rows.append(r)
-            print(f"{r['scene'][:26]:26s} {r['k']:2d} {r['order']:5d} {r['degree']:3d} {r['ns_per_step']:9.0f}"
+            print(f"{r['scene'][:26]:26s} {r['k']:2d} {r['method_order']:5d} {r['degree']:3d} {r['ns_per_step']:9.0f}"
                   f" {r['newton_iterations_mean']:9.2f} {r['newton_system_ns']:8.0f} {r['step_over_newton_system']:10.2f}"
                   f" {r['step_over_vector_field']:10.0f}", flush=True)
     if args.json:

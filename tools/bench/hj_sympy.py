@@ -3,8 +3,8 @@
 - RingImpl: sympy's sparse polynomial rings (sympy.polys.rings.ring over QQ), the same graded
   algorithm as pgi (truncated Cauchy products, composition by cached powers);
 - ExprImpl: plain sympy expressions (expand / subs / diff / coeff), grading by an auxiliary symbol.
-Both compute the Lie-Poisson closed form or the radial realisation (MATH.md 3-4) and the
-Hamilton-Jacobi terms (MATH.md 5). `--check-log-canonical` prints the independent derivation used in
+Both compute the Lie-Poisson closed form or the radial realisation (docs/math.md 3-4) and the
+Hamilton-Jacobi terms (docs/math.md 5). `--check-log-canonical` prints the independent derivation used in
 tests/poisson_hamilton_jacobi.cpp (exponential realisation expanded by sympy itself)."""
 import sys
 
@@ -115,7 +115,7 @@ class RingImpl:
         return [str(s.as_expr()).replace("**", "^") for s in S]
 
 
-    # --- modified Hamiltonians (MATH.md 7), the same algorithm as magnus/ ---
+    # --- modified Hamiltonians (docs/math.md 7), the same algorithm as magnus/ ---
     def compose_series(self, fs, images, N):
         """sum_m t^m f_m(images), each f a list of t-coefficients."""
         out = []

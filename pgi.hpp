@@ -1,0 +1,18 @@
+#pragma once
+// pgi: Poisson integrators from symplectic groupoids. The one header a program includes
+// (#include <pgi/pgi.hpp>, target pgi::pgi): the Scheme, which owns every exact artefact and the
+// compiled step, and the layers below it (series -> poisson -> magnus -> scheme).
+#include "magnus/magnus.hpp"
+#include "magnus/modified_hamiltonian.hpp"
+#include "poisson/hamilton_jacobi.hpp"
+#include "poisson/integrate.hpp"
+#include "poisson/newton_step.hpp"
+#include "poisson/realisation.hpp"
+#include "poisson/structure.hpp"
+#include "scheme/input.hpp"
+#include "scheme/scheme.hpp"
+#include "scheme/trajectory.hpp"
+#include "series/compile.hpp"
+#include "series/latex.hpp"
+#include "series/series.hpp"
+#include "scheme/version.hpp"

@@ -1,0 +1,240 @@
+// pgi._pgi: the Scheme for Python (pybind11). The pure-Python package pgi/__init__.py wraps it: results as
+// objects, StepFailure raised from a failed step's report, sympy conversions.
+#include "scheme/scheme.hpp"
+#include "scheme/trajectory.hpp"
+#include "scheme/version.hpp"
+#include "series/latex.hpp"
+#include "tools/scene.hpp"
+
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <map>
+#include <memory>
+#include <optional>
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace {
+
+// A scheme with the run parameters a scene (or the caller) gave, and one stepper per dt for step().
+struct PyScheme {
+    std::shared_ptr<const pgi::Scheme> scheme;
+    std::optional<double> dt, t_end;
+    std::optional<Eigen::VectorXd> x0;
+    std::string name;
+    std::map<double, pgi::NewtonStepper> steppers;   // step(): built at x0, or at the first x stepped with that dt
+
+    const pgi::PhaseSpace& M() const { return scheme->phase_space(); }
+
+    Eigen::VectorXd state(const Eigen::VectorXd& x, const char* what) const {
+        if (static_cast<std::size_t>(x.size()) != M().dim())
+            throw pgi::InputError(what, "must have " + std::to_string(M().dim()) + " values, got " + std::to_string(x.size()));
+        if (!x.allFinite()) throw pgi::InputError(what, "must be finite");
+        return x;
+    }
+    double step_size(std::optional<double> given) const {
+        std::optional<double> h = given ? given : dt;
+        if (!h) throw pgi::InputError("dt", "missing: give dt (the scheme has none)");
+        if (!(*h > 0) || !std::isfinite(*h)) throw pgi::InputError("dt", "must be positive and finite");
+        return *h;
+    }
+};
+
+std::vector<std::string> texts(const std::vector<pgi::Poly>& v, bool latex) {
+    std::vector<std::string> out;
+    for (const auto& p : v) out.push_back(latex ? pgi::to_latex(p) : p.to_string());
+    return out;
+}
+
+PyScheme from_values(std::vector<std::string> coordinates, const py::dict& brackets, std::string hamiltonian,
+                     std::vector<std::string> casimirs, long order, std::string realisation, std::optional<double> dt,
+                     std::optional<Eigen::VectorXd> x0, std::optional<double> t_end, std::size_t max_terms) {
+    pgi::SchemeValues v;
+    v.coordinates = std::move(coordinates);
+    for (auto [k, value] : brackets) {
+        if (!py::isinstance<py::str>(k) || !py::isinstance<py::str>(value))
+            throw pgi::InputError("brackets", "keys and values must be strings, like {\"x1,x2\": \"-x3\"}");
+        v.brackets.emplace_back(k.cast<std::string>(), value.cast<std::string>());
+    }
+    v.hamiltonian = std::move(hamiltonian);
+    v.casimirs = std::move(casimirs);
+    v.order = order;
+    v.realisation = std::move(realisation);
+    v.max_terms = max_terms;
+    PyScheme s;
+    {
+        py::gil_scoped_release release;
+        s.scheme = std::make_shared<const pgi::Scheme>(pgi::Scheme::from_values(v));
+    }
+    s.dt = dt;
+    s.t_end = t_end;
+    if (x0) s.x0 = s.state(*x0, "x0");
+    if (dt) s.step_size(dt);
+    if (t_end && (!(*t_end >= 0) || !std::isfinite(*t_end))) throw pgi::InputError("t_end", "must be finite and not negative");
+    return s;
+}
+
+PyScheme from_toml(const std::string& path) {
+    pgi::Scene scene = [&] {
+        py::gil_scoped_release release;
+        return pgi::load_scene(path);
+    }();
+    PyScheme s;
+    s.scheme = scene.scheme;
+    s.name = scene.name;
+    s.dt = scene.dt;
+    s.t_end = scene.t_end;
+    if (scene.x0) s.x0 = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
+    return s;
+}
+
+py::dict check(const PyScheme& s) {
+    const pgi::SchemeChecks& c = [&]() -> const pgi::SchemeChecks& {
+        py::gil_scoped_release release;
+        return s.scheme->checks();
+    }();
+    const auto& names = s.M().coordinates();
+    py::dict jacobi("holds"_a = !c.jacobi);
+    if (c.jacobi)
+        jacobi = py::dict("holds"_a = false, "triple"_a = py::make_tuple(names[c.jacobi->i], names[c.jacobi->j], names[c.jacobi->k]),
+                          "jacobiator"_a = c.jacobi->jacobiator.to_string());
+    py::list casimirs;
+    for (std::size_t i = 0; i < c.casimirs.size(); ++i) {
+        py::dict d("C"_a = s.scheme->casimirs()[i].to_string(), "holds"_a = !c.casimirs[i]);
+        if (const auto& f = c.casimirs[i]) {
+            d["component"] = names[f->component];
+            d["value"] = f->value.to_string();
+        }
+        casimirs.append(d);
+    }
+    py::dict r("class"_a = pgi::to_string(c.structure_class), "jacobi"_a = jacobi, "casimirs"_a = casimirs);
+    if (c.realisation_checked) {
+        py::dict id("method"_a = c.realisation_method, "checked_below_degree"_a = c.realisation_checked_below_degree,
+                    "holds"_a = !c.realisation);
+        if (const auto& d = c.realisation)
+            id["failure"] = py::dict("identity"_a = d->identity, "i"_a = names[d->i], "j"_a = names[d->j],
+                                     "degree"_a = d->degree, "defect"_a = d->defect.to_string());
+        r["realisation"] = id;
+    }
+    r["ok"] = c.ok();
+    return r;
+}
+
+// One step: the new state, or the failure's report for the Python side to raise StepFailure.
+py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt_in) {
+    const Eigen::VectorXd x = s.state(x_in, "x");
+    const double dt = s.step_size(dt_in);
+    auto it = s.steppers.find(dt);
+    if (it == s.steppers.end()) {
+        const Eigen::VectorXd typical = s.x0 ? *s.x0 : x;
+        std::optional<pgi::NewtonStepper> built;
+        {
+            py::gil_scoped_release release;  // the exact phase; the map is touched only with the GIL held
+            built = s.scheme->stepper(dt, typical);
+        }
+        it = s.steppers.emplace(dt, std::move(*built)).first;
+    }
+    pgi::NewtonStepper& st = it->second;
+    Eigen::VectorXd increment(x.size());
+    const pgi::StepStatus status = st.step(x, increment);
+    Eigen::VectorXd next = x + increment;
+    py::dict r("newton_iterations"_a = st.last_iterations(), "status"_a = pgi::to_string(status));
+    if (status == pgi::StepStatus::ok && next.allFinite()) {
+        r["x"] = next;
+        r["ok"] = true;
+    } else {
+        const auto why = status == pgi::StepStatus::ok ? pgi::StepStatus::non_finite : status;
+        r["ok"] = false;
+        r["message"] = pgi::step_failure_message(st, 1, why);
+        r["residual"] = st.last_residual();
+    }
+    return r;
+}
+
+py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::optional<double> dt_in,
+                   std::optional<double> t_end_in, std::size_t every) {
+    if (!x0_in && !s.x0) throw pgi::InputError("x0", "missing: give x0 (the scheme has none)");
+    const Eigen::VectorXd x0 = s.state(x0_in ? *x0_in : *s.x0, "x0");
+    const double dt = s.step_size(dt_in);
+    std::optional<double> t_end = t_end_in ? t_end_in : s.t_end;
+    if (!t_end) throw pgi::InputError("t_end", "missing: give t_end (the scheme has none)");
+    if (!(*t_end >= 0) || !std::isfinite(*t_end)) throw pgi::InputError("t_end", "must be finite and not negative");
+    if (every < 1) throw pgi::InputError("every", "must be at least 1");
+    pgi::Trajectory tr;
+    {
+        py::gil_scoped_release release;  // the exact phase (first call) and the run are C++ only
+        tr = pgi::integrate(*s.scheme, x0, dt, *t_end, every);
+    }
+    const auto rows = static_cast<py::ssize_t>(tr.t.size()), n = static_cast<py::ssize_t>(tr.dim);
+    const auto C = static_cast<py::ssize_t>(tr.casimir_error_max.size());
+    py::array_t<double> x({rows, n}), cas({rows, C});
+    std::copy(tr.x.begin(), tr.x.end(), x.mutable_data());
+    std::copy(tr.casimir_error.begin(), tr.casimir_error.end(), cas.mutable_data());
+    py::dict r("t"_a = py::array_t<double>(rows, tr.t.data()), "x"_a = x,
+               "energy_error"_a = py::array_t<double>(rows, tr.energy_error.data()), "casimir_error"_a = cas,
+               "energy_error_max"_a = tr.energy_error_max, "casimir_error_max"_a = tr.casimir_error_max,
+               "steps"_a = tr.steps, "dt"_a = dt, "newton_iterations_mean"_a = tr.newton_iterations_mean,
+               "newton_iterations_max"_a = tr.newton_iterations_max, "status"_a = pgi::to_string(tr.status));
+    if (tr.status != pgi::StepStatus::ok) {
+        r["failed_step"] = tr.failed_step;
+        r["failed_t"] = tr.failed_t;
+        r["residual"] = tr.failed_residual;
+        r["message"] = tr.message;
+    }
+    return r;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_pgi, m) {
+    m.doc() = "pgi's C++ core; use the package pgi";
+    m.attr("__version__") = std::string(pgi::version());
+    // Bad input is a ValueError (InputError carries the entry at fault in its message); a budget of the
+    // exact phase a RuntimeError of its own. A failed step is reported, and pgi/__init__.py raises StepFailure.
+    auto& input_error = py::register_exception<pgi::InputError>(m, "InputError", PyExc_ValueError);
+    py::register_exception<pgi::SceneError>(m, "SceneError", input_error.ptr());
+    py::register_exception<pgi::ResourceLimitError>(m, "ResourceLimitError", PyExc_RuntimeError);
+
+    py::class_<PyScheme>(m, "Scheme")
+        .def(py::init(&from_values), "coordinates"_a, "brackets"_a, "hamiltonian"_a, "casimirs"_a = std::vector<std::string>{},
+             "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(), "x0"_a = py::none(), "t_end"_a = py::none(),
+             "max_terms"_a = pgi::Ring::default_max_terms)
+        .def_static("from_toml", &from_toml, "path"_a)
+        .def_property_readonly("name", [](const PyScheme& s) { return s.name; })
+        .def_property_readonly("coordinates", [](const PyScheme& s) { return s.M().coordinates(); })
+        .def_property_readonly("order", [](const PyScheme& s) { return s.scheme->order(); })
+        .def_property_readonly("method_order", [](const PyScheme& s) { return s.scheme->method_order(); })
+        .def_property_readonly("realisation", [](const PyScheme& s) { return pgi::to_string(s.scheme->realisation_form()); })
+        .def_property_readonly("structure_class", [](const PyScheme& s) { return pgi::to_string(s.scheme->structure().structure_class()); })
+        .def_property_readonly("hamiltonian", [](const PyScheme& s) { return s.scheme->hamiltonian().to_string(); })
+        .def_property_readonly("casimirs", [](const PyScheme& s) { return texts(s.scheme->casimirs(), false); })
+        .def_property_readonly("dt", [](const PyScheme& s) { return s.dt; })
+        .def_property_readonly("x0", [](const PyScheme& s) { return s.x0; })
+        .def_property_readonly("t_end", [](const PyScheme& s) { return s.t_end; })
+        .def("check", &check)
+        .def("require_valid", [](const PyScheme& s) { s.scheme->require_valid(); })
+        .def("terms", [](const PyScheme& s, bool latex) {
+                 py::gil_scoped_release release;
+                 return texts(s.scheme->terms(), latex);
+             }, "latex"_a = false)
+        .def("modified_hamiltonian", [](const PyScheme& s, std::size_t upto, bool latex) {
+                 py::gil_scoped_release release;
+                 return texts(s.scheme->modified_hamiltonian(upto), latex);
+             }, "upto"_a = 4, "latex"_a = false)
+        .def("realisation_terms", [](const PyScheme& s, std::size_t degree) {
+                 pgi::Realisation r = [&] {
+                     py::gil_scoped_release release;
+                     return s.scheme->realisation(degree);
+                 }();
+                 std::vector<std::string> alpha, beta;
+                 for (const auto& a : r.alpha) alpha.push_back(a.sum().to_string());
+                 for (const auto& b : r.beta) beta.push_back(b.sum().to_string());
+                 return py::dict("method"_a = r.method, "degree"_a = r.degree, "alpha"_a = alpha, "beta"_a = beta);
+             }, "degree"_a)
+        .def("_step", &step, "x"_a, "dt"_a = py::none())
+        .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1);
+}

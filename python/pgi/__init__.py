@@ -1,0 +1,105 @@
+"""pgi: exact Poisson integrators from symplectic groupoids (Cosserat), from Python.
+
+    import pgi
+    s = pgi.Scheme(coordinates=["x1", "x2", "x3"],
+                   brackets={"x1,x2": "-x3", "x2,x3": "-x1", "x3,x1": "-x2"},
+                   hamiltonian="x1^2/4 + x2^2/2 + 3*x3^2/4", casimirs=["x1^2 + x2^2 + x3^2"], order=4)
+    s.check()                      # {'class': 'linear', 'jacobi': {'holds': True}, ...}
+    s.terms()                      # exact S_1..S_k as strings (latex=True, or terms_sympy())
+    s.step([0.6, 0.8, 0.3], 0.1)   # numpy array
+    r = s.integrate([0.6, 0.8, 0.3], dt=0.1, t_end=100)   # r.t, r.x, r.energy_error, ...
+
+"order" is k, the Hamilton-Jacobi truncation order; the method converges with order method_order = 2 ceil(k/2).
+Bad input raises ValueError (pgi.InputError); a step not solved to round-off raises pgi.StepFailure.
+"""
+import numpy as _np
+
+from ._pgi import InputError, ResourceLimitError, SceneError, __version__
+from ._pgi import Scheme as _Scheme
+
+__all__ = ["Scheme", "Result", "StepFailure", "InputError", "SceneError", "ResourceLimitError", "__version__"]
+
+
+class StepFailure(ArithmeticError):
+    """A step that was not solved to round-off (or left a non-finite state): step (1-based), t (where it
+    started), residual, and result (the run up to the failure, for integrate)."""
+
+    def __init__(self, message, step, t, residual, result=None):
+        super().__init__(message)
+        self.step, self.t, self.residual, self.result = step, t, residual, result
+
+
+class Result:
+    """A run: t (times recorded), x (one row per time), energy_error and casimir_error (relative, per row),
+    their maxima over every step, steps, dt, newton_iterations_mean/max, status ("ok" or why it stopped)."""
+
+    def __init__(self, d):
+        self.__dict__.update(d)
+
+    def __repr__(self):
+        return (f"pgi.Result(steps={self.steps}, t_end={self.t[-1] if len(self.t) else 0.0}, status={self.status!r}, "
+                f"energy_error_max={self.energy_error_max:.3e})")
+
+
+def _sympy(texts, coordinates):
+    import sympy  # optional: only these conversions need it
+    symbols = {c: sympy.Symbol(c) for c in coordinates}
+    return [sympy.sympify(t.replace("^", "**"), locals=symbols) for t in texts]
+
+
+class Scheme:
+    """A Poisson integrator of order k for H on (R^n, pi), everything exact computed once, when first asked.
+
+    Scheme(coordinates, brackets, hamiltonian, casimirs=[], order=2, realisation="auto", dt=None, x0=None,
+    t_end=None) or Scheme.from_toml(path) (a pgi scene: its dt, x0 and t_end become the defaults).
+    Attributes: coordinates, order (k), method_order, realisation, structure_class, hamiltonian, casimirs,
+    dt, x0, t_end, name. Methods: check(), require_valid(), terms(latex=False), terms_sympy(),
+    modified_hamiltonian(upto=4, latex=False), modified_hamiltonian_sympy(upto=4), realisation_terms(degree),
+    step(x, dt=None), integrate(x0=None, dt=None, t_end=None, every=1)."""
+
+    def __init__(self, coordinates, brackets, hamiltonian, casimirs=(), order=2, realisation="auto", dt=None,
+                 x0=None, t_end=None, max_terms=20_000_000):
+        if x0 is not None:
+            x0 = _np.asarray(x0, dtype=float)
+        self._core = _Scheme(list(coordinates), dict(brackets), hamiltonian, list(casimirs), order, realisation, dt, x0,
+                             t_end, max_terms)
+
+    @classmethod
+    def from_toml(cls, path):
+        s = cls.__new__(cls)
+        s._core = _Scheme.from_toml(str(path))
+        return s
+
+    def __getattr__(self, name):  # the C++ scheme's attributes and exact methods
+        if name.startswith("__") or name == "_core":
+            raise AttributeError(name)
+        return getattr(self._core, name)
+
+    def terms_sympy(self):
+        """S_1..S_k as sympy expressions (needs sympy)."""
+        return _sympy(self._core.terms(), self._core.coordinates)
+
+    def modified_hamiltonian_sympy(self, upto=4):
+        """H_0..H_upto as sympy expressions (needs sympy)."""
+        return _sympy(self._core.modified_hamiltonian(upto), self._core.coordinates)
+
+    def step(self, x, dt=None):
+        """One step of size dt (default: the scheme's) from x: the new state as a numpy array. The compiled
+        step for a dt is built once, sized at the scheme's x0 or else at the first x stepped with that dt."""
+        r = self._core._step(_np.asarray(x, dtype=float), dt)
+        if not r["ok"]:
+            raise StepFailure(r["message"], 1, 0.0, r["residual"])
+        return r["x"]
+
+    def integrate(self, x0=None, dt=None, t_end=None, every=1):
+        """ceil(t_end/dt) steps from x0 (defaults: the scheme's), Kahan-summed, recording every `every`-th
+        state and the last; returns a Result. The GIL is released while it runs. Raises StepFailure (with
+        .result holding the run up to the failure) if a step fails."""
+        r = Result(self._core._integrate(None if x0 is None else _np.asarray(x0, dtype=float), dt, t_end, every))
+        if r.status != "ok":
+            raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
+        return r
+
+    def __repr__(self):
+        c = self._core
+        return f"pgi.Scheme(coordinates={c.coordinates}, order={c.order}, realisation={c.realisation!r}, class={c.structure_class!r})"

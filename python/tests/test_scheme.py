@@ -1,0 +1,143 @@
+"""The Python module against the command line: same numbers bit for bit, same exact terms, same errors."""
+import threading
+
+import numpy as np
+import pytest
+
+import pgi
+from conftest import BAD_SCENES, SCENES, cli, cli_json
+
+RIGID_BODY = dict(coordinates=["x1", "x2", "x3"], brackets={"x1,x2": "-x3", "x2,x3": "-x1", "x3,x1": "-x2"},
+                  hamiltonian="1/4*x1^2 + 1/2*x2^2 + 3/4*x3^2", casimirs=["x1^2 + x2^2 + x3^2"], order=4)
+
+
+def has_run(s):
+    return s.x0 is not None and s.t_end is not None
+
+
+def test_integrate_equals_the_command_line_bit_for_bit(scene):
+    s = pgi.Scheme.from_toml(scene)
+    if not has_run(s):
+        pytest.skip("no [run]")
+    r = s.integrate()
+    j = cli_json("integrate", scene)
+    assert r.steps == j["steps"]
+    assert r.t[-1] == j["t"]
+    assert r.x[-1].tolist() == j["x"]  # exact equality: the same stepper, the same summation
+    assert r.energy_error_max == j["energy_error_max"]
+    assert r.casimir_error_max == j["casimir_error_max"]
+    assert r.newton_iterations_mean == j["newton_iterations_mean"]
+    assert s.order == j["order"] and s.method_order == j["method_order"]
+    # the recorded rows: t = n dt, the first the initial state with zero errors
+    assert r.x.shape == (r.steps + 1, len(s.coordinates)) and r.t.shape == (r.steps + 1,)
+    assert r.x[0].tolist() == list(s.x0) and r.energy_error[0] == 0.0
+    assert r.energy_error.max() == r.energy_error_max
+
+
+def test_step_equals_the_command_line_bit_for_bit(scene):
+    s = pgi.Scheme.from_toml(scene)
+    if s.x0 is None:
+        pytest.skip("no x0")
+    x = s.step(s.x0)
+    assert isinstance(x, np.ndarray) and x.tolist() == cli_json("step", scene)["x"]
+
+
+def test_exact_terms_equal_the_command_line(scene):
+    s = pgi.Scheme.from_toml(scene)
+    assert s.terms() == cli_json("terms", scene)["S"]
+    assert s.modified_hamiltonian(3) == cli_json("modified", scene, "--upto", 3)["modified"]
+    assert len(s.terms(latex=True)) == s.order
+    c, j = s.check(), cli_json("check", scene)
+    assert c["ok"] == j["ok"] and c["class"] == j["class"] and c["jacobi"] == j["jacobi"]
+    assert c["casimirs"] == j["casimirs"] and c["realisation"] == j["realisation"]
+
+
+def test_from_values_equals_the_scene():
+    s, t = pgi.Scheme(**RIGID_BODY), pgi.Scheme.from_toml(SCENES / "rigid_body.toml")
+    assert s.terms() == t.terms()
+    assert s.modified_hamiltonian(2) == t.modified_hamiltonian(2)
+    assert s.realisation == "lie-poisson" and s.structure_class == "linear" and s.method_order == 4
+    x0 = np.array(t.x0)
+    r, q = s.integrate(x0, dt=0.1, t_end=10, every=10), t.integrate(t_end=10)
+    assert r.x[-1].tolist() == q.x[-1].tolist()
+    assert r.t.tolist() == [n * 0.1 for n in range(0, 101, 10)]  # t = n dt, as the command line computes it
+    assert r.casimir_error.shape == (11, 1) and r.casimir_error_max[0] < 1e-14
+
+
+def test_sympy_conversion():
+    sympy = pytest.importorskip("sympy")
+    s = pgi.Scheme(**RIGID_BODY)
+    x1, x2, x3 = sympy.symbols("x1 x2 x3")
+    S = s.terms_sympy()
+    assert sympy.expand(S[0] - (x1**2 / 4 + x2**2 / 2 + 3 * x3**2 / 4)) == 0
+    # the same polynomials: sympy's expansion of pgi's text equals pgi's own second term
+    assert sympy.expand(S[2]) == sympy.sympify(s.terms()[2].replace("^", "**"))
+
+
+def test_bad_values_raise_value_errors_naming_the_entry():
+    bad = [dict(brackets={"x1,q": "x3"}, key="brackets.\"x1,q\""),
+           dict(brackets={"x1,x2": "-x3", "x2,x1": "-x3"}, key="contradicts"),
+           dict(hamiltonian="x1^", key="hamiltonian.H"),
+           dict(casimirs=["y"], key="hamiltonian.casimirs[0]"),
+           dict(coordinates=["x1", "x1", "x3"], key="coordinates[1]"),
+           dict(order=0, key="order"),
+           dict(realisation="exact", key="realisation"),
+           dict(dt=-1.0, key="dt"),
+           dict(x0=[1.0, 2.0], key="x0")]
+    for b in bad:
+        key = b.pop("key")
+        with pytest.raises(ValueError, match=None) as e:
+            pgi.Scheme(**{**RIGID_BODY, **b})
+        assert key in str(e.value), (b, str(e.value))
+        assert isinstance(e.value, pgi.InputError)
+    s = pgi.Scheme(**RIGID_BODY)
+    with pytest.raises(ValueError, match="x0"):
+        s.integrate()  # no x0 given anywhere
+    with pytest.raises(ValueError, match="must have 3 values"):
+        s.step([1.0, 2.0], 0.1)
+    with pytest.raises(ValueError, match="brackets"):
+        pgi.Scheme(**{**RIGID_BODY, "brackets": {"x1,x2": 3}})
+
+
+def test_bad_scenes_raise_with_the_command_lines_message():
+    for path in sorted(BAD_SCENES.glob("*.toml")):
+        code, _, err = cli("terms", path, check=False)
+        assert code != 0, path
+        with pytest.raises((ValueError, pgi.ResourceLimitError)) as e:
+            s = pgi.Scheme.from_toml(path)
+            s.require_valid()
+        assert str(e.value) in err, (path, str(e.value), err)
+
+
+def test_a_failed_step_raises_step_failure_with_step_t_and_residual():
+    s = pgi.Scheme.from_toml(SCENES / "rigid_body.toml")
+    code, _, err = cli("integrate", SCENES / "rigid_body.toml", "--dt", 5, "--order", 2, check=False)
+    assert code == 3
+    t = pgi.Scheme(**{**RIGID_BODY, "order": 2})
+    with pytest.raises(pgi.StepFailure) as e:
+        t.integrate(s.x0, dt=5.0, t_end=100)
+    f = e.value
+    assert f.step >= 1 and f.t == (f.step - 1) * 5.0 and f.residual > 0 or not np.isfinite(f.residual)
+    assert str(f) in err  # the command line's message
+    assert f.result.steps == f.step - 1 and len(f.result.t) == f.step
+
+
+def test_integrations_run_in_parallel_threads_with_the_same_result():
+    s = pgi.Scheme.from_toml(SCENES / "lotka_volterra.toml")
+    results = [None] * 4
+
+    def run(i):
+        results[i] = s.integrate(every=100)
+
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(4)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    for r in results[1:]:
+        assert r.x.tolist() == results[0].x.tolist()
+
+
+def test_version():
+    assert pgi.__version__.count(".") == 2
+    assert cli("--version")[1].strip().endswith(pgi.__version__)

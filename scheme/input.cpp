@@ -1,0 +1,84 @@
+#include "scheme/input.hpp"
+
+#include <optional>
+#include <tuple>
+
+namespace pgi {
+
+namespace {
+
+std::string trim(std::string s) {
+    s.erase(0, s.find_first_not_of(" \t"));
+    s.erase(s.find_last_not_of(" \t") + 1);
+    return s;
+}
+
+std::pair<std::size_t, std::size_t> bracket_pair(const std::string& key, const std::string& text, const PhaseSpace& M) {
+    auto comma = text.find(',');
+    if (comma == std::string::npos) throw InputError(key, "a bracket key is \"a,b\" with two coordinates");
+    std::string a = trim(text.substr(0, comma)), b = trim(text.substr(comma + 1));
+    long i = M.ring()->index_of(a), j = M.ring()->index_of(b);
+    if (i < 0 || static_cast<std::size_t>(i) >= M.dim()) throw InputError(key, "unknown coordinate '" + a + "'");
+    if (j < 0 || static_cast<std::size_t>(j) >= M.dim()) throw InputError(key, "unknown coordinate '" + b + "'");
+    return {static_cast<std::size_t>(i), static_cast<std::size_t>(j)};
+}
+
+}  // namespace
+
+void check_coordinates(const std::vector<std::string>& names) {
+    if (names.empty()) throw InputError("coordinates", "must be a non-empty list of names");
+    for (std::size_t i = 0; i < names.size(); ++i) {
+        const std::string key = "coordinates[" + std::to_string(i) + "]";
+        if (names[i].empty()) throw InputError(key, "empty coordinate name");
+        if (names[i] == "t") throw InputError(key, "'t' is reserved for the time step");
+        for (std::size_t j = 0; j < i; ++j)
+            if (names[j] == names[i]) throw InputError(key, "duplicate coordinate '" + names[i] + "'");
+    }
+    try {
+        Ring check(names);  // identifier syntax
+    } catch (const std::exception& e) {
+        throw InputError("coordinates", e.what());
+    }
+}
+
+Poly parse_polynomial(const PhaseSpace& M, const std::string& key, const std::string& text) {
+    try {
+        return M.parse(text);
+    } catch (const std::exception& e) {
+        throw InputError(key, e.what());
+    }
+}
+
+PoissonStructure structure_from_brackets(const PhaseSpace& M, const std::vector<std::pair<std::string, std::string>>& brackets) {
+    const std::size_t n = M.dim();
+    std::vector<std::vector<std::optional<Poly>>> given(n, std::vector<std::optional<Poly>>(n));
+    for (const auto& [k, v] : brackets) {
+        const std::string key = "brackets.\"" + k + "\"";
+        auto [i, j] = bracket_pair(key, k, M);
+        Poly f = parse_polynomial(M, key, v);
+        if (i == j) {
+            if (!f.is_zero()) throw InputError(key, "not skew: {" + M.coordinates()[i] + "," + M.coordinates()[i] + "} must be 0");
+            continue;
+        }
+        // {a,b} given as f means pi_ab = f and pi_ba = -f
+        for (auto [a, b, value] : {std::tuple{i, j, f}, std::tuple{j, i, -f}}) {
+            if (given[a][b] && !(*given[a][b] == value))
+                throw InputError(key, "contradicts an earlier bracket: {" + M.coordinates()[a] + "," + M.coordinates()[b] +
+                                          "} was " + given[a][b]->to_string() + ", now " + value.to_string());
+            given[a][b] = value;
+        }
+    }
+    std::vector<std::vector<Poly>> pi(n, std::vector<Poly>(n, Poly(M.ring())));
+    for (std::size_t a = 0; a < n; ++a)
+        for (std::size_t b = 0; b < n; ++b)
+            if (given[a][b]) pi[a][b] = *given[a][b];
+    return PoissonStructure(M, std::move(pi));
+}
+
+std::size_t check_order(const std::string& key, long k) {
+    if (k < 1) throw InputError(key, "the order k must be at least 1, got " + std::to_string(k));
+    if (k > 64) throw InputError(key, "the order k must be at most 64, got " + std::to_string(k));
+    return static_cast<std::size_t>(k);
+}
+
+}  // namespace pgi

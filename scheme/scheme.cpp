@@ -1,0 +1,180 @@
+#include "scheme/scheme.hpp"
+
+#include "magnus/modified_hamiltonian.hpp"
+#include "poisson/hamilton_jacobi.hpp"
+
+#include <algorithm>
+#include <mutex>
+
+namespace pgi {
+
+bool SchemeChecks::ok() const {
+    if (jacobi || realisation) return false;
+    return std::none_of(casimirs.begin(), casimirs.end(), [](const auto& c) { return c.has_value(); });
+}
+
+// What has been computed so far. One recursive mutex: artefacts call each other (the checks ask for
+// the realisation, the modified Hamiltonian for S).
+struct Scheme::Cache {
+    std::recursive_mutex mutex;
+    std::optional<SchemeChecks> checks;
+    std::optional<Realisation> deepest;             // the realisation at the deepest p-degree asked so far
+    std::optional<std::vector<Poly>> terms;         // S_1..S_k
+    std::vector<Poly> modified;                     // H_0..H_m for the largest m asked so far
+    std::map<std::pair<double, std::vector<double>>, NewtonStepper> steppers;
+    SchemeStats stats;
+};
+
+Scheme::Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order, RealisationChoice choice)
+    : pi_(std::move(pi)), H_(std::move(H)), casimirs_(std::move(casimirs)), k_(check_order("order", long(order))),
+      choice_(choice), cache_(std::make_unique<Cache>()) {
+    if (H_.ring() != phase_space().ring()) throw InputError("hamiltonian.H", "not a polynomial of the scheme's phase space");
+    for (std::size_t i = 0; i < casimirs_.size(); ++i)
+        if (casimirs_[i].ring() != phase_space().ring())
+            throw InputError("hamiltonian.casimirs[" + std::to_string(i) + "]", "not a polynomial of the scheme's phase space");
+    try {
+        realisation_form();
+    } catch (const std::invalid_argument& e) {
+        throw InputError("realisation", e.what());
+    }
+}
+
+Scheme Scheme::from_values(const SchemeValues& v) {
+    check_coordinates(v.coordinates);
+    PhaseSpace M(v.coordinates, v.max_terms);
+    PoissonStructure pi = structure_from_brackets(M, v.brackets);
+    Poly H = parse_polynomial(M, "hamiltonian.H", v.hamiltonian);
+    std::vector<Poly> casimirs;
+    for (std::size_t i = 0; i < v.casimirs.size(); ++i)
+        casimirs.push_back(parse_polynomial(M, "hamiltonian.casimirs[" + std::to_string(i) + "]", v.casimirs[i]));
+    RealisationChoice choice;
+    try {
+        choice = parse_realisation_choice(v.realisation);
+    } catch (const std::invalid_argument& e) {
+        throw InputError("realisation", e.what());
+    }
+    return Scheme(std::move(pi), std::move(H), std::move(casimirs), check_order("order", v.order), choice);
+}
+
+Scheme::Scheme(const Scheme& o) : pi_(o.pi_), H_(o.H_), casimirs_(o.casimirs_), k_(o.k_), choice_(o.choice_), cache_(std::make_unique<Cache>()) {}
+Scheme& Scheme::operator=(const Scheme& o) {
+    if (this != &o) *this = Scheme(o);
+    return *this;
+}
+Scheme::Scheme(Scheme&&) noexcept = default;
+Scheme& Scheme::operator=(Scheme&&) noexcept = default;
+Scheme::~Scheme() = default;
+
+RealisationForm Scheme::realisation_form() const { return pgi::realisation_form(pi_.structure_class(), choice_); }
+
+// Jacobi and the Casimirs first (require_valid needs only these), the realisation identities when checks() asks.
+const SchemeChecks& Scheme::structure_checks_locked() const {
+    if (!cache_->checks) {
+        SchemeChecks c;
+        c.structure_class = pi_.structure_class();
+        c.jacobi = pi_.jacobi_failure();
+        for (const auto& C : casimirs_) c.casimirs.push_back(pi_.casimir_failure(C));
+        cache_->checks = std::move(c);
+    }
+    return *cache_->checks;
+}
+
+const SchemeChecks& Scheme::checks() const {
+    std::lock_guard lock(cache_->mutex);
+    structure_checks_locked();
+    SchemeChecks& c = *cache_->checks;
+    if (!c.jacobi && !c.realisation_checked) {
+        // S_k reads alpha through degree k - 1; the identities in degrees < k need alpha through degree k.
+        Realisation r = realisation_locked(k_);
+        c.realisation = realisation_defect(pi_, r);
+        c.realisation_checked_below_degree = r.degree;
+        c.realisation_method = r.method;
+        c.realisation_checked = true;
+    }
+    return c;
+}
+
+void Scheme::require_valid() const {
+    const auto& names = phase_space().coordinates();
+    std::lock_guard lock(cache_->mutex);
+    const SchemeChecks& c = structure_checks_locked();
+    if (const auto& f = c.jacobi)
+        throw InputError("brackets", "the Jacobi identity fails at (" + names[f->i] + ", " + names[f->j] + ", " + names[f->k] +
+                                         "): jacobiator = " + f->jacobiator.to_string());
+    for (std::size_t i = 0; i < c.casimirs.size(); ++i)
+        if (const auto& f = c.casimirs[i])
+            throw InputError("hamiltonian.casimirs[" + std::to_string(i) + "]",
+                             "'" + casimirs_[i].to_string() + "' is not a Casimir: (pi grad C)_" + names[f->component] +
+                                 " = " + f->value.to_string());
+}
+
+Realisation Scheme::realisation(std::size_t D) const {
+    std::lock_guard lock(cache_->mutex);
+    return realisation_locked(D);
+}
+
+Realisation Scheme::realisation_locked(std::size_t D) const {
+    auto& deepest = cache_->deepest;
+    if (!deepest || deepest->degree < D) {
+        deepest = build_realisation(pi_, choice_, D);
+        ++cache_->stats.realisation_builds;
+    }
+    return deepest->degree == D ? *deepest : truncated(*deepest, D);
+}
+
+const std::vector<Poly>& Scheme::terms() const {
+    std::lock_guard lock(cache_->mutex);
+    return terms_locked();
+}
+
+const std::vector<Poly>& Scheme::terms_locked() const {
+    if (!cache_->terms) {
+        // S_1..S_k read alpha only through degree k - 1: a deeper realisation already built serves as is
+        const std::size_t D = realisation_degree_for_order(k_);
+        if (!cache_->deepest || cache_->deepest->degree < D) realisation_locked(D);
+        cache_->terms = hamilton_jacobi_terms(phase_space(), *cache_->deepest, H_, k_);
+        ++cache_->stats.terms_builds;
+    }
+    return *cache_->terms;
+}
+
+std::vector<Poly> Scheme::modified_hamiltonian(std::size_t m) const {
+    std::lock_guard lock(cache_->mutex);
+    auto& Ht = cache_->modified;
+    if (Ht.size() < m + 1) {
+        // h through t^m reads beta through p-degree m, S alpha through k - 1: one realisation serves both
+        realisation_locked(std::max(m, realisation_degree_for_order(k_)));
+        Ht = pgi::modified_hamiltonian(pi_, *cache_->deepest, terms_locked(), m);
+        ++cache_->stats.modified_builds;
+    }
+    return {Ht.begin(), Ht.begin() + long(m + 1)};
+}
+
+NewtonStepper Scheme::stepper(double dt, const Eigen::VectorXd& x_typical) const {
+    std::lock_guard lock(cache_->mutex);
+    auto key = std::make_pair(dt, std::vector<double>(x_typical.data(), x_typical.data() + x_typical.size()));
+    auto it = cache_->steppers.find(key);
+    if (it == cache_->steppers.end()) {
+        StepOptions opt;
+        opt.k = k_;
+        opt.dt = dt;
+        opt.realisation = choice_;
+        it = cache_->steppers.emplace(std::move(key), NewtonStepper::build(pi_, H_, opt, x_typical)).first;
+        ++cache_->stats.stepper_builds;
+    }
+    return it->second;
+}
+
+SchemeStats Scheme::stats() const {
+    std::lock_guard lock(cache_->mutex);
+    return cache_->stats;
+}
+
+CompiledMap Scheme::invariants(const std::vector<Poly>& extra) const {
+    std::vector<Poly> f{H_};
+    f.insert(f.end(), casimirs_.begin(), casimirs_.end());
+    f.insert(f.end(), extra.begin(), extra.end());
+    return CompiledMap::build(f, phase_space().coordinate_vars());
+}
+
+}  // namespace pgi

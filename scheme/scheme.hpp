@@ -1,0 +1,114 @@
+#pragma once
+// Scheme: the one owner of a Poisson integrator's exact work (docs/math.md sections 1-7). It holds the
+// problem (pi, H, Casimirs, the order k, the realisation choice) and computes each artefact the first
+// time it is asked for, once: the checks, the realisation to the p-degree a request needs, S_1..S_k,
+// the compiled step for a dt, the modified Hamiltonian to a power of dt. Every user of pgi (the command
+// line, the report, the Python module, a C++ program) goes through it.
+#include "poisson/newton_step.hpp"
+#include "scheme/input.hpp"
+
+#include <Eigen/Dense>
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pgi {
+
+/// A scheme from plain values, as a Python caller or a C++ program writes it.
+struct SchemeValues {
+    std::vector<std::string> coordinates;                        // {"x1", "x2", "x3"}
+    std::vector<std::pair<std::string, std::string>> brackets;   // {{"x1,x2", "-x3"}, ...}: {x1, x2} = -x3
+    std::string hamiltonian;                                     // "x1^2/2 + x2^2/3 + x3^2/4"
+    std::vector<std::string> casimirs;                           // {"x1^2 + x2^2 + x3^2"}
+    long order = 2;                                              // k, the Hamilton-Jacobi order
+    std::string realisation = "auto";                            // "auto" | "closed-form" | "radial"
+    std::size_t max_terms = Ring::default_max_terms;             // bound on every product of the exact phase
+};
+
+/// The verdicts of the exact checks (docs/math.md sections 1 and 2).
+struct SchemeChecks {
+    StructureClass structure_class = StructureClass::general;
+    std::optional<JacobiFailure> jacobi;                    // the first failing triple, if any
+    std::vector<std::optional<CasimirFailure>> casimirs;    // one per listed Casimir
+    /// The realisation identities, checked (only when Jacobi holds) in every p-degree below
+    /// realisation_checked_below_degree = k: S_1..S_k read alpha through degree k - 1.
+    bool realisation_checked = false;
+    std::size_t realisation_checked_below_degree = 0;
+    std::string realisation_method;
+    std::optional<RealisationDefect> realisation;
+    bool ok() const;
+};
+
+/// How many times each artefact was computed: what the tests read to show that nothing is computed twice.
+struct SchemeStats {
+    std::size_t realisation_builds = 0, terms_builds = 0, modified_builds = 0, stepper_builds = 0;
+};
+
+class Scheme {
+public:
+    /// Requires casimirs and H in pi's phase space and k >= 1 (InputError otherwise); throws InputError
+    /// for closed_form on a general structure. Computes nothing else.
+    Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order,
+           RealisationChoice choice = RealisationChoice::automatic);
+    /// From strings; InputError names the entry at fault ("brackets.\"x1,x2\"", "hamiltonian.H", ...).
+    static Scheme from_values(const SchemeValues& values);
+    explicit Scheme(const SchemeValues& values) : Scheme(from_values(values)) {}
+
+    /// A copy shares nothing: it recomputes what it is asked for.
+    Scheme(const Scheme& other);
+    Scheme& operator=(const Scheme& other);
+    Scheme(Scheme&&) noexcept;
+    Scheme& operator=(Scheme&&) noexcept;
+    ~Scheme();
+
+    // The problem, as given.
+    const PoissonStructure& structure() const { return pi_; }
+    const PhaseSpace& phase_space() const { return pi_.phase_space(); }
+    const Poly& hamiltonian() const { return H_; }
+    const std::vector<Poly>& casimirs() const { return casimirs_; }
+    std::size_t order() const { return k_; }                                // k
+    std::size_t method_order() const { return 2 * ((k_ + 1) / 2); }         // 2 ceil(k/2)
+    RealisationChoice realisation_choice() const { return choice_; }
+    RealisationForm realisation_form() const;
+
+    // The artefacts, each computed once, on first use (thread-safe).
+    /// Class, Jacobi, the Casimirs and (when Jacobi holds) the realisation identities below degree k.
+    const SchemeChecks& checks() const;
+    /// Throws InputError naming the triple and jacobiator if Jacobi fails, or the Casimir and the
+    /// non-zero component of pi grad C. Checks only Jacobi and the Casimirs (not the realisation).
+    void require_valid() const;
+    /// alpha and beta through p-degree D: built once at the deepest degree asked so far, truncated for
+    /// smaller requests (a deeper request rebuilds).
+    Realisation realisation(std::size_t D) const;
+    /// S_1..S_k (index 0 holds S_1 = H), docs/math.md section 5.
+    const std::vector<Poly>& terms() const;
+    /// H_0..H_m of the modified Hamiltonian (docs/math.md section 7), H_0 = H. Kept and returned as a
+    /// prefix when less is asked later; extended (recomputed to the new m) when more is.
+    std::vector<Poly> modified_hamiltonian(std::size_t m) const;
+    /// The compiled step for this dt, its degree and predictor chosen at the typical state x_typical
+    /// (NewtonStepper::build); built once per (dt, x_typical) and returned as a copy of its own (a
+    /// stepper holds scratch, so each caller steps its own). Requires pi to satisfy Jacobi.
+    NewtonStepper stepper(double dt, const Eigen::VectorXd& x_typical) const;
+    /// H, the Casimirs, then extra, compiled over the coordinates: what a run watches.
+    CompiledMap invariants(const std::vector<Poly>& extra = {}) const;
+    SchemeStats stats() const;
+
+private:
+    struct Cache;
+    const SchemeChecks& structure_checks_locked() const;
+    Realisation realisation_locked(std::size_t D) const;
+    const std::vector<Poly>& terms_locked() const;
+
+    PoissonStructure pi_;
+    Poly H_;
+    std::vector<Poly> casimirs_;
+    std::size_t k_;
+    RealisationChoice choice_;
+    std::unique_ptr<Cache> cache_;
+};
+
+}  // namespace pgi

@@ -1,0 +1,44 @@
+#pragma once
+// A run of a Scheme's step from x0 to t_end, observed: the trajectory every few steps, the drift of H and
+// of the Casimirs, the Newton statistics. What the Python module's integrate() returns; the command line's
+// run (tools/run.cpp) measures with the same pieces (steps_to_reach, relative_error, Scheme::invariants).
+#include "scheme/scheme.hpp"
+
+#include <string>
+#include <vector>
+
+namespace pgi {
+
+/// Whole steps of size dt that reach t_end (t_end / dt rounded up, within 1e-9 of a step).
+std::size_t steps_to_reach(double t_end, double dt);
+/// How every report measures an invariant's drift: |value - initial| / |initial|, or the absolute change
+/// when the initial value is 0.
+double relative_error(double value, double initial);
+/// The message of a failed step: which step, from which t, why, the iterations, residual and last correction.
+std::string step_failure_message(const NewtonStepper& s, std::size_t step, StepStatus status);
+
+struct Trajectory {
+    std::size_t dim = 0;
+    std::vector<double> t;                       // the recorded times: 0, every `every` steps, and the last
+    std::vector<double> x;                       // row-major, t.size() rows of dim values
+    std::vector<double> energy_error;            // relative error of H at each recorded time
+    std::vector<double> casimir_error;           // row-major, t.size() rows of one value per Casimir
+    std::size_t steps = 0;                       // steps completed
+    double energy_error_max = 0;                 // over every step, not only the recorded ones
+    std::vector<double> casimir_error_max;
+    double newton_iterations_mean = 0;
+    int newton_iterations_max = 0;
+    StepStatus status = StepStatus::ok;
+    // when status != ok: the failed step (1-based), the t it started from, its residual and the message
+    std::size_t failed_step = 0;
+    double failed_t = 0, failed_residual = 0;
+    std::string message;
+};
+
+/// Integrates with scheme.stepper(dt, x0) from x0 over steps_to_reach(t_end, dt) steps, Kahan-summed
+/// (integrate_steps), recording every `every`-th state and the last. Stops at the first failed step
+/// (status, failed_step, message say why; the trajectory holds what came before). Throws
+/// std::invalid_argument on every = 0, t_end < 0, dt <= 0 or x0 of the wrong length or not finite.
+Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1);
+
+}  // namespace pgi

@@ -1,0 +1,149 @@
+// The Scheme: each artefact equals the free functions' result exactly, whatever was asked before it.
+#include "magnus/modified_hamiltonian.hpp"
+#include "poisson/hamilton_jacobi.hpp"
+#include "scheme/scheme.hpp"
+#include "test_util.hpp"
+#include "tools/commands.hpp"
+
+#include <doctest/doctest.h>
+
+using namespace pgi;
+
+namespace {
+
+bool same(const Realisation& a, const Realisation& b) {
+    if (a.method != b.method || a.degree != b.degree || a.alpha.size() != b.alpha.size()) return false;
+    for (std::size_t i = 0; i < a.alpha.size(); ++i)
+        for (std::size_t m = 0; m <= a.degree; ++m)
+            if (!(a.alpha[i][m] == b.alpha[i][m]) || !(a.beta[i][m] == b.beta[i][m])) return false;
+    return true;
+}
+
+Eigen::VectorXd vec(const std::vector<double>& v) { return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())); }
+
+}  // namespace
+
+TEST_CASE("Scheme: a realisation truncated from a deeper one equals the one built at that degree") {
+    for (const auto& name : test::bundled_names()) {
+        CAPTURE(name);
+        const Scene s = test::bundled(name);
+        const Scheme& scheme = *s.scheme;
+        scheme.realisation(4);  // the deepest so far: degree 2 is cut from it
+        CHECK(same(scheme.realisation(2), build_realisation(s.pi, s.realisation, 2)));
+        CHECK(same(scheme.realisation(4), build_realisation(s.pi, s.realisation, 4)));
+    }
+}
+
+TEST_CASE("Scheme: S_1..S_k and H_0..H_m equal the free functions', in either order of asking") {
+    for (const auto& name : test::bundled_names()) {
+        CAPTURE(name);
+        const Scene s = test::bundled(name);
+        const std::size_t k = s.order;
+        const auto S = hamilton_jacobi_terms(s.phase_space(), build_realisation(s.pi, s.realisation, realisation_degree_for_order(k)), s.H, k);
+        const auto Ht = modified_hamiltonian(s.pi, s.H, k, s.realisation, 3);
+        Scheme terms_first = *s.scheme, modified_first = *s.scheme;  // copies start empty
+        CHECK(terms_first.terms() == S);
+        CHECK(terms_first.modified_hamiltonian(3) == Ht);
+        CHECK(modified_first.modified_hamiltonian(3) == Ht);
+        CHECK(modified_first.terms() == S);
+        // a smaller request is the prefix of what is kept
+        CHECK(modified_first.modified_hamiltonian(1) == std::vector<Poly>(Ht.begin(), Ht.begin() + 2));
+    }
+}
+
+TEST_CASE("Scheme: the checks report class, Jacobi, Casimirs and the realisation identities below degree k") {
+    const Scene s = test::bundled("rigid_body");
+    const SchemeChecks& c = s.scheme->checks();
+    CHECK(c.structure_class == StructureClass::linear);
+    CHECK_FALSE(c.jacobi);
+    REQUIRE(c.casimirs.size() == s.casimirs.size());
+    CHECK_FALSE(c.casimirs[0]);
+    CHECK(c.realisation_checked);
+    CHECK(c.realisation_checked_below_degree == s.order);
+    CHECK(c.ok());
+    const Scene bad = load_scene(std::string(PGI_SCENES_DIR) + "/../../tests/bad_scenes/jacobi_failure.toml");
+    const Scheme& broken = *bad.scheme;
+    CHECK(broken.checks().jacobi);
+    CHECK_FALSE(broken.checks().realisation_checked);
+    CHECK_FALSE(broken.checks().ok());
+    CHECK_THROWS_AS(broken.require_valid(), InputError);
+}
+
+TEST_CASE("Scheme: from strings equals the scene, and bad values name their entry") {
+    const Scene s = test::bundled("rigid_body");
+    SchemeValues v;
+    v.coordinates = s.phase_space().coordinates();
+    for (std::size_t i = 0; i < 3; ++i)
+        for (std::size_t j = i + 1; j < 3; ++j) v.brackets.emplace_back(v.coordinates[i] + "," + v.coordinates[j], s.pi(i, j).to_string());
+    v.hamiltonian = s.H.to_string();
+    v.casimirs = {s.casimirs[0].to_string()};
+    v.order = long(s.order);
+    const Scheme scheme = Scheme::from_values(v);
+    auto texts = [](const std::vector<Poly>& v) {
+        std::vector<std::string> out;
+        for (const auto& p : v) out.push_back(p.to_string());
+        return out;
+    };
+    CHECK(texts(scheme.terms()) == texts(s.scheme->terms()));
+    CHECK(texts(Scheme(v).terms()) == texts(s.scheme->terms()));
+    CHECK(scheme.realisation_form() == RealisationForm::lie_poisson);
+    CHECK(scheme.method_order() == 2 * ((s.order + 1) / 2));
+
+    auto key_of = [&](auto change) {
+        SchemeValues w = v;
+        change(w);
+        try {
+            Scheme::from_values(w);
+        } catch (const InputError& e) {
+            return e.key();
+        }
+        return std::string("no error");
+    };
+    CHECK(key_of([](SchemeValues& w) { w.brackets[0].first = "x1;x2"; }) == "brackets.\"x1;x2\"");
+    CHECK(key_of([](SchemeValues& w) { w.brackets.emplace_back("x2,x1", "-x3"); }) == "brackets.\"x2,x1\"");
+    CHECK(key_of([](SchemeValues& w) { w.brackets[0].first = "x1,q"; }) == "brackets.\"x1,q\"");
+    CHECK(key_of([](SchemeValues& w) { w.hamiltonian = "x1^"; }) == "hamiltonian.H");
+    CHECK(key_of([](SchemeValues& w) { w.hamiltonian = "q"; }) == "hamiltonian.H");
+    CHECK(key_of([](SchemeValues& w) { w.casimirs = {"x1 +"}; }) == "hamiltonian.casimirs[0]");
+    CHECK(key_of([](SchemeValues& w) { w.coordinates[1] = "x1"; }) == "coordinates[1]");
+    CHECK(key_of([](SchemeValues& w) { w.coordinates = {}; }) == "coordinates");
+    CHECK(key_of([](SchemeValues& w) { w.order = 0; }) == "order");
+    CHECK(key_of([](SchemeValues& w) { w.realisation = "exact"; }) == "realisation");
+    PoissonStructure general = test::structure({"x", "y", "z"}, {{0, 1, "z^2"}});
+    CHECK_THROWS_AS(Scheme(general, general.phase_space().parse("x"), {}, 2, RealisationChoice::closed_form), InputError);
+}
+
+TEST_CASE("Scheme: the step for a (dt, x_typical) is built once and every copy steps alike") {
+    const Scene s = test::bundled("lotka_volterra");
+    const Eigen::VectorXd x0 = vec(*s.x0);
+    NewtonStepper a = s.scheme->stepper(s.dt, x0), b = s.scheme->stepper(s.dt, x0);
+    Eigen::VectorXd ia(x0.size()), ib(x0.size());
+    REQUIRE(a.step(x0, ia) == StepStatus::ok);
+    REQUIRE(b.step(x0, ib) == StepStatus::ok);
+    CHECK(ia == ib);
+    // the same as a stepper built directly, bit for bit
+    StepOptions opt;
+    opt.k = s.order;
+    opt.dt = s.dt;
+    opt.realisation = s.realisation;
+    NewtonStepper direct = NewtonStepper::build(s.pi, s.H, opt, x0);
+    Eigen::VectorXd id(x0.size());
+    REQUIRE(direct.step(x0, id) == StepStatus::ok);
+    CHECK(ia == id);
+    NewtonStepper half = s.scheme->stepper(s.dt / 2, x0);
+    CHECK(half.dt() == s.dt / 2);
+}
+
+TEST_CASE("Scheme: a report computes the realisation, S, Htilde and the step once each") {
+    for (const auto& name : {"rigid_body", "lotka_volterra", "henon_heiles"}) {
+        CAPTURE(name);
+        const Scene s = test::bundled(name);
+        const auto data = report_data(s, 4);
+        const SchemeStats st = s.scheme->stats();
+        CHECK(st.realisation_builds == 1);
+        CHECK(st.terms_builds == 1);
+        CHECK(st.modified_builds == 1);
+        CHECK(st.stepper_builds == (s.x0 && s.t_end ? 1 : 0));
+        CHECK(data["S"].size() == s.order);
+    }
+}
