@@ -2,6 +2,7 @@
 // (Newton did not converge or the state overflowed), 1 internal error.
 #include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
+#include "tools/section.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -22,6 +23,7 @@ struct Options {
     std::string format = "markdown", out;
     pgi::IntegrateOptions integrate;
     std::string csv;
+    pgi::SectionOptions section;
 };
 
 void scene_options(CLI::App* cmd, Options& o) {
@@ -72,6 +74,11 @@ int run_command(const std::string& name, const Options& o) {
     pgi::IntegrateOptions io = o.integrate;
     if (!o.csv.empty()) io.csv = o.csv;
     io.progress = !o.json;
+    if (name == "section") {
+        pgi::SectionOptions so = o.section;
+        if (!o.csv.empty()) so.csv = o.csv;
+        emit(o, pgi::section_report(scene, so), pgi::section_text);
+    }
     if (name == "integrate") emit(o, pgi::integrate_report(scene, io), pgi::integrate_text);
     if (name == "run") {
         std::cout << pgi::check_text(pgi::check_report(scene)) << "\n" << pgi::terms_text(pgi::terms_report(scene)) << "\n"
@@ -97,7 +104,15 @@ int main(int argc, char** argv) {
     auto* magnus = app.add_subcommand("magnus", "the Magnus series of the scene's [magnus] h");
     auto* modified = app.add_subcommand("modified", "the modified Hamiltonian of the order-k scheme");
     auto* report = app.add_subcommand("report", "one document: structure, checks, S_1..S_k, modified Hamiltonian, a run");
-    for (auto* cmd : {check, terms, realisation, step, integrate, run, magnus, modified, report}) scene_options(cmd, o);
+    auto* section = app.add_subcommand("section", "the crossings of an event polynomial along the run (a Poincare section)");
+    for (auto* cmd : {check, terms, realisation, step, integrate, run, magnus, modified, report, section}) scene_options(cmd, o);
+    section->add_option("--event", o.section.event, "the polynomial g whose zeros are reported")->required();
+    section->add_option("--direction", o.section.direction, "1: g rising through 0, -1: falling, 0: both (default)")
+        ->check(CLI::IsMember({-1, 0, 1}));
+    section->add_option("--max-crossings", o.section.max_crossings, "stop after this many crossings")->check(CLI::PositiveNumber);
+    section->add_option("--samples", o.section.samples, "sign tests per step on the dense output (default 1: the ends)")
+        ->check(CLI::PositiveNumber);
+    section->add_option("--csv", o.csv, "write the crossings (t, coordinates) to this CSV file");
     report->add_option("--format", o.format, "markdown | latex | json")->check(CLI::IsMember({"markdown", "latex", "json"}));
     report->add_option("--out", o.out, "write to this file (atomically) instead of stdout");
     report->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian (default 4)");
