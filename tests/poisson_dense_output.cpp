@@ -160,5 +160,5 @@ TEST_CASE("dense_output: cubic Hermite is not enough for order 4 (its mid-step e
     INFO("cubic " << cubic_order << ", quintic " << quintic_order);
     CHECK(cubic_order < 4.3);
     CHECK(quintic_order > 4.8);
-    CHECK(cubic.mid.back() > 5 * cubic.end.back());  // worse than the step it extends
+    CHECK(cubic.mid.back() > 5 * cubic.end.back());  // worse than the step it extends (15x measured)
 }
