@@ -162,3 +162,26 @@ TEST_CASE("dense_output: cubic Hermite is not enough for order 4 (its mid-step e
     CHECK(quintic_order > 4.8);
     CHECK(cubic.mid.back() > 5 * cubic.end.back());  // worse than the step it extends (15x measured)
 }
+
+TEST_CASE("dense_output: a fit reusing the previous end's derivatives equals a fresh fit, bit for bit") {
+    Scene s = test::bundled("henon_heiles");
+    const Eigen::VectorXd x0 = vec(*s.x0);
+    StepOptions opt;
+    opt.k = 6;
+    opt.dt = 0.1;
+    NewtonStepper st = NewtonStepper::build(s.pi, s.H, opt, x0);
+    Eigen::VectorXd inc(4), y(4), z(4);
+    REQUIRE(st.step(x0, inc) == StepStatus::ok);
+    const Eigen::VectorXd x1 = x0 + inc;
+    REQUIRE(st.step(x1, inc) == StepStatus::ok);
+    const Eigen::VectorXd x2 = x1 + inc;
+    DenseOutput chained = DenseOutput::build(s.pi, s.H, st.order()), fresh = chained;
+    chained.fit(x0, x1, 0.1);
+    chained.fit(x1, x2, 0.1);  // reuses the derivatives at x1
+    fresh.fit(x1, x2, 0.1);
+    for (double theta : {0.0, 0.3, 0.7, 1.0}) {
+        chained.eval(theta, y.data());
+        fresh.eval(theta, z.data());
+        CHECK(y == z);
+    }
+}
