@@ -27,7 +27,8 @@ TEST_CASE("root_bracket: x^3 - 2 on [0, 2] ends within two ulps of 2^(1/3), in f
 }
 
 TEST_CASE("root_bracket: where Newton overshoots (atan, far from its root) the bracket keeps it") {
-    // Plain Newton on atan from x = 3 diverges (|x| grows every step); kept in [-1, 10] it converges.
+    // The regula falsi start is x = 3.22, where plain Newton on atan(x - 0.3) diverges (it does for
+    // |x - 0.3| > 1.39); kept in the bracket [-1, 10] it converges.
     auto f = [](double x) { return std::pair<double, double>{std::atan(x - 0.3), 1 / (1 + (x - 0.3) * (x - 0.3))}; };
     const double r = find_root(f, -1, 10, std::atan(-1.3), std::atan(9.7));
     CHECK(std::abs(r - 0.3) <= 4 * eps);
