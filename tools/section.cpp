@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 namespace pgi {
 
@@ -18,6 +19,9 @@ json section_report(const Scene& scene, const SectionOptions& options) {
     if (!scene.x0) throw SceneError(scene.file, "run.x0", "missing: give [run] x0 or --x0");
     if (!scene.t_end) throw SceneError(scene.file, "run.t_end", "missing: give [run] t_end or --t-end");
     EventSet events = EventSet::build(scene.phase_space(), {{options.event, options.direction, false}});
+    // opened before the run, so a bad path is refused before any work; renamed into place only after it
+    std::optional<AtomicFile> file;
+    if (options.csv) file.emplace(*options.csv);
     const auto start = std::chrono::steady_clock::now();
     Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
     StepOptions opt;
@@ -34,17 +38,16 @@ json section_report(const Scene& scene, const SectionOptions& options) {
     });
     if (run.integration.status != StepStatus::ok)
         throw NumericalFailure(failure_message(stepper, run.integration.steps + 1, run.integration.status));
-    if (options.csv) {
-        AtomicFile file(*options.csv);
-        file.stream() << "t";
-        for (const auto& name : scene.phase_space().coordinates()) file.stream() << "," << name;
-        file.stream() << "\n";
+    if (file) {
+        file->stream() << "t";
+        for (const auto& name : scene.phase_space().coordinates()) file->stream() << "," << name;
+        file->stream() << "\n";
         for (const auto& c : crossings) {
-            file.stream() << fmt::format("{}", c["t"].get<double>());
-            for (double v : c["x"]) file.stream() << fmt::format(",{}", v);
-            file.stream() << "\n";
+            file->stream() << fmt::format("{}", c["t"].get<double>());
+            for (double v : c["x"]) file->stream() << fmt::format(",{}", v);
+            file->stream() << "\n";
         }
-        file.commit();
+        file->commit();
     }
     return {{"event", options.event}, {"direction", options.direction}, {"crossings", crossings},
             {"count", crossings.size()}, {"steps", run.integration.steps}, {"t", run.t},
