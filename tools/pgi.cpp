@@ -4,6 +4,7 @@
 #include "scheme/version.hpp"
 #include "tools/commands.hpp"
 #include "tools/plot.hpp"
+#include "tools/section.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -26,6 +27,7 @@ struct Options {
     std::string csv;
     std::string splitting;  // pgi modified --splitting
     std::string plot;       // pgi run/integrate --plot DIR
+    pgi::SectionOptions section;
 };
 
 // The options a subcommand reads, and only those: each flag of Use says which of the scene's values it uses.
@@ -88,6 +90,11 @@ int run_command(const std::string& name, const Options& o) {
         plot.emplace(scene, o.plot);
         plot->attach(io);
     }
+    if (name == "section") {
+        pgi::SectionOptions so = o.section;
+        if (!o.csv.empty()) so.csv = o.csv;
+        emit(o, pgi::section_report(scene, so), pgi::section_text);
+    }
     if (name == "integrate") emit(o, pgi::integrate_report(scene, io), pgi::integrate_text);
     if (name == "run") {
         std::cout << pgi::check_text(pgi::check_report(scene)) << "\n" << pgi::terms_text(pgi::terms_report(scene)) << "\n"
@@ -125,6 +132,15 @@ int main(int argc, char** argv) {
     scene_options(magnus, o, use::json);
     scene_options(modified, o, use::json | use::order | use::realisation);
     scene_options(report, o, use::order | use::dt | use::realisation | use::x0 | use::t_end);  // --format json
+    auto* section = app.add_subcommand("section", "the crossings of an event polynomial along the run (a Poincare section)");
+    scene_options(section, o, use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);
+    section->add_option("--event", o.section.event, "the polynomial g whose zeros are reported")->required();
+    section->add_option("--direction", o.section.direction, "1: g rising through 0, -1: falling, 0: both (default)")
+        ->check(CLI::IsMember({-1, 0, 1}));
+    section->add_option("--max-crossings", o.section.max_crossings, "stop after this many crossings")->check(CLI::PositiveNumber);
+    section->add_option("--samples", o.section.samples, "sign tests per step on the dense output (default 1: the ends)")
+        ->check(CLI::PositiveNumber);
+    section->add_option("--csv", o.csv, "write the crossings (t, coordinates) to this CSV file");
     report->add_option("--format", o.format, "markdown | latex | json")->check(CLI::IsMember({"markdown", "latex", "json"}));
     report->add_option("--out", o.out, "write to this file (atomically) instead of stdout");
     report->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian (default 4)");

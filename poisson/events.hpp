@@ -1,0 +1,112 @@
+#pragma once
+// Events: polynomials g(x) whose zeros the integration reports, located to round-off on the dense
+// output of the step that crosses them (Poincare sections are the crossings of one event).
+#include "poisson/dense_output.hpp"
+#include "poisson/integrate.hpp"
+
+#include <string>
+#include <vector>
+
+namespace pgi {
+
+struct EventSpec {
+    std::string polynomial;       // g, in the coordinates
+    int direction = 0;            // +1: g crosses upward (from < 0 to >= 0), -1: downward, 0: both
+    bool terminal = false;        // the integration stops at its first crossing
+};
+
+/// The event functions compiled with their gradients.
+class EventSet {
+public:
+    EventSet() = default;
+    /// Throws ParseError "event I: malformed polynomial ..." (I from 1) for a polynomial the parser
+    /// refuses (unknown variable, syntax, ...), std::invalid_argument for a constant g or a direction
+    /// other than -1, 0, 1.
+    static EventSet build(const PhaseSpace& M, std::vector<EventSpec> specs);
+
+    std::size_t size() const { return specs_.size(); }
+    std::size_t dim() const { return dim_; }
+    const EventSpec& spec(std::size_t i) const { return specs_[i]; }
+    /// g[i] = g_i(x) for every event.
+    void values(const double* x, double* g) const { g_.eval(x, g); }
+    /// grad[i n + l] = d g_i / d x_l.
+    void gradients(const double* x, double* grad) const { grad_.eval(x, grad); }
+    /// Whether g_i going from g0 to g1 is a crossing in event i's direction (a zero is reached from
+    /// the side the direction names; a start on the zero is not a crossing, it was reported before).
+    bool crosses(std::size_t i, double g0, double g1) const;
+
+private:
+    std::vector<EventSpec> specs_;
+    std::size_t dim_ = 0;
+    CompiledMap g_, grad_;
+};
+
+struct Crossing {
+    std::size_t event = 0;        // index in the EventSet
+    std::size_t step = 0;         // the step n (from t_{n-1} to t_n) it lies in
+    double t = 0;
+    Eigen::VectorXd x;            // the dense output at t: g_event(x) = 0 to round-off
+};
+
+/// Finds the crossings of each step on its dense output. Checks the sign of every g at the ends of
+/// the step and, with samples > 1, at samples - 1 interior points of the dense output (a pair of
+/// crossings of one event within one sub-interval cancels and is not seen, as with any sign test).
+class EventDetector {
+public:
+    EventDetector(EventSet events, DenseOutput dense, std::size_t samples = 1);
+
+    /// The state the run starts from (its g values are the first step's left ends).
+    void start(const Eigen::VectorXd& x0);
+    /// The crossings of the step x0 -> x1 (t0 to t0 + dt, step number `step`), in time order, cut
+    /// after the first terminal one. x0 must be the previous call's x1 (or start()'s x0).
+    const std::vector<Crossing>& advance(const Eigen::VectorXd& x0, const Eigen::VectorXd& x1, double t0, double dt,
+                                         std::size_t step);
+    const EventSet& events() const { return events_; }
+
+private:
+    double locate(std::size_t event, double a, double b, double ga, double gb);
+
+    EventSet events_;
+    DenseOutput dense_;
+    std::size_t samples_;
+    Eigen::VectorXd g0_, g1_, ga_, gb_, y_, dy_, grad_, all_;  // all_: g at the root finder's iterate
+    std::vector<Crossing> found_;
+};
+
+struct EventRun {
+    IntegrationSummary integration;   // steps taken, and the status of a failed step
+    std::size_t crossings = 0;        // reported
+    bool stopped = false;             // by a terminal event or by the callback
+    double t = 0;                     // where the run ended (the stopping crossing's t when stopped)
+};
+
+/// Integrates N steps from x (in place; at the end, x is the final state or the stopping crossing's
+/// state), calling on_crossing(const Crossing&) for every crossing in time order; it returns true to
+/// stop the run there, as a terminal event does.
+template <class OnCrossing>
+EventRun integrate_with_events(NewtonStepper& stepper, EventDetector& detector, Eigen::VectorXd& x, std::size_t N,
+                               OnCrossing&& on_crossing) {
+    EventRun run;
+    detector.start(x);
+    Eigen::VectorXd previous = x, stop_state;
+    const double dt = stepper.dt();
+    run.integration = integrate_steps(stepper, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& xn) {
+        if (n == 0) return false;
+        for (const Crossing& c : detector.advance(previous, xn, double(n - 1) * dt, dt, n)) {
+            ++run.crossings;
+            if (on_crossing(c) || detector.events().spec(c.event).terminal) {
+                run.stopped = true;
+                run.t = c.t;
+                stop_state = c.x;
+                return true;
+            }
+        }
+        previous = xn;
+        run.t = t;
+        return false;
+    });
+    if (run.stopped) x = stop_state;
+    return run;
+}
+
+}  // namespace pgi

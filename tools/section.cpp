@@ -1,0 +1,71 @@
+// pgi section: integrate the scene's run, report the crossings of one event on the dense output.
+#include "tools/section.hpp"
+
+#include "poisson/events.hpp"
+#include "tools/atomic_file.hpp"
+#include "tools/commands.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+#include <optional>
+
+namespace pgi {
+
+using nlohmann::json;
+
+json section_report(const Scene& scene, const SectionOptions& options) {
+    if (!scene.x0) throw SceneError(scene.file, "run.x0", "missing: give [run] x0 or --x0");
+    if (!scene.t_end) throw SceneError(scene.file, "run.t_end", "missing: give [run] t_end or --t-end");
+    EventSet events = EventSet::build(scene.phase_space(), {{options.event, options.direction, false}});
+    // opened before the run, so a bad path is refused before any work; renamed into place only after it
+    std::optional<AtomicFile> file;
+    if (options.csv) file.emplace(*options.csv);
+    const auto start = std::chrono::steady_clock::now();
+    Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
+    StepOptions opt;
+    opt.k = scene.order;
+    opt.dt = scene.dt;
+    opt.realisation = scene.realisation;
+    NewtonStepper stepper = NewtonStepper::build(scene.pi, scene.H, opt, x);
+    EventDetector detector(std::move(events), DenseOutput::build(scene.pi, scene.H, stepper.order()), options.samples);
+    const auto N = static_cast<std::size_t>(std::ceil(*scene.t_end / scene.dt - 1e-9));
+    json crossings = json::array();
+    const EventRun run = integrate_with_events(stepper, detector, x, N, [&](const Crossing& c) {
+        crossings.push_back({{"t", c.t}, {"x", std::vector<double>(c.x.data(), c.x.data() + c.x.size())}});
+        return options.max_crossings && crossings.size() >= *options.max_crossings;
+    });
+    if (run.integration.status != StepStatus::ok)
+        throw NumericalFailure(failure_message(stepper, run.integration.steps + 1, run.integration.status));
+    if (file) {
+        file->stream() << "t";
+        for (const auto& name : scene.phase_space().coordinates()) file->stream() << "," << name;
+        file->stream() << "\n";
+        for (const auto& c : crossings) {
+            file->stream() << fmt::format("{}", c["t"].get<double>());
+            for (double v : c["x"]) file->stream() << fmt::format(",{}", v);
+            file->stream() << "\n";
+        }
+        file->commit();
+    }
+    return {{"event", options.event}, {"direction", options.direction}, {"crossings", crossings},
+            {"count", crossings.size()}, {"steps", run.integration.steps}, {"t", run.t},
+            {"order", scene.order}, {"method_order", stepper.order()}, {"dt", scene.dt},
+            {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()}};
+}
+
+std::string section_text(const json& r) {
+    std::string s = fmt::format("{} crossings of {} = 0 (direction {}) in {} steps to t = {}:\n", r["count"].get<std::size_t>(),
+                                r["event"].get<std::string>(), r["direction"].get<int>(), r["steps"].get<std::size_t>(),
+                                r["t"].get<double>());
+    for (const auto& c : r["crossings"]) {
+        s += fmt::format("  t = {:.17g}  x = (", c["t"].get<double>());
+        bool first = true;
+        for (double v : c["x"]) s += fmt::format("{}{:.17g}", first ? "" : ", ", v), first = false;
+        s += ")\n";
+    }
+    return s;
+}
+
+}  // namespace pgi
