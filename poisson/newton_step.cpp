@@ -17,6 +17,7 @@ std::string to_string(StepStatus s) {
         case StepStatus::newton_not_converged: return "Newton did not converge";
         case StepStatus::non_finite: return "non-finite state";
         case StepStatus::truncation_above_bound: return "realisation truncated above its bound";
+        case StepStatus::ill_conditioned: return "ill-conditioned step (terms far larger than the state)";
     }
     return "?";
 }
@@ -39,18 +40,6 @@ std::vector<double> component_sizes(const Realisation& r, const std::vector<doub
     return a;
 }
 
-// The degree of the next probe: where the terms' geometric decay, fitted on the last four, reaches
-// the target, plus two for the parity of symmetric realisations; at least two more than now.
-std::size_t deeper_probe(const std::vector<double>& a, double target, std::size_t max_degree) {
-    const std::size_t top = a.size() - 1, lo = top >= 4 ? top - 3 : 1;
-    std::size_t next = top + 2;
-    if (a[lo] > 0 && a[top] > 0 && a[top] < a[lo]) {
-        const double rho = std::pow(a[top] / a[lo], 1.0 / double(top - lo));
-        next = std::max(next, top + static_cast<std::size_t>(std::ceil(std::log(target / a[top]) / std::log(rho))) + 2);
-    }
-    return std::min(next, max_degree + 2);
-}
-
 // The same realisation through degree D <= r.degree.
 Realisation truncated(const Realisation& r, std::size_t D) {
     Realisation t{r.method, D, {}, {}};
@@ -59,29 +48,65 @@ Realisation truncated(const Realisation& r, std::size_t D) {
     return t;
 }
 
-// The smallest D >= D_min whose neglected terms (two degrees at least, for the parity of symmetric
-// realisations) are below round-off at the typical state; deepens the probe until one is found or
-// max_degree is reached. Sets truncation to the size of the first neglected degree.
+// The geometric decay of the sizes a[m] = |A_m|/|x| measured through the probe's degree, fitted on the last
+// four non-zero ones, extrapolated past it: a[last] rho^(m - last); infinite while no decay is seen, zero
+// once the series has ended (two measured degrees past the last non-zero one).
+class Decay {
+public:
+    explicit Decay(const std::vector<double>& a) {
+        std::vector<std::size_t> nz;
+        for (std::size_t m = 1; m < a.size(); ++m)
+            if (a[m] > 0) nz.push_back(m);
+        if (nz.empty() || a.size() - 1 >= nz.back() + 2) return;  // ended
+        last_ = nz.back(), size_ = a[last_];
+        const std::size_t lo = nz[nz.size() >= 4 ? nz.size() - 4 : 0];
+        rho_ = lo < last_ ? std::pow(size_ / a[lo], 1.0 / double(last_ - lo)) : 1.0;
+    }
+    double at(std::size_t m) const {
+        if (size_ == 0) return 0;
+        return rho_ >= 1 ? std::numeric_limits<double>::infinity() : size_ * std::pow(rho_, double(m - last_));
+    }
+    // the first degree past `from` whose extrapolated size is at most target (from + 1 if none is known)
+    std::size_t reaching(double target, std::size_t from) const {
+        if (size_ == 0 || rho_ >= 1) return from + 1;
+        const double steps = std::ceil(std::log(target / size_) / std::log(rho_));
+        return std::max(from + 1, last_ + static_cast<std::size_t>(std::max(0.0, steps)));
+    }
+
+private:
+    std::size_t last_ = 0;
+    double size_ = 0, rho_ = 0;
+};
+
+// Symmetric realisations of some structures (constant, linear) have vanishing odd parts: then one measured
+// neglected degree can be an identically zero one, and two are needed.
+bool has_parity_gaps(const std::vector<double>& a) {
+    for (std::size_t m = 1; m + 1 < a.size(); ++m)
+        if (a[m] == 0 && *std::max_element(a.begin() + std::ptrdiff_t(m) + 1, a.end()) > 0) return true;
+    return false;
+}
+
+// The smallest D >= D_min whose neglected terms are below round-off at the typical state: the measured ones
+// (one degree at least past D, two where parity gaps appear) and the fitted decay's next two beyond the probe.
+// Deepens the probe to where the fitted decay says D lies, one degree past it, until found or the cap.
+// Sets truncation to the largest neglected size (measured or extrapolated): at the cap it may be large.
 std::size_t choose_degree(const PoissonStructure& pi, const StepOptions& opt, std::size_t D_min, Realisation& probe,
                           const std::vector<double>& point, double scale, double& truncation) {
     const double target = unit_roundoff / 4;
     for (;;) {
         const auto a = component_sizes(probe, point, scale);
-        for (std::size_t d = probe.degree - 2;; --d) {
-            bool tail_small = true;
-            for (std::size_t m = d + 1; m <= probe.degree; ++m) tail_small = tail_small && a[m] <= target;
-            if (!tail_small) break;
-            if (d == D_min || a[d] > target) {
-                truncation = *std::max_element(a.begin() + std::ptrdiff_t(d) + 1, a.end());
+        const Decay decay(a);
+        const std::size_t top = probe.degree, need = has_parity_gaps(a) ? 2 : 1;
+        const auto tail = [&](std::size_t d) {
+            return std::max({*std::max_element(a.begin() + std::ptrdiff_t(d) + 1, a.end()), decay.at(top + 1), decay.at(top + 2)});
+        };
+        for (std::size_t d = D_min; d + need <= top; ++d)
+            if (tail(d) <= target || d == opt.max_degree) {
+                truncation = tail(d);
                 return d;
             }
-        }
-        if (probe.degree >= opt.max_degree + 2) {
-            // the cap: the estimate is the largest neglected term probed (odd degrees may all vanish)
-            truncation = *std::max_element(a.begin() + std::ptrdiff_t(opt.max_degree) + 1, a.end());
-            return opt.max_degree;
-        }
-        probe = build_realisation(pi, opt.realisation, deeper_probe(a, target, opt.max_degree));
+        const std::size_t next = std::min(decay.reaching(target, top) - 1 + need, opt.max_degree + need);
+        probe = build_realisation(pi, opt.realisation, std::max(next, top + 1));
     }
 }
 
@@ -104,10 +129,11 @@ int expected_iterations(double e, double tol) {
 // The predictor order P minimising (terms of the predictor) + (expected iterations) x (one iteration's
 // cost), the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
 // Fed the base point's series order by order (base_point_series' `enough`); stops at the first order
-// expecting one iteration, or once the predictor's terms alone cost more than the best choice so far.
+// expecting one iteration, or once the next orders cannot win or cost more exact work than they save.
 // Deterministic: the choice depends on the scene only.
 class PredictorChoice {
 public:
+    static constexpr double cheap_order_terms = 500;
     PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale, std::size_t limit)
         : opt_(opt), iteration_cost_(iteration_cost), point_(std::move(point)), scale_(scale), limit_(limit) {}
     bool operator()(const std::vector<Series>& v) {
@@ -121,11 +147,16 @@ public:
         const int iterations = expected_iterations(e, opt_.newton_tol);
         const double cost = terms + iterations * iteration_cost_;
         if (!best_ || cost < best_cost_) best_ = s - 1, best_cost_ = cost;
-        // Higher orders only add terms once one iteration suffices. Every order costs at least one
-        // iteration, so the next (terms + top, known now) beats the best only below best - one iteration;
-        // the order after it grows by at least the same ratio: stopping here spares computing either.
-        const double next = terms + top, after = next + top * (terms > 0 ? std::max(1.0, top / terms) : 1.0);
-        return iterations == 1 || next >= best_cost_ - iteration_cost_ || after >= best_cost_ - iteration_cost_ || s >= limit_ + 1;
+        // Every order costs at least one iteration: the next (terms + top) wins only below best - one
+        // iteration. An order computed from more than cheap_order_terms new terms costs several times the
+        // last in exact work (seconds from ~2000 terms in 6 variables: e(3)* k = 4 spent 26 s on orders 6-7
+        // to save one iteration in two), more than a run saves: the choice stays among the cheap orders.
+        // A first neglected term that does not shrink means the series diverges at this dt.
+        const bool hopeless = terms + top >= best_cost_ - iteration_cost_;
+        const bool diverging = e_ > 0 && e >= e_;
+        const bool stop = iterations == 1 || s >= limit_ + 1 || hopeless || top > cheap_order_terms || diverging;
+        e_ = e;
+        return stop;
     }
     std::size_t order() const { return best_.value_or(0); }
 
@@ -137,6 +168,7 @@ private:
     std::size_t limit_;
     std::optional<std::size_t> best_;
     double best_cost_ = 0;
+    double e_ = 0;  // of the order before
 };
 
 // dx = J^{-1} r by Eigen's partial-pivoting LU; at the common small sizes on fixed-size matrices,
@@ -234,7 +266,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     // degree D needs (its exact recursion is the costly part): the predictor then reads at most that degree
     const std::size_t D_min = std::max<std::size_t>(realisation_degree_for_order(opt.k), 1);
     const std::size_t P_wanted = opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 8) + 1;
-    const std::size_t radial_start = std::max(D_min + 2, opt.predictor_order);
+    const std::size_t radial_start = std::max(D_min + 2, opt.predictor_order);  // two measured degrees to fit
     Realisation probe = build_realisation(pi, opt.realisation, radial ? radial_start : std::max(D_min, P_wanted) + 2);
     auto S = hamilton_jacobi_terms(M, probe, H, opt.k);
     Poly S_dt = sum_powers(S, dt, 1);  // S_dt = sum_j dt^j S_j, exactly in the double dt
@@ -343,7 +375,11 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
         // small, or no longer halving: Newton has reached the round-off of its evaluation
         const bool settled = correction_ <= opt_.newton_tol * scale || correction_ > previous / 2;
         previous = correction_;
-        if (!settled || !accept_check(x)) continue;
+        if (!settled) continue;
+        const bool solved = accept_check(x);
+        if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>())))
+            return StepStatus::ill_conditioned;
+        if (!solved) continue;
         increment = check_.delta;
         if (!increment.allFinite()) return StepStatus::non_finite;
         return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
@@ -357,7 +393,7 @@ StepStatus NewtonStepper::step(const Eigen::VectorXd& x, Eigen::VectorXd& increm
     if (!x.allFinite()) return StepStatus::non_finite;
     predictor_.eval(x.data(), xb_.data());
     const StepStatus first = newton(x, increment);
-    if (first != StepStatus::newton_not_converged && first != StepStatus::non_finite) return first;
+    if (first == StepStatus::ok || first == StepStatus::truncation_above_bound) return first;
     // NOTE: far outside the predictor's range (stiff steps), Newton may still converge from xb = x.
     const int spent = iterations_;
     xb_ = x;

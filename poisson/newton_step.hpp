@@ -14,8 +14,10 @@ namespace pgi {
 /// realisation's neglected terms there are below their bound. newton_not_converged: no iterate met the
 /// tolerance (last_residual() and last_tolerance() say by how much). truncation_above_bound: solved, but
 /// the truncated realisation's first neglected terms exceed StepOptions::truncation_bound (a smaller dt
-/// or a closed form helps). non_finite: a non-finite state or residual.
-enum class StepStatus { ok, newton_not_converged, non_finite, truncation_above_bound };
+/// or a closed form helps). ill_conditioned: the tolerance itself exceeds sqrt(u) max(|x|, |xb|), i.e. the
+/// terms summed into alpha are ~1e6 times the state or more (or not finite): the equation no longer fixes
+/// the state (a smaller dt helps). non_finite: a non-finite state or residual.
+enum class StepStatus { ok, newton_not_converged, non_finite, truncation_above_bound, ill_conditioned };
 std::string to_string(StepStatus s);
 
 struct StepOptions {
