@@ -303,7 +303,7 @@ void NewtonStepper::size_scratch(std::size_t n) {
     const auto N = static_cast<Eigen::Index>(n);
     v_ = RealisationValues(n);
     check_ = RealisationCheck(n);
-    for (auto* v : {&xb_, &p_, &r_, &dx_, &gsize_, &tol_}) v->setZero(N);
+    for (auto* v : {&xb_, &xb_good_, &p_, &r_, &dx_, &gsize_, &tol_}) v->setZero(N);
     gh_.setZero(N + N * N);
     hess_.setZero(N, N);
     J_.setZero(N, N);
@@ -359,27 +359,35 @@ bool NewtonStepper::accept_check(const Eigen::VectorXd& x) {
 // Newton from the predicted xb_: corrections until one is small (or stalls at round-off), then the
 // acceptance test; a failed test goes on iterating. The increment is delta at the accepted base point.
 StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
-    double previous = std::numeric_limits<double>::infinity();
+    double previous = std::numeric_limits<double>::infinity(), previous_residual = previous, good_residual = previous, lambda = 1;
     for (int it = 1; it <= opt_.newton_max_iter; ++it) {
         // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
         newton_system(xb_);
         r_ = v_.alpha - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
+        // Far from the solution (large steps) a full correction may overshoot: back along it, halving,
+        // while the residual grows above sqrt(u) |x| (below, growth is round-off noise).
+        const double noise = std::sqrt(unit_roundoff) * std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>());
+        if (!(residual_ <= good_residual) && !(residual_ <= noise) && lambda > 1.0 / 64) {
+            lambda /= 2;
+            xb_ = xb_good_ - lambda * dx_;
+            continue;
+        }
         if (!std::isfinite(residual_) || !v_.delta.allFinite()) return StepStatus::non_finite;
+        good_residual = residual_, lambda = 1;
+        xb_good_ = xb_;
         solve(J_, r_, dx_, lu_);
         xb_ -= dx_;
         iterations_ = it;
         correction_ = dx_.lpNorm<Eigen::Infinity>();
         if (!std::isfinite(correction_)) return StepStatus::non_finite;
         const double scale = std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>());
-        // small, or no longer halving: Newton has reached the round-off of its evaluation
-        const bool settled = correction_ <= opt_.newton_tol * scale || correction_ > previous / 2;
-        previous = correction_;
-        if (!settled) continue;
-        const bool solved = accept_check(x);
+        // small, or neither it nor the residual halving any more: Newton has reached its evaluation's round-off
+        const bool settled = correction_ <= opt_.newton_tol * scale || (correction_ > previous / 2 && residual_ > previous_residual / 2);
+        previous = correction_, previous_residual = residual_;
+        if (!settled || !accept_check(x)) continue;
         if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>())))
             return StepStatus::ill_conditioned;
-        if (!solved) continue;
         increment = check_.delta;
         if (!increment.allFinite()) return StepStatus::non_finite;
         return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
@@ -393,7 +401,7 @@ StepStatus NewtonStepper::step(const Eigen::VectorXd& x, Eigen::VectorXd& increm
     if (!x.allFinite()) return StepStatus::non_finite;
     predictor_.eval(x.data(), xb_.data());
     const StepStatus first = newton(x, increment);
-    if (first == StepStatus::ok || first == StepStatus::truncation_above_bound) return first;
+    if (first == StepStatus::ok || first == StepStatus::truncation_above_bound || info_.predictor_order == 0) return first;
     // NOTE: far outside the predictor's range (stiff steps), Newton may still converge from xb = x.
     const int spent = iterations_;
     xb_ = x;

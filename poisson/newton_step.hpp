@@ -25,7 +25,7 @@ struct StepOptions {
     double dt = 0.1;
     RealisationChoice realisation = RealisationChoice::automatic;
     std::size_t max_degree = 24;          // cap on the p-degree D of a truncated realisation
-    int newton_max_iter = 20;
+    int newton_max_iter = 100;            // evaluations, backtracking included (large steps may need 30-70)
     double newton_tol = 1e-9;             // try the acceptance test once |dx| <= tol max(|x|, |xb|): the next correction is ~|dx|^2
     double truncation_bound = 1e-12;      // a truncated realisation's neglected terms at the solution, relative to |x|
     std::size_t predictor_order = 0;      // P of the base point's series; 0 chooses it by cost, up to max(k + 1, 6)
@@ -70,6 +70,8 @@ public:
     /// |alpha(xb, grad S_dt(xb)) - x|_inf at the base point the last step ended with (one more evaluation).
     double residual_at_solution(const Eigen::VectorXd& x);
     double last_correction() const { return correction_; }  // |dx|_inf of the last Newton update
+    /// The base point xb the last step ended with (solving alpha(xb, grad S_dt(xb)) = x after an ok step).
+    const Eigen::VectorXd& base_point() const { return xb_; }
     std::size_t order() const { return 2 * ((k_ + 1) / 2); }  // odeint's Stepper::order()
     double dt() const { return dt_; }
     std::size_t dim() const { return static_cast<std::size_t>(xb_.size()); }
@@ -93,7 +95,7 @@ private:
     RealisationCheck check_;
     Eigen::VectorXd gsize_, tol_;
     RealisationValues v_;
-    Eigen::VectorXd xb_, p_, r_, dx_, gh_;
+    Eigen::VectorXd xb_, xb_good_, p_, r_, dx_, gh_;
     Eigen::MatrixXd hess_, J_, D_;
     Eigen::PartialPivLU<Eigen::MatrixXd> lu_;
     int iterations_ = 0;

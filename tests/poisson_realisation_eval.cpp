@@ -1,5 +1,6 @@
 // The realisation evaluators in double: the so(3)* closed form against the Bernoulli series (MATH.md 3).
 #include "poisson/realisation_eval.hpp"
+#include "lie_reference.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>
@@ -57,48 +58,6 @@ TEST_CASE("realisation_eval: the closed form is offered only for skew structure 
     CHECK_FALSE(RealisationEvaluator::has_rotation_form(test::bundled("lotka_volterra").pi));
 }
 
-namespace {
-
-// A reference for alpha = g(L(p)) x, g(z) = z / (e^z - 1), in long double: the Taylor coefficients c_m of g
-// from g(z) (e^z - 1) / z = 1 (c_m = -sum_{j<m} c_j / (m - j + 1)!), summed to degree 400 (for spectral
-// radii below ~0.9 * 2 pi the tail is under 1e-19), the structure matrices taken from the evaluator's
-// own delta_p (C_j x) and delta_x (L) being linear in x and p.
-struct LongDoubleLie {
-    std::vector<Eigen::Matrix<long double, -1, -1>> C;
-    std::vector<long double> c;
-    explicit LongDoubleLie(const RealisationEvaluator& e, Eigen::Index n) {
-        RealisationValues v(static_cast<std::size_t>(n));
-        for (Eigen::Index j = 0; j < n; ++j) {
-            C.emplace_back(n, n);
-            for (Eigen::Index k = 0; k < n; ++k) {  // column k of C_j = d(C_j x)/dx_k: delta_p column j at x = e_k
-                Eigen::VectorXd x = Eigen::VectorXd::Unit(n, k), p = Eigen::VectorXd::Zero(n);
-                e.eval(x, p, v);
-                C.back().col(k) = v.delta_p.col(j).cast<long double>();
-            }
-        }
-        std::vector<long double> inv_fact{1.0L};
-        for (int m = 1; m <= 402; ++m) inv_fact.push_back(inv_fact.back() / m);
-        c.push_back(1.0L);
-        for (std::size_t m = 1; m <= 400; ++m) {
-            long double s = 0;
-            for (std::size_t j = 0; j < m; ++j) s -= c[j] * inv_fact[m - j + 1];
-            c.push_back(s);
-        }
-    }
-    Eigen::Matrix<long double, -1, 1> alpha(const Eigen::VectorXd& x, const Eigen::Matrix<long double, -1, 1>& p) const {
-        const auto n = x.size();
-        Eigen::Matrix<long double, -1, -1> L = Eigen::Matrix<long double, -1, -1>::Zero(n, n);
-        for (Eigen::Index j = 0; j < n; ++j) L += p[j] * C[static_cast<std::size_t>(j)];
-        Eigen::Matrix<long double, -1, 1> v = x.cast<long double>(), sum = v;
-        for (std::size_t m = 1; m < c.size(); ++m) {
-            v = L * v;
-            sum += c[m] * v;
-        }
-        return sum;
-    }
-};
-
-}  // namespace
 
 TEST_CASE("issue 11.9 / 16.1: the Lie-Poisson evaluator equals g(L(p)) x in long double, inside and beyond its series' radius") {
     // sl(2)* ({h,e} = 2e, {h,f} = -2f, {e,f} = h: real and imaginary spectra), e(3)* (defective L) and the
@@ -116,7 +75,7 @@ TEST_CASE("issue 11.9 / 16.1: the Lie-Poisson evaluator equals g(L(p)) x in long
     for (const auto& pi : algebras) {
         const auto n = static_cast<Eigen::Index>(pi.dim());
         const auto e = RealisationEvaluator::lie_poisson(pi, 24);
-        const LongDoubleLie ref(e, n);
+        const test::LongDoubleLie ref(e, n);
         for (double target : {0.1, 1.0, 2.0, 4.0, 6.0}) {
             Eigen::VectorXd x(n), p(n);
             for (Eigen::Index i = 0; i < n; ++i) x[i] = normal(gen), p[i] = normal(gen);
@@ -128,7 +87,7 @@ TEST_CASE("issue 11.9 / 16.1: the Lie-Poisson evaluator equals g(L(p)) x in long
             if (L.eigenvalues().cwiseAbs().maxCoeff() > 0.8 * 2 * M_PI) continue;
             CAPTURE(pi.dim());
             CAPTURE(target);
-            const auto exact = ref.alpha(x, p.cast<long double>());
+            const auto exact = ref.alpha(x.cast<long double>(), p.cast<long double>());
             const double size = x.lpNorm<Eigen::Infinity>() + (v.alpha_x.cwiseAbs() * x.cwiseAbs()).maxCoeff();
             CHECK(double((v.alpha.cast<long double>() - exact).cwiseAbs().maxCoeff()) / size < 1e-14);
             RealisationCheck c(pi.dim());
@@ -138,7 +97,7 @@ TEST_CASE("issue 11.9 / 16.1: the Lie-Poisson evaluator equals g(L(p)) x in long
                 const long double h = 1e-5L * p.lpNorm<Eigen::Infinity>();
                 Eigen::Matrix<long double, -1, 1> pp = p.cast<long double>(), pm = pp;
                 pp[j] += h, pm[j] -= h;
-                const Eigen::VectorXd fd = ((ref.alpha(x, pp) - ref.alpha(x, pm)) / (2 * h)).cast<double>();
+                const Eigen::VectorXd fd = ((ref.alpha(x.cast<long double>(), pp) - ref.alpha(x.cast<long double>(), pm)) / (2 * h)).cast<double>();
                 CHECK((v.alpha_p.col(j) - fd).lpNorm<Eigen::Infinity>() / (size / p.lpNorm<Eigen::Infinity>()) < 1e-8);
             }
         }
