@@ -8,7 +8,7 @@
 
 namespace pgi {
 
-/// The time-t flow of H, exact, when L f = {f, H} (MATH.md 1: xdot = {x, H}) is nilpotent on the
+/// The time-t flow of H, exact, when L f = {f, H} (docs/math.md 1: xdot = {x, H}) is nilpotent on the
 /// coordinates, L^K x_i = 0 for all i: then x(t) = sum_{k<K} t^k/k! (L^k x)(x(0)), a polynomial in t.
 /// This covers a kick (H_A(q) on a canonical structure: K = 2) and a drift (H_B(p): K = 2).
 class PolynomialFlow {

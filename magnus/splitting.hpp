@@ -18,7 +18,7 @@ std::string to_string(SplittingMethod method);
 /// 1, 2, 4.
 std::size_t method_order(SplittingMethod method);
 
-/// Z with phi^Z_1 = phi^Y_1 o phi^X_1 (the flow of X first) in the flow convention of MATH.md 1, for
+/// Z with phi^Z_1 = phi^Y_1 o phi^X_1 (the flow of X first) in the flow convention of docs/math.md 1, for
 /// X, Y = O(e) series in e with polynomial coefficients: Z = X + Y + (1/2){Y, X} + ... + O(e^N), the
 /// solution at s = 1 of dZ/ds = sum_i B_i/i! ad_Z^i Y, Z(0) = X (the Magnus equation of magnus_series).
 Series compose_flows(const PoissonStructure& pi, const Series& X, const Series& Y, std::size_t N);

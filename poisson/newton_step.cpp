@@ -2,6 +2,8 @@
 
 #include "poisson/bisection.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -14,6 +16,8 @@ std::string to_string(StepStatus s) {
         case StepStatus::ok: return "ok";
         case StepStatus::newton_not_converged: return "Newton did not converge";
         case StepStatus::non_finite: return "non-finite state";
+        case StepStatus::truncation_above_bound: return "realisation truncated above its bound";
+        case StepStatus::ill_conditioned: return "ill-conditioned step (terms far larger than the state)";
     }
     return "?";
 }
@@ -36,40 +40,65 @@ std::vector<double> component_sizes(const Realisation& r, const std::vector<doub
     return a;
 }
 
-// The degree of the next probe: where the terms' geometric decay, fitted on the last four, reaches
-// the target, plus two for the parity of symmetric realisations; at least two more than now.
-std::size_t deeper_probe(const std::vector<double>& a, double target, std::size_t max_degree) {
-    const std::size_t top = a.size() - 1, lo = top >= 4 ? top - 3 : 1;
-    std::size_t next = top + 2;
-    if (a[lo] > 0 && a[top] > 0 && a[top] < a[lo]) {
-        const double rho = std::pow(a[top] / a[lo], 1.0 / double(top - lo));
-        next = std::max(next, top + static_cast<std::size_t>(std::ceil(std::log(target / a[top]) / std::log(rho))) + 2);
+// The geometric decay of the sizes a[m] = |A_m|/|x| measured through the probe's degree, fitted on the last
+// four non-zero ones, extrapolated past it: a[last] rho^(m - last); infinite while no decay is seen, zero
+// once the series has ended (two measured degrees past the last non-zero one).
+class Decay {
+public:
+    explicit Decay(const std::vector<double>& a) {
+        std::vector<std::size_t> nz;
+        for (std::size_t m = 1; m < a.size(); ++m)
+            if (a[m] > 0) nz.push_back(m);
+        if (nz.empty() || a.size() - 1 >= nz.back() + 2) return;  // ended
+        last_ = nz.back(), size_ = a[last_];
+        const std::size_t lo = nz[nz.size() >= 4 ? nz.size() - 4 : 0];
+        rho_ = lo < last_ ? std::pow(size_ / a[lo], 1.0 / double(last_ - lo)) : 1.0;
     }
-    return std::min(next, max_degree + 1);
+    double at(std::size_t m) const {
+        if (size_ == 0) return 0;
+        return rho_ >= 1 ? std::numeric_limits<double>::infinity() : size_ * std::pow(rho_, double(m - last_));
+    }
+    // the first degree past `from` whose extrapolated size is at most target (from + 1 if none is known)
+    std::size_t reaching(double target, std::size_t from) const {
+        if (size_ == 0 || rho_ >= 1) return from + 1;
+        const double steps = std::ceil(std::log(target / size_) / std::log(rho_));
+        return std::max(from + 1, last_ + static_cast<std::size_t>(std::max(0.0, steps)));
+    }
+
+private:
+    std::size_t last_ = 0;
+    double size_ = 0, rho_ = 0;
+};
+
+// Symmetric realisations of some structures (constant, linear) have vanishing odd parts: then one measured
+// neglected degree can be an identically zero one, and two are needed.
+bool has_parity_gaps(const std::vector<double>& a) {
+    for (std::size_t m = 1; m + 1 < a.size(); ++m)
+        if (a[m] == 0 && *std::max_element(a.begin() + std::ptrdiff_t(m) + 1, a.end()) > 0) return true;
+    return false;
 }
 
-// The smallest D >= D_min whose neglected terms (two degrees at least, for the parity of symmetric
-// realisations) are below round-off at the typical state; deepens the probe until one is found or
-// max_degree is reached. Sets truncation to the size of the first neglected degree.
+// The smallest D >= D_min whose neglected terms are below round-off at the typical state: the measured ones
+// (one degree at least past D, two where parity gaps appear) and the fitted decay's next two beyond the probe.
+// Deepens the probe to where the fitted decay says D lies, one degree past it, until found or the cap.
+// Sets truncation to the largest neglected size (measured or extrapolated): at the cap it may be large.
 std::size_t choose_degree(const PoissonStructure& pi, const StepOptions& opt, std::size_t D_min, Realisation& probe,
                           const std::vector<double>& point, double scale, double& truncation) {
     const double target = unit_roundoff / 4;
     for (;;) {
         const auto a = component_sizes(probe, point, scale);
-        for (std::size_t d = probe.degree - 2;; --d) {
-            bool tail_small = true;
-            for (std::size_t m = d + 1; m <= probe.degree; ++m) tail_small = tail_small && a[m] <= target;
-            if (!tail_small) break;
-            if (d == D_min || a[d] > target) {
-                truncation = a[d + 1];
+        const Decay decay(a);
+        const std::size_t top = probe.degree, need = has_parity_gaps(a) ? 2 : 1;
+        const auto tail = [&](std::size_t d) {
+            return std::max({*std::max_element(a.begin() + std::ptrdiff_t(d) + 1, a.end()), decay.at(top + 1), decay.at(top + 2)});
+        };
+        for (std::size_t d = D_min; d + need <= top; ++d)
+            if (tail(d) <= target || d == opt.max_degree) {
+                truncation = tail(d);
                 return d;
             }
-        }
-        if (probe.degree >= opt.max_degree + 1) {
-            truncation = a[opt.max_degree + 1];
-            return opt.max_degree;
-        }
-        probe = build_realisation(pi, opt.realisation, deeper_probe(a, target, opt.max_degree));
+        const std::size_t next = std::min(decay.reaching(target, top) - 1 + need, opt.max_degree + need);
+        probe = build_realisation(pi, opt.realisation, std::max(next, top + 1));
     }
 }
 
@@ -92,25 +121,34 @@ int expected_iterations(double e, double tol) {
 // The predictor order P minimising (terms of the predictor) + (expected iterations) x (one iteration's
 // cost), the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
 // Fed the base point's series order by order (base_point_series' `enough`); stops at the first order
-// expecting one iteration, or once the predictor's terms alone cost more than the best choice so far.
+// expecting one iteration, or once the next orders cannot win or cost more exact work than they save.
 // Deterministic: the choice depends on the scene only.
 class PredictorChoice {
 public:
-    PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale)
-        : opt_(opt), iteration_cost_(iteration_cost), point_(std::move(point)), scale_(scale),
-          limit_(std::max<std::size_t>(opt.k + 1, 8)) {}
+    static constexpr double cheap_order_terms = 500;
+    PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale, std::size_t limit)
+        : opt_(opt), iteration_cost_(iteration_cost), point_(std::move(point)), scale_(scale), limit_(limit) {}
     bool operator()(const std::vector<Series>& v) {
         const std::size_t s = v.front().order() - 1;  // exact through dt^s: scores the order P = s - 1
-        double e = 0, terms = 0;
+        double e = 0, terms = 0, top = 0;
         for (const auto& vl : v) {
             e = std::max(e, std::abs(std::pow(opt_.dt, double(s)) * evaluate(vl[s], point_)) / scale_);
             for (std::size_t m = 1; m < s; ++m) terms += static_cast<double>(vl[m].length());
+            top += static_cast<double>(vl[s].length());
         }
         const int iterations = expected_iterations(e, opt_.newton_tol);
         const double cost = terms + iterations * iteration_cost_;
         if (!best_ || cost < best_cost_) best_ = s - 1, best_cost_ = cost;
-        // higher orders only add terms once one iteration suffices, or once the terms alone cost more
-        return iterations == 1 || terms >= best_cost_ || s >= limit_ + 1;
+        // Every order costs at least one iteration: the next (terms + top) wins only below best - one
+        // iteration. An order computed from more than cheap_order_terms new terms costs several times the
+        // last in exact work (seconds from ~2000 terms in 6 variables: e(3)* k = 4 spent 26 s on orders 6-7
+        // to save one iteration in two), more than a run saves: the choice stays among the cheap orders.
+        // A first neglected term that does not shrink means the series diverges at this dt.
+        const bool hopeless = terms + top >= best_cost_ - iteration_cost_;
+        const bool diverging = e_ > 0 && e >= e_;
+        const bool stop = iterations == 1 || s >= limit_ + 1 || hopeless || top > cheap_order_terms || diverging;
+        e_ = e;
+        return stop;
     }
     std::size_t order() const { return best_.value_or(0); }
 
@@ -122,6 +160,7 @@ private:
     std::size_t limit_;
     std::optional<std::size_t> best_;
     double best_cost_ = 0;
+    double e_ = 0;  // of the order before
 };
 
 // dx = J^{-1} r by Eigen's partial-pivoting LU; at the common small sizes on fixed-size matrices,
@@ -144,6 +183,60 @@ void solve(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, Eigen::VectorXd& 
 
 }  // namespace
 
+namespace {
+
+// The realisation's parts of degrees D + 1 and D + 2 (what exists of them in the probe), for the step's
+// truncation check at the solution.
+std::vector<Poly> neglected_parts(const Realisation& probe, std::size_t D) {
+    std::vector<Poly> parts;
+    for (std::size_t m = D + 1; m <= std::min(D + 2, probe.degree); ++m)
+        for (const auto& a : probe.alpha) parts.push_back(a[m]);
+    return parts;
+}
+
+// How alpha is evaluated: a closed form where there is one (log-canonical; so(3)*-type; any other Lie-Poisson
+// structure by its series to the degree whose tail is below round-off at the typical state, by scaling and
+// squaring beyond), otherwise the compiled series truncated at the degree choose_degree finds.
+RealisationEvaluator make_evaluator(const PoissonStructure& pi, const StepOptions& opt, std::size_t D_min, Realisation& probe,
+                                    const std::vector<double>& point, const Eigen::VectorXd& p0, double scale, StepInfo& info) {
+    const StructureClass cls = pi.structure_class();
+    const RealisationForm form = realisation_form(cls, opt.realisation);
+    if (form == RealisationForm::log_canonical) {
+        info = {probe.method + " (closed form)", 0, true, 0.0, 0};
+        return RealisationEvaluator::log_canonical(pi);
+    }
+    if (form == RealisationForm::lie_poisson && RealisationEvaluator::has_rotation_form(pi)) {
+        info = {probe.method + " (closed form, so(3))", 0, true, 0.0, 0};
+        return RealisationEvaluator::rotation(pi);
+    }
+    if (form == RealisationForm::lie_poisson) {
+        // |L| may grow along the orbit and during Newton: a margin of 1.5 before scaling and squaring takes over
+        const double norm = RealisationEvaluator::lie_poisson(pi, 0).operator_norm_at(p0);
+        const std::size_t D = RealisationEvaluator::series_degree_for(1.5 * norm, std::max<std::size_t>(D_min, 2), opt.max_degree);
+        info = {probe.method + " (series, scaling and squaring beyond)", D, true, 0.0, 0};
+        return RealisationEvaluator::lie_poisson(pi, D);
+    }
+    info.degree = choose_degree(pi, opt, D_min, probe, point, scale, info.truncation_estimate);
+    info.method = probe.method;
+    info.exact_realisation = form == RealisationForm::constant;
+    return RealisationEvaluator::polynomial(pi, truncated(probe, info.degree), neglected_parts(probe, info.degree));
+}
+
+// grad S_dt and its Hessian (column-major) at x; grad S_dt alone; the sizes of grad S_dt's terms at |x|.
+std::array<CompiledMap, 3> gradient_maps(const PhaseSpace& M, const Poly& S_dt) {
+    const std::size_t n = M.dim();
+    std::vector<Poly> g, sizes;
+    for (std::size_t l = 0; l < n; ++l) g.push_back(derivative(S_dt, M.x(l)));
+    for (const auto& gl : g) sizes.push_back(absolute_coefficients(gl));
+    std::vector<Poly> grad(g);
+    for (std::size_t c = 0; c < n; ++c)
+        for (std::size_t r = 0; r < n; ++r) g.push_back(derivative(g[c], M.x(r)));
+    return {CompiledMap::build(g, M.coordinate_vars()), CompiledMap::build(grad, M.coordinate_vars()),
+            CompiledMap::build(sizes, M.coordinate_vars())};
+}
+
+}  // namespace
+
 NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
                                    const Eigen::VectorXd& x_typical) {
     const PhaseSpace& M = pi.phase_space();
@@ -159,15 +252,14 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     s.opt_ = opt;
     const Rational dt = Rational::from_double(opt.dt);
     const StructureClass cls = pi.structure_class();
-    const bool closed = realisation_form(cls, opt.realisation) != RealisationForm::radial;
-    // the predictor's order: as asked, or chosen below among 0..max(k + 1, 8) (which needs one order more)
-    const std::size_t P_limit = opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 8);
-    const std::size_t P = opt.predictor_order ? P_limit : P_limit + 1;
-
-    // S_1..S_k need the realisation through degree k - 1, the predictor through degree P.
+    const bool radial = realisation_form(cls, opt.realisation) == RealisationForm::radial;
+    // the predictor's order: as asked, or chosen below among 0..max(k + 1, 8) (which needs one order more);
+    // a radial realisation is probed from the degree S_k needs and deepened only as far as the step's own
+    // degree D needs (its exact recursion is the costly part): the predictor then reads at most that degree
     const std::size_t D_min = std::max<std::size_t>(realisation_degree_for_order(opt.k), 1);
-    std::size_t probe_degree = std::max(D_min, P) + 2;
-    Realisation probe = build_realisation(pi, opt.realisation, probe_degree);
+    const std::size_t P_wanted = opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 8) + 1;
+    const std::size_t radial_start = std::max(D_min + 2, opt.predictor_order);  // two measured degrees to fit
+    Realisation probe = build_realisation(pi, opt.realisation, radial ? radial_start : std::max(D_min, P_wanted) + 2);
     auto S = hamilton_jacobi_terms(M, probe, H, opt.k);
     Poly S_dt = sum_powers(S, dt, 1);  // S_dt = sum_j dt^j S_j, exactly in the double dt
 
@@ -177,33 +269,15 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     for (std::size_t l = 0; l < n; ++l)
         p0[static_cast<Eigen::Index>(l)] = evaluate(derivative(S_dt, M.x(l)), phase_point(x_typical, zero));
     const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
-    const auto point = phase_point(x_typical, p0);
-
-    if (closed && cls == StructureClass::log_canonical) {
-        s.info_ = {probe.method + " (closed form)", 0, true, 0.0, 0};
-        s.realisation_ = RealisationEvaluator::log_canonical(pi);
-    } else if (closed && cls == StructureClass::linear && RealisationEvaluator::has_rotation_form(pi)) {
-        s.info_ = {probe.method + " (closed form, so(3))", 0, true, 0.0, 0};
-        s.realisation_ = RealisationEvaluator::rotation(pi);
-    } else {
-        const std::size_t D = choose_degree(pi, opt, D_min, probe, point, scale, s.info_.truncation_estimate);
-        Realisation used = truncated(probe, D);
-        s.info_.method = used.method;
-        s.info_.degree = D;
-        s.info_.exact_realisation = cls == StructureClass::constant && closed;
-        s.realisation_ = closed && cls == StructureClass::linear ? RealisationEvaluator::lie_poisson(pi, D)
-                                                                 : RealisationEvaluator::polynomial(pi, used);
-    }
-
-    // grad S_dt and its Hessian, column-major.
-    std::vector<Poly> g;
-    for (std::size_t l = 0; l < n; ++l) g.push_back(derivative(S_dt, M.x(l)));
-    for (std::size_t c = 0; c < n; ++c)
-        for (std::size_t r = 0; r < n; ++r) g.push_back(derivative(g[c], M.x(r)));
-    s.gradient_ = CompiledMap::build(g, M.coordinate_vars());
+    s.realisation_ = make_evaluator(pi, opt, D_min, probe, phase_point(x_typical, p0), p0, scale, s.info_);
+    auto maps = gradient_maps(M, S_dt);
+    s.gradient_ = std::move(maps[0]);
+    s.gradient_only_ = std::move(maps[1]);
+    s.gradient_size_ = std::move(maps[2]);
 
     // xb = x + sum_m dt^m u_m, from the exact series of the base point, to the order chosen.
-    PredictorChoice choice(opt, iteration_cost(s.gradient_, s.realisation_, n), phase_point(x_typical, zero), scale);
+    const std::size_t P = std::min(P_wanted, probe.degree);
+    PredictorChoice choice(opt, iteration_cost(s.gradient_, s.realisation_, n), phase_point(x_typical, zero), scale, P - 1);
     auto u = opt.predictor_order ? base_point_series(M, probe, S, P) : base_point_series(M, probe, S, P, std::ref(choice));
     s.info_.predictor_order = opt.predictor_order ? P : choice.order();
     std::vector<Poly> xb;
@@ -213,19 +287,20 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
         xb.push_back(c.empty() ? M.x_gen(l) : M.x_gen(l) + sum_powers(c, dt, 1));
     }
     s.predictor_ = CompiledMap::build(xb, M.coordinate_vars());
-
-    const auto N = static_cast<Eigen::Index>(n);
-    s.v_ = RealisationValues(n);
-    s.xb_.setZero(N);
-    s.p_.setZero(N);
-    s.r_.setZero(N);
-    s.dx_.setZero(N);
-    s.gh_.setZero(N + N * N);
-    s.hess_.setZero(N, N);
-    s.J_.setZero(N, N);
-    s.D_.setZero(N, N);
-    s.lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(N);
+    s.size_scratch(n);
     return s;
+}
+
+void NewtonStepper::size_scratch(std::size_t n) {
+    const auto N = static_cast<Eigen::Index>(n);
+    v_ = RealisationValues(n);
+    check_ = RealisationCheck(n);
+    for (auto* v : {&xb_, &xb_good_, &p_, &r_, &dx_, &gsize_, &tol_}) v->setZero(N);
+    gh_.setZero(N + N * N);
+    hess_.setZero(N, N);
+    J_.setZero(N, N);
+    D_.setZero(N, N);
+    lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(N);
 }
 
 void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
@@ -243,43 +318,88 @@ const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
     return J_;
 }
 
-bool NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
-    const double scale = x.lpNorm<Eigen::Infinity>();
+// kappa of the residual's tolerance kappa u (|x| + sizes of the terms summed): evaluating a sum of terms
+// of total size T costs a few roundings of T per level of the evaluation (monomials of degree d carry
+// ~d u each, Horner and matrix products ~n u), and r = alpha - x one more: 64 covers degrees and
+// dimensions to ~30 with room; a state off by more is not a solution of the step's equation.
+constexpr double residual_kappa = 64;
+
+// The acceptance test at the current base point: p = grad S_dt(xb), alpha, delta and the term sizes there,
+// r = alpha - x against its componentwise tolerance (alpha_p, from the last Newton system, carries the
+// round-off of grad S_dt's terms into alpha), and the realisation's neglected terms.
+bool NewtonStepper::accept_check(const Eigen::VectorXd& x) {
+    gradient_only_.eval(xb_.data(), p_.data());
+    r_ = xb_.cwiseAbs();
+    gradient_size_.eval(r_.data(), gsize_.data());
+    realisation_.check(xb_, p_, check_);
+    r_ = check_.alpha - x;
+    residual_ = r_.lpNorm<Eigen::Infinity>();
+    const auto n = x.size();
+    ratio_ = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        double carried = 0;
+        for (Eigen::Index l = 0; l < n; ++l) carried += std::abs(v_.alpha_p(i, l)) * gsize_[l];
+        tol_[i] = residual_kappa * unit_roundoff * (std::abs(x[i]) + check_.size[i] + carried);
+        ratio_ = std::max(ratio_, std::abs(r_[i]) / std::max(tol_[i], std::numeric_limits<double>::min()));
+    }
+    tolerance_ = tol_.lpNorm<Eigen::Infinity>();
+    const double size = std::max({x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min()});
+    truncation_ = check_.neglected / size;
+    return ratio_ <= 1;
+}
+
+// Newton from the predicted xb_: corrections until one is small (or stalls at round-off), then the
+// acceptance test; a failed test goes on iterating. The increment is delta at the accepted base point.
+StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
+    double previous = std::numeric_limits<double>::infinity(), previous_residual = previous, good_residual = previous, lambda = 1;
     for (int it = 1; it <= opt_.newton_max_iter; ++it) {
         // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
         newton_system(xb_);
         r_ = v_.alpha - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
-        if (!std::isfinite(residual_) || !v_.delta.allFinite()) return false;
+        // Far from the solution (large steps) a full correction may overshoot: back along it, halving,
+        // while the residual grows above sqrt(u) |x| (below, growth is round-off noise).
+        const double noise = std::sqrt(unit_roundoff) * std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>());
+        if (!(residual_ <= good_residual) && !(residual_ <= noise) && lambda > 1.0 / 64) {
+            lambda /= 2;
+            xb_ = xb_good_ - lambda * dx_;
+            continue;
+        }
+        if (!std::isfinite(residual_) || !v_.delta.allFinite()) return StepStatus::non_finite;
+        good_residual = residual_, lambda = 1;
+        xb_good_ = xb_;
         solve(J_, r_, dx_, lu_);
         xb_ -= dx_;
         iterations_ = it;
         correction_ = dx_.lpNorm<Eigen::Infinity>();
-        if (!std::isfinite(correction_)) return false;
-        if (correction_ <= opt_.newton_tol * scale) {
-            // delta at the corrected base point, to first order: the remainder is O(|dx|^2)
-            D_ = v_.delta_x;
-            D_.noalias() += v_.delta_p * hess_;
-            increment = v_.delta;
-            increment.noalias() -= D_ * dx_;
-            return increment.allFinite();
-        }
+        if (!std::isfinite(correction_)) return StepStatus::non_finite;
+        const double scale = std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>());
+        // small, or neither it nor the residual halving any more: Newton has reached its evaluation's round-off
+        const bool settled = correction_ <= opt_.newton_tol * scale || (correction_ > previous / 2 && residual_ > previous_residual / 2);
+        previous = correction_, previous_residual = residual_;
+        if (!settled || !accept_check(x)) continue;
+        if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>())))
+            return StepStatus::ill_conditioned;
+        increment = check_.delta;
+        if (!increment.allFinite()) return StepStatus::non_finite;
+        return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
     }
-    return false;
+    return StepStatus::newton_not_converged;
 }
 
 StepStatus NewtonStepper::step(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
     iterations_ = 0;
+    residual_ = tolerance_ = ratio_ = truncation_ = 0;
     if (!x.allFinite()) return StepStatus::non_finite;
     predictor_.eval(x.data(), xb_.data());
-    if (newton(x, increment)) return StepStatus::ok;
+    const StepStatus first = newton(x, increment);
+    if (first == StepStatus::ok || first == StepStatus::truncation_above_bound || info_.predictor_order == 0) return first;
     // NOTE: far outside the predictor's range (stiff steps), Newton may still converge from xb = x.
-    const int first = iterations_;
+    const int spent = iterations_;
     xb_ = x;
-    const bool ok = newton(x, increment);
-    iterations_ += first;
-    if (ok) return StepStatus::ok;
-    return std::isfinite(residual_) ? StepStatus::newton_not_converged : StepStatus::non_finite;
+    const StepStatus second = newton(x, increment);
+    iterations_ += spent;
+    return second;
 }
 
 double NewtonStepper::residual_at_solution(const Eigen::VectorXd& x) {

@@ -1,6 +1,9 @@
 #include "poisson/realisation_eval.hpp"
 
+#include <flint/fmpq.h>
+
 #include <cmath>
+#include <limits>
 
 namespace pgi {
 
@@ -10,7 +13,18 @@ RealisationValues::RealisationValues(std::size_t n)
       alpha_x(Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n))),
       alpha_p(alpha_x), delta_x(alpha_x), delta_p(alpha_x) {}
 
-RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi, const Realisation& r) {
+RealisationCheck::RealisationCheck(std::size_t n)
+    : alpha(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n))), delta(alpha), size(alpha) {}
+
+Poly absolute_coefficients(const Poly& f) {
+    Poly a = f;
+    fmpq_abs(a.get_mut()->content, a.get_mut()->content);
+    for (std::size_t i = 0; i < a.length(); ++i) fmpz_abs(a.get_mut()->zpoly->coeffs + i, a.get_mut()->zpoly->coeffs + i);
+    return a;
+}
+
+RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi, const Realisation& r,
+                                                      const std::vector<Poly>& neglected) {
     const PhaseSpace& M = pi.phase_space();
     const std::size_t n = M.dim();
     std::vector<Poly> alpha, delta;
@@ -32,8 +46,14 @@ RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi
     e.n_ = n;
     e.form_ = Form::polynomial;
     e.map_ = CompiledMap::build(outputs, inputs);
+    std::vector<Poly> values = alpha, sizes;
+    values.insert(values.end(), delta.begin(), delta.end());
+    values.insert(values.end(), neglected.begin(), neglected.end());
+    for (const auto& a : alpha) sizes.push_back(absolute_coefficients(a));
+    e.values_map_ = CompiledMap::build(values, inputs);
+    e.size_map_ = CompiledMap::build(sizes, inputs);
     e.in_.resize(static_cast<Eigen::Index>(2 * n));
-    e.out_.resize(static_cast<Eigen::Index>(outputs.size()));
+    e.out_.resize(static_cast<Eigen::Index>(std::max(outputs.size(), values.size())));
     return e;
 }
 
@@ -47,6 +67,7 @@ RealisationEvaluator RealisationEvaluator::log_canonical(const PoissonStructure&
         for (Eigen::Index j = 0; j < n; ++j)
             e.a_(i, j) = pi.log_canonical_coefficient(static_cast<std::size_t>(i), static_cast<std::size_t>(j)).to_double();
     e.u_.resize(n);
+    e.full_ = RealisationValues(e.n_);
     return e;
 }
 
@@ -71,6 +92,36 @@ std::vector<Eigen::MatrixXd> structure_matrices(const PoissonStructure& pi) {
 
 }  // namespace
 
+namespace {
+
+constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
+constexpr double two_pi = 6.283185307179586;
+
+// |L|_inf, the norm that bounds |L^m x|_inf by |L|^m |x|_inf.
+double operator_norm(const Eigen::MatrixXd& L) {
+    double worst = 0;
+    for (Eigen::Index i = 0; i < L.rows(); ++i) {
+        double row = 0;
+        for (Eigen::Index k = 0; k < L.cols(); ++k) row += std::abs(L(i, k));
+        worst = std::max(worst, row);
+    }
+    return worst;
+}
+
+// The |L|_inf below which the Bernoulli series through degree D has a tail under u/8 relative to |x|:
+// |B_m / m!| = 2 zeta(m) / (2 pi)^m <= 3.3 / (2 pi)^m for even m >= 2 (the odd ones past B_1 vanish), so
+// the tail is at most 3.3 q^m0 / (1 - q^2), q = |L| / 2 pi, m0 the first even degree past D; q <= 1/2.
+double series_radius_for(std::size_t D) {
+    const std::size_t m0 = D % 2 ? D + 1 : D + 2;
+    return two_pi * std::min(0.5, std::pow(unit_roundoff / 8 * 0.75 / 3.3, 1.0 / double(m0)));
+}
+
+// Q(z) = (z/2) coth(z/2) = sum_j B_2j z^2j / (2j)!, at |Z|_inf <= 1 through j = 11: the tail is below
+// 3.3 (1 / 2 pi)^24 / (1 - (1 / 2 pi)^2) < 2e-19.
+constexpr std::size_t coth_terms = 12;
+
+}  // namespace
+
 RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& pi, std::size_t D) {
     const auto n = static_cast<Eigen::Index>(pi.dim());
     RealisationEvaluator e;
@@ -78,14 +129,26 @@ RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& p
     e.form_ = Form::lie_poisson;
     e.C_ = structure_matrices(pi);
     for (std::size_t m = 0; m <= D; ++m) e.b_.push_back((bernoulli(m) * inverse_factorial(m)).to_double());
+    for (std::size_t j = 0; j < coth_terms; ++j) e.q_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
+    e.radius_ = series_radius_for(D);
     e.v_prev_.resize(n);
     e.v_next_.resize(n);
-    e.L_.resize(n, n);
-    e.W_prev_.resize(n, n);
-    e.W_next_.resize(n, n);
-    e.power_.resize(n, n);
-    e.tmp_.resize(n, n);
+    for (auto* M : {&e.L_, &e.W_prev_, &e.W_next_, &e.power_, &e.tmp_, &e.Z_, &e.Y_, &e.Q_, &e.Qn_, &e.A2_, &e.M_, &e.G_})
+        M->resize(n, n);
+    e.dQ_.assign(static_cast<std::size_t>(2 * n), Eigen::MatrixXd(n, n));  // dQ/dp_j, then d(Z^2)/dp_j
+    e.lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(n);
     return e;
+}
+
+double RealisationEvaluator::operator_norm_at(const Eigen::VectorXd& p) const {
+    form_L(p);
+    return operator_norm(L_);
+}
+
+std::size_t RealisationEvaluator::series_degree_for(double norm, std::size_t D_min, std::size_t D_max) {
+    std::size_t D = D_min;
+    while (D < D_max && series_radius_for(D) < norm) ++D;
+    return D;
 }
 
 bool RealisationEvaluator::has_rotation_form(const PoissonStructure& pi) {
@@ -103,6 +166,7 @@ RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) 
     e.C_ = structure_matrices(pi);
     // the even Bernoulli coefficients b_2j = B_2j/(2j)!, j = 1..20, for h(s) near s = 0
     for (std::size_t j = 1; j <= 20; ++j) e.b_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
+    e.full_ = RealisationValues(3);
     return e;
 }
 
@@ -193,17 +257,83 @@ void lie_poisson_series(const std::vector<double>& b, const std::vector<Eigen::M
 
 }  // namespace
 
-void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
-    const auto n = static_cast<Eigen::Index>(n_);
+void RealisationEvaluator::form_L(const Eigen::VectorXd& p) const {
     // L(p) = sum_j p_j C_j, so L(p) x = pi(x) p
     L_.setZero();
-    for (Eigen::Index j = 0; j < n; ++j) L_ += p[j] * C_[static_cast<std::size_t>(j)];
-    const LieScratch s{v_prev_.data(), v_next_.data(), W_prev_.data(), W_next_.data(), power_.data(), tmp_.data()};
-    // NOTE: so(3)* and e(3)* (n = 3, 6) get loops of fixed length, which the compiler unrolls: ~2x.
-    switch (n) {
-        case 3: lie_poisson_series<3>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data()); break;
-        case 6: lie_poisson_series<6>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data()); break;
-        default: lie_poisson_series<0>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data());
+    for (Eigen::Index j = 0; j < L_.rows(); ++j) L_ += p[j] * C_[static_cast<std::size_t>(j)];
+}
+
+// Q_ = Q(L) with Q(z) = (z/2) coth(z/2), and with derivatives dQ_[j] = dQ(L)[C_j] = d Q(L(p)) / d p_j:
+// Q's series at Z = L / 2^s, |Z|_inf <= 1 (Horner in Y = Z^2), then s doublings
+// Q(2Z) = Q(Z)^{-1} (A^2 + Q(Z)^2), A = Z/2 (coth 2a = (1 + coth^2 a) / (2 coth a)), differentiated:
+// dQ(2Z) = Q^{-1} (dA A + A dA + dQ Q + Q dQ - dQ Q(2Z)) (from Q Q(2Z) = A^2 + Q^2; dA and dQ do not commute).
+void RealisationEvaluator::coth_form(bool derivatives) const {
+    const auto n = L_.rows();
+    const std::size_t dirs = derivatives ? static_cast<std::size_t>(n) : 0;
+    int s = 0;
+    const double norm = operator_norm(L_);
+    if (norm > 1) std::frexp(norm, &s);  // norm < 2^s
+    double c = std::ldexp(1.0, -s);      // Z = c L, dZ/dp_j = c C_j
+    Z_ = c * L_;
+    Y_.noalias() = Z_ * Z_;
+    for (std::size_t j = 0; j < dirs; ++j) {  // dY_j = E Z + Z E, E = c C_j, kept in dQ_[n + j]
+        auto& dY = dQ_[dirs + j];
+        dY.noalias() = c * (C_[j] * Z_);
+        dY.noalias() += c * (Z_ * C_[j]);
+        dQ_[j].setZero();
+    }
+    Q_ = q_.back() * Eigen::MatrixXd::Identity(n, n);
+    for (std::size_t i = q_.size() - 1; i-- > 0;) {
+        for (std::size_t j = 0; j < dirs; ++j) {  // d(Q Y + q I) = dQ Y + Q dY, with Q before its update
+            M_.noalias() = dQ_[j] * Y_;
+            M_.noalias() += Q_ * dQ_[dirs + j];
+            dQ_[j] = M_;
+        }
+        Qn_.noalias() = Q_ * Y_;
+        Q_ = Qn_;
+        Q_.diagonal().array() += q_[i];
+    }
+    for (int k = 0; k < s; ++k, c *= 2) {
+        A2_.noalias() = 0.25 * (Z_ * Z_);
+        Qn_ = A2_;
+        Qn_.noalias() += Q_ * Q_;
+        lu_.compute(Q_);
+        G_ = Qn_;
+        Qn_.noalias() = lu_.solve(G_);
+        for (std::size_t j = 0; j < dirs; ++j) {  // dA = (c/2) C_j, A = Z/2
+            M_.noalias() = (0.25 * c) * (C_[j] * Z_);
+            M_.noalias() += (0.25 * c) * (Z_ * C_[j]);
+            M_.noalias() += dQ_[j] * Q_;
+            M_.noalias() += Q_ * dQ_[j];
+            M_.noalias() -= dQ_[j] * Qn_;
+            dQ_[j].noalias() = lu_.solve(M_);
+        }
+        Q_ = Qn_;
+        Z_ *= 2;
+    }
+}
+
+void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
+    const auto n = static_cast<Eigen::Index>(n_);
+    form_L(p);
+    if (operator_norm(L_) <= radius_) {
+        const LieScratch s{v_prev_.data(), v_next_.data(), W_prev_.data(), W_next_.data(), power_.data(), tmp_.data()};
+        // NOTE: so(3)* and e(3)* (n = 3, 6) get loops of fixed length, which the compiler unrolls: ~2x.
+        switch (n) {
+            case 3: lie_poisson_series<3>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data()); break;
+            case 6: lie_poisson_series<6>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data()); break;
+            default: lie_poisson_series<0>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data());
+        }
+    } else {
+        // g(L) = -L/2 + Q(L); d g(L) x / dp_j = -C_j x / 2 + dQ_j x
+        coth_form(true);
+        v.alpha_x = Q_;
+        v.alpha_x.noalias() -= 0.5 * L_;
+        v.alpha.noalias() = v.alpha_x * x;
+        for (Eigen::Index j = 0; j < n; ++j) {
+            v.alpha_p.col(j).noalias() = dQ_[static_cast<std::size_t>(j)] * x;
+            v.alpha_p.col(j).noalias() -= 0.5 * (C_[static_cast<std::size_t>(j)] * x);
+        }
     }
     // delta = beta - alpha = -2 sum_{m odd} B_m/m! L^m x = L(p) x: B_1 = -1/2 and B_3 = B_5 = ... = 0
     matvec<0>(L_.data(), x.data(), v.delta.data(), n);
@@ -280,6 +410,62 @@ void RealisationEvaluator::eval_log_canonical(const Eigen::VectorXd& x, const Ei
             }
         }
     }
+}
+
+void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const {
+    const auto n = static_cast<Eigen::Index>(n_);
+    c.neglected = 0;
+    switch (form_) {
+        case Form::polynomial: {
+            in_.head(n) = x;
+            in_.tail(n) = p;
+            values_map_.eval(in_.data(), out_.data());
+            c.alpha = out_.segment(0, n);
+            c.delta = out_.segment(n, n);
+            for (std::size_t o = 2 * n_; o < values_map_.num_outputs(); ++o) c.neglected = std::max(c.neglected, std::abs(out_[Eigen::Index(o)]));
+            in_ = in_.cwiseAbs();
+            size_map_.eval(in_.data(), c.size.data());
+            c.size += x.cwiseAbs();
+            return;
+        }
+        case Form::lie_poisson: {
+            form_L(p);
+            const double norm = operator_norm(L_);
+            if (norm <= radius_) {
+                // alpha = sum_m b_m L^m x; every term is at most |b_m| |L|^m |x| in size
+                v_prev_ = x;
+                c.alpha = b_[0] * x;
+                double size = 1, power = 1;
+                for (std::size_t m = 1; m < b_.size(); ++m) {
+                    v_next_.noalias() = L_ * v_prev_;
+                    v_prev_.swap(v_next_);
+                    power *= norm;
+                    if (b_[m] == 0) continue;
+                    c.alpha += b_[m] * v_prev_;
+                    size += std::abs(b_[m]) * power;
+                }
+                c.size.setConstant(size * x.lpNorm<Eigen::Infinity>());
+            } else {
+                coth_form(false);
+                G_ = Q_;
+                G_.noalias() -= 0.5 * L_;
+                c.alpha.noalias() = G_ * x;
+                c.size.noalias() = G_.cwiseAbs() * x.cwiseAbs();
+            }
+            c.size += x.cwiseAbs();
+            c.delta.noalias() = L_ * x;
+            return;
+        }
+        case Form::rotation:
+        case Form::log_canonical: break;
+    }
+    eval(x, p, full_);
+    c.alpha = full_.alpha;
+    c.delta = full_.delta;
+    // log-canonical: alpha_j = x_j e^{u_j}, u_j a sum of terms |alpha_x - diag e^u| |x| bounds; rotation: the
+    // terms x, L x / 2, h L^2 x, bounded through |alpha_x|
+    c.size.noalias() = full_.alpha_x.cwiseAbs() * x.cwiseAbs();
+    c.size += x.cwiseAbs() + full_.delta.cwiseAbs();
 }
 
 }  // namespace pgi

@@ -14,15 +14,34 @@ struct RealisationValues {
     explicit RealisationValues(std::size_t n = 0);
 };
 
+/// What the step's acceptance test reads at the solution (no derivatives): alpha, delta, the size of
+/// the terms summed into each alpha_i (an upper bound, for a round-off tolerance), and the size of the
+/// first neglected p-degrees of a truncated realisation (0 where the evaluation is exact to round-off).
+struct RealisationCheck {
+    Eigen::VectorXd alpha, delta, size;
+    double neglected = 0;                                // max_i |A_{D+1,i}| + |A_{D+2,i}| at (x, p)
+    explicit RealisationCheck(std::size_t n = 0);
+};
+
+/// f with every coefficient replaced by its absolute value: at (|x|, |p|) the sum of the sizes of its terms.
+Poly absolute_coefficients(const Poly& f);
+
 /// One of: a compiled polynomial realisation (any class, truncated at p-degree D); the log-canonical
 /// closed form alpha_j = x_j exp(u_j), u_j = (1/2) sum_i a_ij x_i p_i, exact in floating point; or the
-/// Lie-Poisson form alpha = sum_{m<=D} B_m/m! L(p)^m x evaluated by matrix-vector products (docs/math.md 3).
+/// Lie-Poisson form alpha = g(L(p)) x, g(z) = z / (e^z - 1) (docs/math.md 3): the series sum_{m<=D} B_m/m! L^m x
+/// by matrix-vector products while |L|_inf is below the radius where its tail is under round-off, and
+/// beyond, g(L) = -L/2 + Q(L) with Q(z) = (z/2) coth(z/2) by scaling and squaring (Q(2z) = (a^2 + Q(z)^2) /
+/// Q(z), a = z/2), its p-derivatives by differentiating the same recursion: exact to round-off for every
+/// L whose eigenvalues stay off the poles 2 pi i k (k != 0) of g.
 /// delta = beta - alpha is computed as its own expression (-2 x_j sinh u_j; L(p) x, since the odd
 /// Bernoulli numbers past B_1 vanish; or the odd part of the series), so small steps do not cancel.
 class RealisationEvaluator {
 public:
     RealisationEvaluator() = default;
-    static RealisationEvaluator polynomial(const PoissonStructure& pi, const Realisation& r);
+    /// neglected: the parts of alpha of the first p-degrees past r.degree (any number of polynomials,
+    /// typically A_{D+1,i} and A_{D+2,i}), evaluated by check() as the truncation's size.
+    static RealisationEvaluator polynomial(const PoissonStructure& pi, const Realisation& r,
+                                           const std::vector<Poly>& neglected = {});
     static RealisationEvaluator log_canonical(const PoissonStructure& pi);
     static RealisationEvaluator lie_poisson(const PoissonStructure& pi, std::size_t D);
     /// so(3)*-type structures (n = 3, linear, every C_j skew, so L(p) is skew and L^3 = -s L): the
@@ -35,21 +54,40 @@ public:
 
     /// Writes every block of v. Allocates nothing.
     void eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
+    /// Writes every field of c (alpha and delta as eval writes them). Allocates nothing.
+    void check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const;
+    /// Lie-Poisson: the largest |L(p)|_inf at which the truncated series is used (beyond: scaling and squaring).
+    double series_radius() const { return radius_; }
+    /// Lie-Poisson: |L(p)|_inf, and the smallest D in [D_min, D_max] whose series is used at that norm (D_max if none).
+    double operator_norm_at(const Eigen::VectorXd& p) const;
+    static std::size_t series_degree_for(double norm, std::size_t D_min, std::size_t D_max);
 
 private:
     enum class Form { polynomial, log_canonical, lie_poisson, rotation };
     void eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
+    void form_L(const Eigen::VectorXd& p) const;
+    void coth_form(bool derivatives) const;
+    void alpha_sizes(const Eigen::VectorXd& x, const Eigen::MatrixXd& ax, RealisationCheck& c) const;
 
     std::size_t n_ = 0;
     Form form_ = Form::polynomial;
     Eigen::MatrixXd a_;                 // log-canonical: a_ij
     std::vector<Eigen::MatrixXd> C_;    // Lie-Poisson: C_[j](i, k) = c_ij^k = dL(p)/dp_j
     std::vector<double> b_;             // Lie-Poisson: B_m / m!, m = 0..D; rotation: B_2j / (2j)!, j = 1..20
+    std::vector<double> q_;             // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
+    double radius_ = 0;                 // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off
     CompiledMap map_;                   // polynomial: alpha, delta, alpha_x, alpha_p, delta_x, delta_p
+    CompiledMap values_map_;            // polynomial: alpha, delta, then the neglected parts
+    CompiledMap size_map_;              // polynomial: alpha with every coefficient replaced by its absolute value
     mutable Eigen::VectorXd in_, out_, u_, v_prev_, v_next_;
     mutable Eigen::MatrixXd L_, W_prev_, W_next_, power_, tmp_;
+    // Lie-Poisson, scaling and squaring: Z, its square, Q and its next, a^2, and dQ/dp_j for each j
+    mutable Eigen::MatrixXd Z_, Y_, Q_, Qn_, A2_, M_, G_;
+    mutable std::vector<Eigen::MatrixXd> dQ_;
+    mutable Eigen::PartialPivLU<Eigen::MatrixXd> lu_;
+    mutable RealisationValues full_;    // log-canonical and rotation: check() reads eval()'s values
 };
 
 }  // namespace pgi

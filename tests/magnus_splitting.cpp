@@ -76,7 +76,7 @@ TEST_CASE("compose_flows: the first BCH terms in our flow convention, exactly") 
 }
 
 TEST_CASE("Lie-Trotter on Henon-Heiles: H_1 and H_2 by hand, and Hairer-Lubich-Wanner's symplectic Euler") {
-    // kick by V then drift by T is MATH.md's symplectic Euler: Htilde = H - (dt/2) T_p V_q
+    // kick by V then drift by T is docs/math.md's symplectic Euler: Htilde = H - (dt/2) T_p V_q
     // + (dt^2/12)(|V_q|^2 + p^T V_qq p) + O(dt^3)
     Split s = henon_heiles();
     const auto& M = s.pi.phase_space();

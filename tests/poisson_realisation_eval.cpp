@@ -1,5 +1,6 @@
 // The realisation evaluators in double: the so(3)* closed form against the Bernoulli series (docs/math.md 3).
 #include "poisson/realisation_eval.hpp"
+#include "lie_reference.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>
@@ -55,4 +56,50 @@ TEST_CASE("realisation_eval: the closed form is offered only for skew structure 
     CHECK_FALSE(RealisationEvaluator::has_rotation_form(book));
     CHECK_THROWS_AS(RealisationEvaluator::rotation(book), std::invalid_argument);
     CHECK_FALSE(RealisationEvaluator::has_rotation_form(test::bundled("lotka_volterra").pi));
+}
+
+
+TEST_CASE("issue 11.9 / 16.1: the Lie-Poisson evaluator equals g(L(p)) x in long double, inside and beyond its series' radius") {
+    // sl(2)* ({h,e} = 2e, {h,f} = -2f, {e,f} = h: real and imaginary spectra), e(3)* (defective L) and the
+    // book algebra ({x1,x2} = x2, {x1,x3} = x3: L not skew), at |L|_inf from 0.1 to past the series radius
+    // of D = 24 (1.38) to spectral radii near 0.8 * 2 pi. alpha is compared at round-off relative to the
+    // size of its terms (|x| + |g(L)| |x|), 1e-14; alpha_p against central differences of the reference
+    // (h = 1e-5 |p|: truncation h^2 |alpha'''| ~ 1e-10, round-off 1e-19 / h), 1e-8.
+    const std::vector<PoissonStructure> algebras{
+        structure({"h", "e", "f"}, {{0, 1, "2*e"}, {0, 2, "-2*f"}, {1, 2, "h"}}),
+        structure({"m1", "m2", "m3", "g1", "g2", "g3"}, {{0, 1, "m3"}, {1, 2, "m1"}, {2, 0, "m2"}, {0, 4, "g3"}, {0, 5, "-g2"},
+                                                         {1, 5, "g1"}, {1, 3, "-g3"}, {2, 3, "g2"}, {2, 4, "-g1"}}),
+        structure({"x1", "x2", "x3"}, {{0, 1, "x2"}, {0, 2, "x3"}})};
+    std::mt19937 gen(11);
+    std::normal_distribution<double> normal;
+    for (const auto& pi : algebras) {
+        const auto n = static_cast<Eigen::Index>(pi.dim());
+        const auto e = RealisationEvaluator::lie_poisson(pi, 24);
+        const test::LongDoubleLie ref(e, n);
+        for (double target : {0.1, 1.0, 2.0, 4.0, 6.0}) {
+            Eigen::VectorXd x(n), p(n);
+            for (Eigen::Index i = 0; i < n; ++i) x[i] = normal(gen), p[i] = normal(gen);
+            p *= target / e.operator_norm_at(p);
+            RealisationValues v(pi.dim());
+            e.eval(x, p, v);
+            // the reference converges only for spectral radii below 2 pi: skip the points beyond (rare)
+            const Eigen::MatrixXcd L = v.delta_x;
+            if (L.eigenvalues().cwiseAbs().maxCoeff() > 0.8 * 2 * M_PI) continue;
+            CAPTURE(pi.dim());
+            CAPTURE(target);
+            const auto exact = ref.alpha(x.cast<long double>(), p.cast<long double>());
+            const double size = x.lpNorm<Eigen::Infinity>() + (v.alpha_x.cwiseAbs() * x.cwiseAbs()).maxCoeff();
+            CHECK(double((v.alpha.cast<long double>() - exact).cwiseAbs().maxCoeff()) / size < 1e-14);
+            RealisationCheck c(pi.dim());
+            e.check(x, p, c);
+            CHECK((c.alpha - v.alpha).lpNorm<Eigen::Infinity>() / size < 1e-14);
+            for (Eigen::Index j = 0; j < n; ++j) {
+                const long double h = 1e-5L * p.lpNorm<Eigen::Infinity>();
+                Eigen::Matrix<long double, -1, 1> pp = p.cast<long double>(), pm = pp;
+                pp[j] += h, pm[j] -= h;
+                const Eigen::VectorXd fd = ((ref.alpha(x.cast<long double>(), pp) - ref.alpha(x.cast<long double>(), pm)) / (2 * h)).cast<double>();
+                CHECK((v.alpha_p.col(j) - fd).lpNorm<Eigen::Infinity>() / (size / p.lpNorm<Eigen::Infinity>()) < 1e-8);
+            }
+        }
+    }
 }

@@ -205,7 +205,9 @@ TEST_CASE("cli: a step that does not converge stops the run with exit 3, naming 
     CHECK(r.exit_code == 3);
     CHECK(r.out.empty());
     CHECK(r.err.rfind("pgi: " + test::scene_path("rigid_body") + ": step ", 0) == 0);
-    CHECK_MESSAGE(r.err.find(") failed: Newton did not converge after 40 Newton iterations, residual ") != std::string::npos, r.err);
+    // the iteration count depends on the Newton budget and its backtracking: not pinned
+    CHECK_MESSAGE(r.err.find(") failed: Newton did not converge after ") != std::string::npos, r.err);
+    CHECK_MESSAGE(r.err.find(" Newton iterations, residual ") != std::string::npos, r.err);
     std::string text = slurp(csv);
     CHECK(text.rfind("t,x1,x2,x3,H,C1\n0,", 0) == 0);
     CHECK(text.find("# INCOMPLETE: step ") != std::string::npos);
