@@ -325,26 +325,40 @@ const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
 constexpr double residual_kappa = 64;
 
 // The acceptance test at the current base point: p = grad S_dt(xb), alpha, delta and the term sizes there,
-// r = alpha - x against its componentwise tolerance (alpha_p, from the last Newton system, carries the
-// round-off of grad S_dt's terms into alpha), and the realisation's neglected terms.
-bool NewtonStepper::accept_check(const Eigen::VectorXd& x) {
-    gradient_only_.eval(xb_.data(), p_.data());
-    r_ = xb_.cwiseAbs();
-    gradient_size_.eval(r_.data(), gsize_.data());
+// r = alpha - x against its componentwise tolerance, and the realisation's neglected terms. After a small
+// correction p is updated by the Hessian (exact to O(|dx|^2), below round-off once |dx| <= 1e-9 |x|) instead of
+// evaluated anew; the round-off of grad S_dt's terms, carried into alpha by alpha_p (from the last Newton
+// system), is added to the tolerance only if the test fails without it (the stricter test passing suffices).
+bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction) {
+    if (small_correction) {
+        r_.noalias() = hess_ * dx_;
+        p_ -= r_;
+    } else {
+        gradient_only_.eval(xb_.data(), p_.data());
+    }
     realisation_.check(xb_, p_, check_);
     r_ = check_.alpha - x;
     residual_ = r_.lpNorm<Eigen::Infinity>();
-    const auto n = x.size();
-    ratio_ = 0;
-    for (Eigen::Index i = 0; i < n; ++i) {
-        double carried = 0;
-        for (Eigen::Index l = 0; l < n; ++l) carried += std::abs(v_.alpha_p(i, l)) * gsize_[l];
-        tol_[i] = residual_kappa * unit_roundoff * (std::abs(x[i]) + check_.size[i] + carried);
-        ratio_ = std::max(ratio_, std::abs(r_[i]) / std::max(tol_[i], std::numeric_limits<double>::min()));
+    tol_ = residual_kappa * unit_roundoff * (x.cwiseAbs() + check_.size);
+    if (!within_tolerance()) {
+        r_ = xb_.cwiseAbs();
+        gradient_size_.eval(r_.data(), gsize_.data());
+        const auto n = x.size();
+        for (Eigen::Index i = 0; i < n; ++i)
+            for (Eigen::Index l = 0; l < n; ++l) tol_[i] += residual_kappa * unit_roundoff * std::abs(v_.alpha_p(i, l)) * gsize_[l];
+        r_ = check_.alpha - x;
+        within_tolerance();
     }
     tolerance_ = tol_.lpNorm<Eigen::Infinity>();
     const double size = std::max({x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min()});
     truncation_ = check_.neglected / size;
+    return ratio_ <= 1;
+}
+
+// ratio_ = max_i |r_i| / tol_i; whether it is at most 1.
+bool NewtonStepper::within_tolerance() {
+    ratio_ = 0;
+    for (Eigen::Index i = 0; i < r_.size(); ++i) ratio_ = std::max(ratio_, std::abs(r_[i]) / std::max(tol_[i], std::numeric_limits<double>::min()));
     return ratio_ <= 1;
 }
 
@@ -375,9 +389,10 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
         if (!std::isfinite(correction_)) return StepStatus::non_finite;
         const double scale = std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>());
         // small, or neither it nor the residual halving any more: Newton has reached its evaluation's round-off
-        const bool settled = correction_ <= opt_.newton_tol * scale || (correction_ > previous / 2 && residual_ > previous_residual / 2);
+        const bool small = correction_ <= opt_.newton_tol * scale;
+        const bool settled = small || (correction_ > previous / 2 && residual_ > previous_residual / 2);
         previous = correction_, previous_residual = residual_;
-        if (!settled || !accept_check(x)) continue;
+        if (!settled || !accept_check(x, small)) continue;
         if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>())))
             return StepStatus::ill_conditioned;
         increment = check_.delta;

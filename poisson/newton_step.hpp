@@ -80,7 +80,8 @@ public:
 private:
     StepStatus newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment);
     void evaluate_at(const Eigen::VectorXd& xb);
-    bool accept_check(const Eigen::VectorXd& x);
+    bool accept_check(const Eigen::VectorXd& x, bool small_correction);
+    bool within_tolerance();
     void size_scratch(std::size_t n);
 
     std::size_t k_ = 1;

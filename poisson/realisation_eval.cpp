@@ -67,7 +67,6 @@ RealisationEvaluator RealisationEvaluator::log_canonical(const PoissonStructure&
         for (Eigen::Index j = 0; j < n; ++j)
             e.a_(i, j) = pi.log_canonical_coefficient(static_cast<std::size_t>(i), static_cast<std::size_t>(j)).to_double();
     e.u_.resize(n);
-    e.full_ = RealisationValues(e.n_);
     return e;
 }
 
@@ -166,7 +165,6 @@ RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) 
     e.C_ = structure_matrices(pi);
     // the even Bernoulli coefficients b_2j = B_2j/(2j)!, j = 1..20, for h(s) near s = 0
     for (std::size_t j = 1; j <= 20; ++j) e.b_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
-    e.full_ = RealisationValues(3);
     return e;
 }
 
@@ -456,16 +454,30 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             c.delta.noalias() = L_ * x;
             return;
         }
-        case Form::rotation:
-        case Form::log_canonical: break;
+        case Form::rotation: {
+            // alpha = x - L x / 2 + h(s) L^2 x: its three terms bound the sizes
+            const Eigen::Matrix3d L = p[0] * C_[0] + p[1] * C_[1] + p[2] * C_[2];
+            const double h = rotation_coefficient(0.5 * L.squaredNorm(), b_).first;
+            const Eigen::Vector3d X = x, Lx = L * X, L2x = L * Lx;
+            c.alpha = X - 0.5 * Lx + h * L2x;
+            c.delta = Lx;
+            c.size = X.cwiseAbs() + 0.5 * Lx.cwiseAbs() + std::abs(h) * L2x.cwiseAbs();
+            return;
+        }
+        case Form::log_canonical: {
+            // alpha_j = x_j e^{u_j}, u_j = (1/2) sum_i a_ij x_i p_i: the rounding of u_j (relative to the sum of
+            // its terms' sizes w_j) enters alpha_j multiplied by |alpha_j|
+            for (Eigen::Index j = 0; j < n; ++j) {
+                double u = 0, w = 0;
+                for (Eigen::Index i = 0; i < n; ++i) u += a_(i, j) * x[i] * p[i], w += std::abs(a_(i, j) * x[i] * p[i]);
+                const double em1 = std::expm1(0.5 * u), e = 1.0 + em1;
+                c.alpha[j] = x[j] * e;
+                c.delta[j] = -x[j] * (em1 + em1 / e);
+                c.size[j] = std::abs(x[j]) + std::abs(c.alpha[j]) * (1 + 0.5 * w);
+            }
+            return;
+        }
     }
-    eval(x, p, full_);
-    c.alpha = full_.alpha;
-    c.delta = full_.delta;
-    // log-canonical: alpha_j = x_j e^{u_j}, u_j a sum of terms |alpha_x - diag e^u| |x| bounds; rotation: the
-    // terms x, L x / 2, h L^2 x, bounded through |alpha_x|
-    c.size.noalias() = full_.alpha_x.cwiseAbs() * x.cwiseAbs();
-    c.size += x.cwiseAbs() + full_.delta.cwiseAbs();
 }
 
 }  // namespace pgi

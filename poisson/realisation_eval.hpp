@@ -87,7 +87,6 @@ private:
     mutable Eigen::MatrixXd Z_, Y_, Q_, Qn_, A2_, M_, G_;
     mutable std::vector<Eigen::MatrixXd> dQ_;
     mutable Eigen::PartialPivLU<Eigen::MatrixXd> lu_;
-    mutable RealisationValues full_;    // log-canonical and rotation: check() reads eval()'s values
 };
 
 }  // namespace pgi

@@ -46,3 +46,32 @@ TEST_CASE("newton_step: no allocation in the hot loop, for every realisation for
         }
     }
 }
+
+TEST_CASE("issue 16.1: no allocation in the Lie-Poisson step past its series' radius (scaling and squaring)") {
+    // sl(2)* at dt = 1/4 from (0.5, 1, -2): |L(p)| ~ 6, beyond the radius of every series degree
+    pgi::PhaseSpace M({"h", "e", "f"});
+    std::vector<std::vector<pgi::Poly>> pi(3, std::vector<pgi::Poly>(3, pgi::Poly(M.ring())));
+    const auto set = [&](int i, int j, const char* s) { pi[i][j] = M.parse(s), pi[j][i] = -pi[i][j]; };
+    set(0, 1, "2*e");
+    set(0, 2, "-2*f");
+    set(1, 2, "h");
+    const pgi::PoissonStructure structure(M, pi);
+    Eigen::VectorXd x(3);
+    x << 0.5, 1, -2;
+    pgi::StepOptions opt;
+    opt.k = 1;
+    opt.dt = 0.25;
+    auto st = pgi::NewtonStepper::build(structure, M.parse("h^2 + 2*e^2 + 2*f^2"), opt, x);
+    Eigen::VectorXd inc(3);
+    allocations = 0;
+    counting = true;
+    int ok = 0;
+    for (int n = 0; n < 20; ++n) {
+        if (st.step(x, inc) != pgi::StepStatus::ok) break;
+        x += inc;
+        ++ok;
+    }
+    counting = false;
+    CHECK(ok == 20);
+    CHECK(allocations == 0);
+}
