@@ -115,6 +115,9 @@ void check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0
         throw InputError("X0", "must have " + std::to_string(n) + " columns (one per coordinate), got " + std::to_string(X0.cols()));
     if (!(dt > 0) || !std::isfinite(dt)) throw InputError("dt", "must be positive and finite");
     if (!(t_end >= 0) || !std::isfinite(t_end)) throw InputError("t_end", "must be finite and not negative");
+    const std::size_t most = std::max<std::size_t>(256, 4 * std::size_t(tbb::info::default_concurrency()));
+    if (options.threads > most)
+        throw InputError("threads", std::to_string(options.threads) + " is above the limit of " + std::to_string(most) + " (4 per core, at least 256)");
     if (const auto& xt = options.x_typical) {
         if (xt->size() != n) throw InputError("x_typical", "must have " + std::to_string(n) + " values, got " + std::to_string(xt->size()));
         if (!xt->allFinite()) throw InputError("x_typical", "must be finite");

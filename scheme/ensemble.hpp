@@ -32,7 +32,7 @@ enum class TrajectoryStatus {
 std::string to_string(TrajectoryStatus s);
 
 struct EnsembleOptions {
-    std::size_t threads = 0;   // workers; 0: every core (std::thread::hardware_concurrency)
+    std::size_t threads = 0;   // workers; 0: every core (TBB's default concurrency); at most max(256, 4 per core)
     std::size_t chunk = 0;     // trajectories per task; 0: about 8 tasks per worker
     /// The state the compiled step is built for (its realisation degree and predictor are chosen there).
     /// Default: typical_state(X0), the finite row of largest norm.
@@ -67,7 +67,7 @@ std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& 
 
 /// Integrates every row of X0 (m x n) over steps_to_reach(t_end, dt) steps of the step built once at
 /// options.x_typical. Throws InputError before any work on X0 without n columns, dt <= 0, t_end < 0 or
-/// not finite, a non-finite x_typical or one of the wrong length. Rows that are not finite are not
+/// not finite, a non-finite x_typical or one of the wrong length, threads above the limit. Rows that are not finite are not
 /// an error: they end with status non_finite_start.
 EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
                                   const EnsembleOptions& options = {});
