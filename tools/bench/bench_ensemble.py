@@ -9,6 +9,7 @@ more: give --m 20000 for that)."""
 import argparse
 import json
 import os
+import resource
 import sys
 import time
 
@@ -19,6 +20,11 @@ def timed(f):
     t = time.perf_counter()
     r = f()
     return time.perf_counter() - t, r
+
+
+def cpu_seconds():
+    u = resource.getrusage(resource.RUSAGE_SELF)
+    return u.ru_utime + u.ru_stime
 
 
 def main():
@@ -39,9 +45,11 @@ def main():
     dt, t_end = 0.01, 0.01 * args.steps
     X0 = np.random.default_rng(0).uniform(-1, 1, size=(args.m, 3))
     s.integrate_ensemble(X0[:2], dt=dt, t_end=dt, x_typical=s.typical_state(X0))  # the exact phase, untimed
-    runs = {}
+    runs, cpu = {}, {}
     for threads in (1, 2):
+        c = cpu_seconds()
         runs[f"threads_{threads}"] = timed(lambda: s.integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads))
+        cpu[f"threads_{threads}"] = cpu_seconds() - c
     for workers in (1, 2):
         cluster = distributed.LocalCluster(n_workers=workers, processes=True, threads_per_worker=1, dashboard_address=None,
                                            silence_logs=50)
@@ -54,14 +62,18 @@ def main():
         assert np.array_equal(r.x, ref.x) and np.array_equal(r.energy_error, ref.energy_error), name
     steps = args.m * args.steps
     seconds = {name: t for name, (t, _) in runs.items()}
-    figures = dict(m=args.m, steps=args.steps, cores=os.cpu_count(), seconds=seconds,
+    figures = dict(m=args.m, steps=args.steps, cores=os.cpu_count(), seconds=seconds, cpu_seconds=cpu,
+                   load_average=os.getloadavg(),
                    steps_per_second={k: steps / v for k, v in seconds.items()},
                    threads_2_over_1=seconds["threads_1"] / seconds["threads_2"],
                    dask_2_over_1=seconds["dask_1"] / seconds["dask_2"],
                    dask_1_over_threads_1=seconds["threads_1"] / seconds["dask_1"])
     print(f"rigid body, k = 4, {args.m} trajectories x {args.steps} steps, {os.cpu_count()} cores (same numbers bit for bit in all four runs)")
     for k, v in seconds.items():
-        print(f"  {k:10s} {v:7.2f} s  {steps / v:10.3g} steps/s")
+        busy = f"  (this process's CPU time {cpu[k]:.2f} s: {cpu[k] / v:.2f} cores busy)" if k in cpu else ""
+        print(f"  {k:10s} {v:7.2f} s  {steps / v:10.3g} steps/s{busy}")
+    print(f"  load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores: below {os.cpu_count()} busy cores the "
+          "machine is shared and the ratios measure the sharing, not pgi")
     print(f"  2 threads / 1 thread: {figures['threads_2_over_1']:.2f}x   Dask 2 workers / 1 worker: {figures['dask_2_over_1']:.2f}x"
           f"   Dask 1 worker / local 1 thread: {figures['dask_1_over_threads_1']:.2f}x")
     if args.json:
