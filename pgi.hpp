@@ -9,6 +9,7 @@
 #include "poisson/newton_step.hpp"
 #include "poisson/realisation.hpp"
 #include "poisson/structure.hpp"
+#include "scheme/ensemble.hpp"
 #include "scheme/input.hpp"
 #include "scheme/scheme.hpp"
 #include "scheme/trajectory.hpp"

@@ -1,5 +1,6 @@
 // pgi._pgi: the Scheme for Python (pybind11). The pure-Python package pgi/__init__.py wraps it: results as
 // objects, StepFailure raised from a failed step's report, sympy conversions.
+#include "scheme/ensemble.hpp"
 #include "scheme/scheme.hpp"
 #include "scheme/trajectory.hpp"
 #include "scheme/version.hpp"
@@ -78,11 +79,7 @@ PyScheme from_values(std::vector<std::string> coordinates, const py::dict& brack
     return s;
 }
 
-PyScheme from_toml(const std::string& path) {
-    pgi::Scene scene = [&] {
-        py::gil_scoped_release release;
-        return pgi::load_scene(path);
-    }();
+PyScheme from_scene(const pgi::Scene& scene) {
     PyScheme s;
     s.scheme = scene.scheme;
     s.name = scene.name;
@@ -90,6 +87,17 @@ PyScheme from_toml(const std::string& path) {
     s.t_end = scene.t_end;
     if (scene.x0) s.x0 = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
     return s;
+}
+
+PyScheme from_toml(const std::string& path) {
+    py::gil_scoped_release release;
+    return from_scene(pgi::load_scene(path));
+}
+
+// The scene's text (what a pickled Scheme carries to another process); file only names it in messages.
+PyScheme from_toml_text(const std::string& text, const std::string& file) {
+    py::gil_scoped_release release;
+    return from_scene(pgi::parse_scene(text, file));
 }
 
 py::dict check(const PyScheme& s) {
@@ -155,19 +163,25 @@ py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt
     return r;
 }
 
-py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::optional<double> dt_in,
-                   std::optional<double> t_end_in, std::size_t every) {
-    if (!x0_in && !s.x0) throw pgi::InputError("x0", "missing: give x0 (the scheme has none)");
-    const Eigen::VectorXd x0 = s.state(x0_in ? *x0_in : *s.x0, "x0");
-    const double dt = s.step_size(dt_in);
+double run_length(const PyScheme& s, std::optional<double> t_end_in) {
     std::optional<double> t_end = t_end_in ? t_end_in : s.t_end;
     if (!t_end) throw pgi::InputError("t_end", "missing: give t_end (the scheme has none)");
     if (!(*t_end >= 0) || !std::isfinite(*t_end)) throw pgi::InputError("t_end", "must be finite and not negative");
+    return *t_end;
+}
+
+py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::optional<double> dt_in,
+                   std::optional<double> t_end_in, std::size_t every, std::optional<Eigen::VectorXd> x_typical) {
+    if (!x0_in && !s.x0) throw pgi::InputError("x0", "missing: give x0 (the scheme has none)");
+    const Eigen::VectorXd x0 = s.state(x0_in ? *x0_in : *s.x0, "x0");
+    const double dt = s.step_size(dt_in);
+    const double t_end = run_length(s, t_end_in);
     if (every < 1) throw pgi::InputError("every", "must be at least 1");
+    if (x_typical) s.state(*x_typical, "x_typical");
     pgi::Trajectory tr;
     {
         py::gil_scoped_release release;  // the exact phase (first call) and the run are C++ only
-        tr = pgi::integrate(*s.scheme, x0, dt, *t_end, every);
+        tr = pgi::integrate(*s.scheme, x0, dt, t_end, every, x_typical);
     }
     const auto rows = static_cast<py::ssize_t>(tr.t.size()), n = static_cast<py::ssize_t>(tr.dim);
     const auto C = static_cast<py::ssize_t>(tr.casimir_error_max.size());
@@ -188,6 +202,66 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
     return r;
 }
 
+// X0 as the ensemble reads it: a 2-D float64 numpy array with one column per coordinate (checked before any
+// work), viewed in place when C-contiguous.
+py::array_t<double, py::array::c_style> ensemble_states(const PyScheme& s, const py::object& X0) {
+    if (!py::isinstance<py::array>(X0)) throw pgi::InputError("X0", "must be a numpy array of shape (m, n), float64");
+    const auto a = py::reinterpret_borrow<py::array>(X0);
+    const std::size_t n = s.M().dim();
+    if (!py::array_t<double>::check_(a))  // dtype equivalent to float64 (native byte order)
+        throw pgi::InputError("X0", "must have dtype float64, got " + py::str(a.dtype()).cast<std::string>());
+    if (a.ndim() != 2 || std::size_t(a.shape(1)) != n) {
+        std::string shape = "(";
+        for (py::ssize_t d = 0; d < a.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(a.shape(d));
+        throw pgi::InputError("X0", "must have shape (m, " + std::to_string(n) + "), one column per coordinate, got " +
+                                        shape + (a.ndim() == 1 ? ",)" : ")"));
+    }
+    return py::array_t<double, py::array::c_style>::ensure(a);
+}
+
+Eigen::Map<const pgi::RowMatrix> as_matrix(const py::array_t<double, py::array::c_style>& a) {
+    return {a.data(), Eigen::Index(a.shape(0)), Eigen::Index(a.shape(1))};
+}
+
+py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::optional<double> dt_in,
+                            std::optional<double> t_end_in, std::size_t threads, std::size_t chunk,
+                            std::optional<Eigen::VectorXd> x_typical) {
+    const auto X0 = ensemble_states(s, X0_in);
+    const double dt = s.step_size(dt_in);
+    const double t_end = run_length(s, t_end_in);
+    if (x_typical) s.state(*x_typical, "x_typical");
+    pgi::EnsembleOptions options;
+    options.threads = threads;
+    options.chunk = chunk;
+    options.x_typical = x_typical;
+    pgi::EnsembleResult r;
+    {
+        py::gil_scoped_release release;  // X0 stays alive (held above) and is only read
+        r = pgi::integrate_ensemble(*s.scheme, as_matrix(X0), dt, t_end, options);
+    }
+    const auto m = static_cast<py::ssize_t>(r.members.size());
+    py::list status;
+    py::array_t<std::size_t> steps(m), failed_step(m);
+    py::array_t<double> failed_t(m), residual(m), newton_mean(m);
+    py::array_t<int> newton_max(m);
+    for (py::ssize_t i = 0; i < m; ++i) {
+        const auto& e = r.members[std::size_t(i)];
+        status.append(pgi::to_string(e.status));
+        steps.mutable_at(i) = e.steps;
+        failed_step.mutable_at(i) = e.failed_step;
+        failed_t.mutable_at(i) = e.failed_t;
+        residual.mutable_at(i) = e.residual;
+        newton_mean.mutable_at(i) = e.newton_iterations_mean;
+        newton_max.mutable_at(i) = e.newton_iterations_max;
+    }
+    py::object x_typ = r.x_typical.size() ? py::cast(r.x_typical) : py::none();
+    return py::dict("x"_a = py::cast(std::move(r.x)), "energy_error"_a = py::cast(std::move(r.energy_error)),
+                    "casimir_error"_a = py::cast(std::move(r.casimir_error)),
+                    "status"_a = status, "steps"_a = steps, "failed_step"_a = failed_step, "failed_t"_a = failed_t,
+                    "residual"_a = residual, "newton_iterations_mean"_a = newton_mean, "newton_iterations_max"_a = newton_max,
+                    "x_typical"_a = x_typ, "threads"_a = r.threads, "dt"_a = dt, "t_end"_a = t_end);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_pgi, m) {
@@ -204,6 +278,7 @@ PYBIND11_MODULE(_pgi, m) {
              "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(), "x0"_a = py::none(), "t_end"_a = py::none(),
              "max_terms"_a = pgi::Ring::default_max_terms)
         .def_static("from_toml", &from_toml, "path"_a)
+        .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a)
         .def_property_readonly("name", [](const PyScheme& s) { return s.name; })
         .def_property_readonly("coordinates", [](const PyScheme& s) { return s.M().coordinates(); })
         .def_property_readonly("order", [](const PyScheme& s) { return s.scheme->order(); })
@@ -236,5 +311,11 @@ PYBIND11_MODULE(_pgi, m) {
                  return py::dict("method"_a = r.method, "degree"_a = r.degree, "alpha"_a = alpha, "beta"_a = beta);
              }, "degree"_a)
         .def("_step", &step, "x"_a, "dt"_a = py::none())
-        .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1);
+        .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
+             "x_typical"_a = py::none())
+        .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),
+             "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none())
+        .def("_typical_state", [](const PyScheme& s, const py::object& X0) {
+                 return pgi::typical_state(as_matrix(ensemble_states(s, X0)));
+             }, "X0"_a);
 }

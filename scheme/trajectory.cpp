@@ -24,14 +24,17 @@ std::string step_failure_message(const NewtonStepper& s, std::size_t step, StepS
     return buffer;
 }
 
-Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every) {
+Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every,
+                     const std::optional<Eigen::VectorXd>& x_typical) {
     const std::size_t n = scheme.phase_space().dim();
     if (every == 0) throw std::invalid_argument("every must be at least 1");
     if (!(t_end >= 0) || !std::isfinite(t_end)) throw std::invalid_argument("t_end must be finite and not negative");
     if (!(dt > 0) || !std::isfinite(dt)) throw std::invalid_argument("dt must be positive and finite");
     if (static_cast<std::size_t>(x0.size()) != n || !x0.allFinite())
         throw std::invalid_argument("x0 must have " + std::to_string(n) + " finite values");
-    NewtonStepper stepper = scheme.stepper(dt, x0);
+    if (x_typical && (x_typical->size() != x0.size() || !x_typical->allFinite()))
+        throw std::invalid_argument("x_typical must have " + std::to_string(n) + " finite values");
+    NewtonStepper stepper = scheme.stepper(dt, x_typical ? *x_typical : x0);
     const std::size_t N = steps_to_reach(t_end, dt), C = scheme.casimirs().size();
     CompiledMap inv = scheme.invariants();
     std::vector<double> values(inv.num_outputs()), initial(inv.num_outputs()), worst(inv.num_outputs(), 0.0);

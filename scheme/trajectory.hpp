@@ -4,6 +4,7 @@
 // run (tools/run.cpp) measures with the same pieces (steps_to_reach, relative_error, Scheme::invariants).
 #include "scheme/scheme.hpp"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,10 +36,12 @@ struct Trajectory {
     std::string message;
 };
 
-/// Integrates with scheme.stepper(dt, x0) from x0 over steps_to_reach(t_end, dt) steps, Kahan-summed
+/// Integrates with scheme.stepper(dt, x_typical) (default: x_typical = x0) from x0 over steps_to_reach(t_end, dt) steps, Kahan-summed
 /// (integrate_steps), recording every `every`-th state and the last. Stops at the first failed step
 /// (status, failed_step, message say why; the trajectory holds what came before). Throws
 /// std::invalid_argument on every = 0, t_end < 0, dt <= 0 or x0 of the wrong length or not finite.
-Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1);
+/// A given x_typical (finite, of x0's length) makes the run the one an ensemble built at x_typical makes.
+Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1,
+                     const std::optional<Eigen::VectorXd>& x_typical = std::nullopt);
 
 }  // namespace pgi

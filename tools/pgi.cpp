@@ -3,6 +3,7 @@
 #include "tools/atomic_file.hpp"
 #include "scheme/version.hpp"
 #include "tools/commands.hpp"
+#include "tools/ensemble.hpp"
 #include "tools/plot.hpp"
 #include "tools/section.hpp"
 
@@ -28,6 +29,7 @@ struct Options {
     std::string splitting;  // pgi modified --splitting
     std::string plot;       // pgi run/integrate --plot DIR
     pgi::SectionOptions section;
+    pgi::EnsembleCommandOptions ensemble;
 };
 
 // The options a subcommand reads, and only those: each flag of Use says which of the scene's values it uses.
@@ -54,6 +56,11 @@ void emit(const Options& o, const nlohmann::json& report, const std::function<st
 
 int run_command(const std::string& name, const Options& o) {
     pgi::Scene scene = pgi::load_scene(o.scene, o.overrides);
+    if (name == "ensemble") {
+        auto eo = o.ensemble;
+        eo.x0_given = o.overrides.x0.has_value();
+        return pgi::ensemble_command(scene, eo, o.json);
+    }
     if (name == "check") {
         auto report = pgi::check_report(scene);
         emit(o, report, pgi::check_text);
@@ -123,6 +130,7 @@ int main(int argc, char** argv) {
     auto* magnus = app.add_subcommand("magnus", "the Magnus series of the scene's [magnus] h");
     auto* modified = app.add_subcommand("modified", "the modified Hamiltonian of the order-k scheme");
     auto* report = app.add_subcommand("report", "one document: structure, checks, S_1..S_k, modified Hamiltonian, a run");
+    auto* ensemble = app.add_subcommand("ensemble", "many initial states (a file or a sampler) integrated on every core");
     scene_options(check, o, use::json | use::order | use::realisation);
     scene_options(terms, o, use::json | use::order | use::realisation);
     scene_options(realisation, o, use::json | use::realisation);
@@ -141,6 +149,8 @@ int main(int argc, char** argv) {
     section->add_option("--samples", o.section.samples, "sign tests per step on the dense output (default 1: the ends)")
         ->check(CLI::PositiveNumber);
     section->add_option("--csv", o.csv, "write the crossings (t, coordinates) to this CSV file");
+    scene_options(ensemble, o, use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);  // x0: --sample casimir
+    pgi::add_ensemble_options(ensemble, o.ensemble);
     report->add_option("--format", o.format, "markdown | latex | json")->check(CLI::IsMember({"markdown", "latex", "json"}));
     report->add_option("--out", o.out, "write to this file (atomically) instead of stdout");
     report->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian (default 4)");

@@ -8,6 +8,8 @@
     s.terms()                      # exact S_1..S_k as strings (latex=True, or terms_sympy())
     s.step([0.6, 0.8, 0.3], 0.1)   # numpy array
     r = s.integrate([0.6, 0.8, 0.3], dt=0.1, t_end=100)   # r.t, r.x, r.energy_error, ...
+    e = s.integrate_ensemble(X0, dt=0.1, t_end=100)       # X0: (m, 3) float64; e.x, e.status, ... on every core
+    # pgi.dask.integrate_ensemble(client, s, X0, ...): the same, bit for bit, on a Dask cluster
 
 "order" is k, the Hamilton-Jacobi truncation order; the method converges with order method_order = 2 ceil(k/2).
 Bad input raises ValueError (pgi.InputError); a step not solved to round-off raises pgi.StepFailure.
@@ -17,7 +19,7 @@ import numpy as _np
 from ._pgi import InputError, ResourceLimitError, SceneError, __version__
 from ._pgi import Scheme as _Scheme
 
-__all__ = ["Scheme", "Result", "StepFailure", "InputError", "SceneError", "ResourceLimitError", "__version__"]
+__all__ = ["Scheme", "Result", "EnsembleResult", "StepFailure", "InputError", "SceneError", "ResourceLimitError", "__version__"]
 
 
 class StepFailure(ArithmeticError):
@@ -39,6 +41,34 @@ class Result:
     def __repr__(self):
         return (f"pgi.Result(steps={self.steps}, t_end={self.t[-1] if len(self.t) else 0.0}, status={self.status!r}, "
                 f"energy_error_max={self.energy_error_max:.3e})")
+
+
+class EnsembleResult:
+    """An ensemble: per trajectory (one row of X0) x (m, n: the final state, or the last reached before a
+    failure, or the row itself if it was not finite), energy_error (m,) and casimir_error (m, c) (the largest
+    relative errors over every step; NaN for a row that was not finite), status ((m,) strings: "ok",
+    "newton_not_converged", "non_finite", "non_finite_start"), steps, failed_step (1-based, 0 if none),
+    failed_t, residual, newton_iterations_mean, newton_iterations_max; and x_typical (the state the step was
+    built for), threads, dt, t_end."""
+
+    def __init__(self, d):
+        self.__dict__.update(d)
+        self.status = _np.array(self.status, dtype=str)
+
+    @property
+    def ok(self):
+        """(m,) bool: the trajectories that reached t_end."""
+        return self.status == "ok"
+
+    def __repr__(self):
+        return f"pgi.EnsembleResult(trajectories={len(self.status)}, ok={int(self.ok.sum())}, threads={self.threads})"
+
+
+def _rebuild(description):
+    """A Scheme from its description (what pickle carries): ("values", kwargs) or ("toml", text, file)."""
+    if description[0] == "values":
+        return Scheme(**description[1])
+    return Scheme._from_toml_text(description[1], description[2])
 
 
 def _sympy(texts, coordinates):
@@ -63,12 +93,36 @@ class Scheme:
             x0 = _np.asarray(x0, dtype=float)
         self._core = _Scheme(list(coordinates), dict(brackets), hamiltonian, list(casimirs), order, realisation, dt, x0,
                              t_end, max_terms)
+        self._description = ("values", dict(coordinates=list(coordinates), brackets=dict(brackets),
+                                            hamiltonian=hamiltonian, casimirs=list(casimirs), order=order,
+                                            realisation=realisation, dt=dt, x0=None if x0 is None else x0.tolist(),
+                                            t_end=t_end, max_terms=max_terms))
 
     @classmethod
     def from_toml(cls, path):
+        try:  # the text, so a pickled Scheme carries the scene itself
+            with open(path, "rb") as f:
+                text = f.read()
+        except OSError:
+            _Scheme.from_toml(str(path))  # raises pgi's own SceneError naming the file
+            raise
+        return cls._from_toml_text(text, str(path))
+
+    @classmethod
+    def _from_toml_text(cls, text, file):
         s = cls.__new__(cls)
-        s._core = _Scheme.from_toml(str(path))
+        s._core = _Scheme.from_toml_text(text, file)
+        s._description = ("toml", text, file)
         return s
+
+    @property
+    def description(self):
+        """What rebuilds this Scheme elsewhere: ("values", the constructor's arguments) or ("toml", the scene's
+        text, its file name). Pickling a Scheme sends this; the exact work is redone (once) where it lands."""
+        return self._description
+
+    def __reduce__(self):
+        return (_rebuild, (self._description,))
 
     def __getattr__(self, name):  # the C++ scheme's attributes and exact methods
         if name.startswith("__") or name == "_core":
@@ -91,14 +145,35 @@ class Scheme:
             raise StepFailure(r["message"], 1, 0.0, r["residual"])
         return r["x"]
 
-    def integrate(self, x0=None, dt=None, t_end=None, every=1):
+    def integrate(self, x0=None, dt=None, t_end=None, every=1, x_typical=None):
         """ceil(t_end/dt) steps from x0 (defaults: the scheme's), Kahan-summed, recording every `every`-th
         state and the last; returns a Result. The GIL is released while it runs. Raises StepFailure (with
-        .result holding the run up to the failure) if a step fails."""
-        r = Result(self._core._integrate(None if x0 is None else _np.asarray(x0, dtype=float), dt, t_end, every))
+        .result holding the run up to the failure) if a step fails. The compiled step is built at x0, or at
+        x_typical when given (an ensemble's x_typical gives its run of this trajectory, bit for bit)."""
+        r = Result(self._core._integrate(None if x0 is None else _np.asarray(x0, dtype=float), dt, t_end, every,
+                                         None if x_typical is None else _np.asarray(x_typical, dtype=float)))
         if r.status != "ok":
             raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
         return r
+
+    def integrate_ensemble(self, X0, dt=None, t_end=None, threads=None, chunk=None, x_typical=None):
+        """Every row of X0 (an (m, n) float64 numpy array; nested lists are converted) over ceil(t_end/dt)
+        steps, on `threads` cores (default: all), the GIL released; returns an EnsembleResult. Each row's
+        numbers equal integrate(row, dt, t_end, x_typical=result.x_typical) bit for bit, whatever threads and
+        chunk (trajectories per task). The step is built once, at x_typical (default: the finite row of largest
+        norm). A row that is not finite or a step that fails ends that trajectory with its status; nothing is
+        raised for it. Raises ValueError (before any work) for X0 of the wrong shape or dtype."""
+        if not isinstance(X0, _np.ndarray):
+            X0 = _np.array(X0, dtype=float)
+        for name, v in (("threads", threads), ("chunk", chunk)):
+            if v is not None and (not isinstance(v, (int, _np.integer)) or v < 1):
+                raise InputError(f"{name}: must be a positive integer, got {v!r}")
+        return EnsembleResult(self._core._integrate_ensemble(
+            X0, dt, t_end, threads or 0, chunk or 0, None if x_typical is None else _np.asarray(x_typical, dtype=float)))
+
+    def typical_state(self, X0):
+        """The row integrate_ensemble builds its step at by default: the finite row of largest norm (None if none)."""
+        return self._core._typical_state(X0 if isinstance(X0, _np.ndarray) else _np.array(X0, dtype=float))
 
     def __repr__(self):
         c = self._core

@@ -1,0 +1,80 @@
+"""Ensembles from Python: each row equals its single run bit for bit whatever the threads, bad X0 refused
+before any work, NaN rows and failing trajectories isolated; pickling a Scheme rebuilds it."""
+import pickle
+
+import numpy as np
+import pytest
+
+import pgi
+from conftest import SCENES
+from test_scheme import RIGID_BODY
+
+
+def states(m, seed=1):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-1.5, 1.5, size=(m, 3))
+
+
+def test_each_row_equals_its_single_run_whatever_the_threads():
+    s = pgi.Scheme(**RIGID_BODY)
+    X0 = states(9)
+    one = s.integrate_ensemble(X0, dt=0.1, t_end=3, threads=1)
+    assert one.x.shape == (9, 3) and one.casimir_error.shape == (9, 1) and one.status.tolist() == ["ok"] * 9
+    assert one.x_typical.tolist() == X0[np.argmax((X0 ** 2).sum(axis=1))].tolist()
+    assert one.x_typical.tolist() == s.typical_state(X0).tolist()
+    for i in range(9):
+        r = s.integrate(X0[i], dt=0.1, t_end=3, every=30, x_typical=one.x_typical)
+        assert r.x[-1].tolist() == one.x[i].tolist()
+        assert r.energy_error_max == one.energy_error[i] and r.casimir_error_max[0] == one.casimir_error[i, 0]
+        assert r.steps == one.steps[i] == 30 and r.newton_iterations_mean == one.newton_iterations_mean[i]
+    for threads, chunk in [(2, 1), (2, None), (3, 2)]:
+        e = s.integrate_ensemble(X0, dt=0.1, t_end=3, threads=threads, chunk=chunk)
+        assert e.threads == threads
+        assert np.array_equal(e.x, one.x) and np.array_equal(e.energy_error, one.energy_error)
+        assert np.array_equal(e.casimir_error, one.casimir_error)
+
+
+def test_bad_X0_is_a_value_error_before_any_work():
+    s = pgi.Scheme(**RIGID_BODY)
+    with pytest.raises(ValueError, match=r"X0: must have shape \(m, 3\), one column per coordinate, got \(4, 2\)"):
+        s.integrate_ensemble(np.zeros((4, 2)), dt=0.1, t_end=1)
+    with pytest.raises(ValueError, match=r"got \(3,\)"):
+        s.integrate_ensemble(np.zeros(3), dt=0.1, t_end=1)
+    with pytest.raises(ValueError, match="X0: must have dtype float64, got float32"):
+        s.integrate_ensemble(np.zeros((4, 3), dtype=np.float32), dt=0.1, t_end=1)
+    with pytest.raises(ValueError, match="X0: must have dtype float64, got int64"):
+        s.integrate_ensemble(np.zeros((4, 3), dtype=np.int64), dt=0.1, t_end=1)
+    with pytest.raises(ValueError, match="dt: missing"):
+        s.integrate_ensemble(np.zeros((4, 3)), t_end=1)
+    with pytest.raises(ValueError, match="threads: must be a positive integer"):
+        s.integrate_ensemble(np.zeros((4, 3)), dt=0.1, t_end=1, threads=0)
+    # a Fortran-ordered array is read as the same rows
+    X0 = states(4)
+    assert np.array_equal(s.integrate_ensemble(np.asfortranarray(X0), dt=0.1, t_end=1).x,
+                          s.integrate_ensemble(X0, dt=0.1, t_end=1).x)
+
+
+def test_nan_row_and_failing_trajectory_end_alone():
+    s = pgi.Scheme(**RIGID_BODY)
+    X0 = states(6)
+    clean = s.integrate_ensemble(X0, dt=0.1, t_end=2, threads=2)
+    X0[1, 2] = np.nan
+    X0[4] *= 1e4  # far beyond what the step built at the clean x_typical solves with dt = 0.1
+    r = s.integrate_ensemble(X0, dt=0.1, t_end=2, threads=2, chunk=1, x_typical=clean.x_typical)
+    assert r.status[1] == "non_finite_start" and r.steps[1] == 0 and np.isnan(r.energy_error[1])
+    assert r.status[4] in ("newton_not_converged", "non_finite") and r.failed_step[4] == r.steps[4] + 1
+    assert r.failed_t[4] == r.steps[4] * 0.1 and np.isfinite(r.x[4]).all()
+    others = [0, 2, 3, 5]
+    assert (r.status[others] == "ok").all() and np.array_equal(r.x[others], clean.x[others])
+    assert r.ok.tolist() == [True, False, True, True, False, True]
+
+
+def test_pickle_rebuilds_the_scheme_from_its_values_or_its_scene_text():
+    for s in (pgi.Scheme(**RIGID_BODY, dt=0.1, t_end=2), pgi.Scheme.from_toml(SCENES / "rigid_body.toml")):
+        t = pickle.loads(pickle.dumps(s))
+        assert t.description == s.description and t.terms() == s.terms()
+        assert t.dt == s.dt and t.t_end == s.t_end
+        X0 = states(3)
+        assert np.array_equal(t.integrate_ensemble(X0, t_end=2).x, s.integrate_ensemble(X0, t_end=2).x)
+    with pytest.raises(pgi.SceneError, match="no_such_scene.toml"):
+        pgi.Scheme.from_toml(SCENES / "no_such_scene.toml")

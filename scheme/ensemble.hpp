@@ -1,0 +1,75 @@
+#pragma once
+// Ensembles: m initial states of one Scheme integrated on every core. A pool of threads (oneTBB, an arena
+// of `threads` workers over chunks of trajectories) runs each trajectory through the same loop as
+// pgi::integrate (integrate_steps, Kahan-summed, the invariants watched at every step), with one compiled
+// step built for the whole ensemble and copied into each worker (with its own scratch). So a trajectory's
+// numbers are those of its single run pgi::integrate(scheme, x0, dt, t_end, every, x_typical), bit for bit,
+// whatever the thread count and the chunking. A row that is not finite, or a step that fails, ends that
+// trajectory with its status; the others finish.
+//
+// Room for a batch step: run_chunk() (ensemble.cpp) is the one place that advances a chunk of trajectories;
+// a structure-of-arrays step over the chunk with masked Newton would replace its loop over rows there.
+#include "scheme/scheme.hpp"
+
+#include <Eigen/Dense>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pgi {
+
+using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// How a trajectory of an ensemble ended.
+enum class TrajectoryStatus {
+    ok,                      // every step solved to round-off
+    newton_not_converged,    // a step's Newton did not reach round-off
+    non_finite,              // a step left a non-finite state
+    non_finite_start,        // the initial row was not finite: no step taken
+};
+/// "ok", "newton_not_converged", "non_finite", "non_finite_start" (identifiers, for arrays and CSV).
+std::string to_string(TrajectoryStatus s);
+
+struct EnsembleOptions {
+    std::size_t threads = 0;   // workers; 0: every core (TBB's default concurrency); at most max(256, 4 per core)
+    std::size_t chunk = 0;     // trajectories per task; 0: about 8 tasks per worker
+    /// The state the compiled step is built for (its realisation degree and predictor are chosen there).
+    /// Default: typical_state(X0), the finite row of largest norm.
+    std::optional<Eigen::VectorXd> x_typical;
+};
+
+/// Per trajectory: how it ended and its Newton statistics.
+struct EnsembleMember {
+    TrajectoryStatus status = TrajectoryStatus::ok;
+    std::size_t steps = 0;                 // steps completed
+    std::size_t failed_step = 0;           // 1-based, 0 when none failed
+    double failed_t = 0, residual = 0;     // where the failed step started, its Newton residual
+    double newton_iterations_mean = 0;
+    int newton_iterations_max = 0;
+};
+
+struct EnsembleResult {
+    Eigen::VectorXd x_typical;   // the state the step was built for (empty when no row was finite)
+    std::size_t threads = 0;     // workers used
+    /// m x n: the final state; for a failed trajectory the last state reached (the row itself if it was
+    /// not finite).
+    RowMatrix x;
+    Eigen::VectorXd energy_error;   // m: the largest relative error of H over every step (NaN: non-finite start)
+    RowMatrix casimir_error;        // m x c: the same for each Casimir
+    std::vector<EnsembleMember> members;
+};
+
+/// The finite row of X0 of largest Euclidean norm (the first of equals): the default x_typical, chosen so
+/// the realisation degree that keeps the truncation below round-off there suffices for the smaller rows.
+/// None when no row is finite.
+std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& X0);
+
+/// Integrates every row of X0 (m x n) over steps_to_reach(t_end, dt) steps of the step built once at
+/// options.x_typical. Throws InputError before any work on X0 without n columns, dt <= 0, t_end < 0 or
+/// not finite, a non-finite x_typical or one of the wrong length, threads above the limit. Rows that are not finite are not
+/// an error: they end with status non_finite_start.
+EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
+                                  const EnsembleOptions& options = {});
+
+}  // namespace pgi

@@ -1,0 +1,144 @@
+// Ensembles: every trajectory equals its single run bit for bit, whatever the threads and chunks; bad
+// input refused before any work; a NaN row and a failing trajectory end alone with their status.
+#include "scheme/ensemble.hpp"
+#include "scheme/trajectory.hpp"
+#include "test_util.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace pgi;
+
+namespace {
+
+// m states around the rigid body's x0 with norms from 0.5 to 2 (deterministic, no two equal)
+RowMatrix rigid_body_states(Eigen::Index m) {
+    RowMatrix X(m, 3);
+    for (Eigen::Index i = 0; i < m; ++i) {
+        const double a = 0.37 * double(i), s = 0.5 + 1.5 * double(i) / double(m);
+        X.row(i) << s * std::cos(a) * 0.8, s * std::sin(a) * 0.6, s * (0.3 + 0.05 * double(i % 5));
+    }
+    return X;
+}
+
+EnsembleOptions with(std::size_t threads, std::size_t chunk = 0, std::optional<Eigen::VectorXd> typical = std::nullopt) {
+    EnsembleOptions o;
+    o.threads = threads;
+    o.chunk = chunk;
+    o.x_typical = std::move(typical);
+    return o;
+}
+
+// the ensemble's row i against its single run with the ensemble's x_typical: every number equal
+void require_single_run(const Scheme& scheme, const RowMatrix& X0, const EnsembleResult& r, Eigen::Index i, double dt, double t_end) {
+    CAPTURE(i);
+    const std::size_t N = steps_to_reach(t_end, dt);
+    const Trajectory tr = integrate(scheme, X0.row(i).transpose(), dt, t_end, N, r.x_typical);
+    const EnsembleMember& m = r.members[std::size_t(i)];
+    CHECK(to_string(m.status) == (tr.status == StepStatus::ok ? "ok" : tr.status == StepStatus::non_finite ? "non_finite" : "newton_not_converged"));
+    CHECK(m.steps == tr.steps);
+    const Eigen::Index last = Eigen::Index(tr.t.size()) - 1;
+    for (Eigen::Index j = 0; j < 3; ++j) CHECK(r.x(i, j) == tr.x[std::size_t(last * 3 + j)]);
+    CHECK(r.energy_error(i) == tr.energy_error_max);
+    CHECK(r.casimir_error(i, 0) == tr.casimir_error_max[0]);
+    CHECK(m.newton_iterations_mean == tr.newton_iterations_mean);
+    CHECK(m.newton_iterations_max == tr.newton_iterations_max);
+    CHECK(m.failed_step == tr.failed_step);
+    if (tr.status != StepStatus::ok) CHECK(m.residual == tr.failed_residual);
+}
+
+}  // namespace
+
+TEST_CASE("Ensemble: each trajectory equals its single run bit for bit, whatever the threads and the chunks") {
+    const Scene s = test::bundled("rigid_body");
+    const Scheme& scheme = *s.scheme;
+    const RowMatrix X0 = rigid_body_states(13);
+    const double dt = 0.1, t_end = 5;
+    const EnsembleResult one = integrate_ensemble(scheme, X0, dt, t_end, with(1, 13));
+    Eigen::Index largest = 0;  // x_typical: the row of largest norm
+    X0.rowwise().squaredNorm().maxCoeff(&largest);
+    CHECK(one.x_typical == Eigen::VectorXd(X0.row(largest).transpose()));
+    for (Eigen::Index i = 0; i < X0.rows(); ++i) require_single_run(scheme, X0, one, i, dt, t_end);
+    for (std::size_t threads : {2, 3})
+        for (std::size_t chunk : {1, 4, 0}) {
+            CAPTURE(threads);
+            CAPTURE(chunk);
+            const EnsembleResult r = integrate_ensemble(scheme, X0, dt, t_end, with(threads, chunk));
+            CHECK(r.threads == threads);
+            CHECK(r.x == one.x);
+            CHECK(r.energy_error == one.energy_error);
+            CHECK(r.casimir_error == one.casimir_error);
+            for (std::size_t i = 0; i < r.members.size(); ++i) {
+                CHECK(r.members[i].steps == one.members[i].steps);
+                CHECK(r.members[i].newton_iterations_mean == one.members[i].newton_iterations_mean);
+            }
+        }
+    // the steps moved the states, and the Casimir is kept to round-off
+    CHECK((one.x - X0).cwiseAbs().maxCoeff() > 0.1);
+    CHECK(one.casimir_error.maxCoeff() < 1e-14);
+}
+
+TEST_CASE("Ensemble: wrong shapes and values are refused before any work") {
+    const Scene s = test::bundled("rigid_body");
+    const Scheme& scheme = *s.scheme;
+    const RowMatrix two_columns = RowMatrix::Ones(4, 2);
+    const RowMatrix X0 = rigid_body_states(4);
+    CHECK_THROWS_WITH_AS(integrate_ensemble(scheme, two_columns, 0.1, 1), "X0: must have 3 columns (one per coordinate), got 2", InputError);
+    CHECK_THROWS_WITH_AS(integrate_ensemble(scheme, X0, 0.0, 1), "dt: must be positive and finite", InputError);
+    CHECK_THROWS_WITH_AS(integrate_ensemble(scheme, X0, 0.1, -1), "t_end: must be finite and not negative", InputError);
+    CHECK_THROWS_AS(integrate_ensemble(scheme, X0, 0.1, 1, with(1, 0, Eigen::VectorXd::Ones(2))), InputError);
+    CHECK_THROWS_AS(integrate_ensemble(scheme, X0, 0.1, 1, with(100000)), InputError);  // bounded threads
+    CHECK(scheme.stats().stepper_builds == 0);  // nothing was built
+    // no rows: an empty result, still nothing built
+    const EnsembleResult empty = integrate_ensemble(scheme, RowMatrix(0, 3), 0.1, 1);
+    CHECK(empty.members.empty());
+    CHECK(scheme.stats().stepper_builds == 0);
+}
+
+TEST_CASE("Ensemble: a NaN row ends with its status and the others finish as without it") {
+    const Scene s = test::bundled("rigid_body");
+    const Scheme& scheme = *s.scheme;
+    RowMatrix X0 = rigid_body_states(6);
+    const EnsembleResult clean = integrate_ensemble(scheme, X0, 0.1, 2, with(2));
+    X0(2, 1) = std::numeric_limits<double>::quiet_NaN();
+    X0(4, 0) = std::numeric_limits<double>::infinity();
+    const EnsembleResult r = integrate_ensemble(scheme, X0, 0.1, 2, with(2, 0, clean.x_typical));
+    for (Eigen::Index i = 0; i < 6; ++i) {
+        CAPTURE(i);
+        if (i == 2 || i == 4) {
+            CHECK(r.members[std::size_t(i)].status == TrajectoryStatus::non_finite_start);
+            CHECK(r.members[std::size_t(i)].steps == 0);
+            CHECK(std::isnan(r.energy_error(i)));
+            CHECK((i == 2 ? std::isnan(r.x(2, 1)) : std::isinf(r.x(4, 0))));  // the row as it was
+        } else {
+            CHECK(r.members[std::size_t(i)].status == TrajectoryStatus::ok);
+            CHECK(r.x.row(i) == clean.x.row(i));
+            CHECK(r.energy_error(i) == clean.energy_error(i));
+        }
+    }
+    // every row not finite: no stepper is needed, every row says why
+    const EnsembleResult all_nan = integrate_ensemble(scheme, RowMatrix::Constant(2, 3, std::nan("")), 0.1, 1);
+    CHECK(all_nan.x_typical.size() == 0);
+    CHECK(all_nan.members[1].status == TrajectoryStatus::non_finite_start);
+}
+
+TEST_CASE("Ensemble: a trajectory whose step fails ends alone, with the failed step, t and residual") {
+    const Scene s = test::bundled("rigid_body");
+    const Scheme& scheme = *s.scheme;
+    RowMatrix X0 = rigid_body_states(5);
+    X0.row(3) *= 1e4;  // |x| ~ 1e4: dt |x| ~ 1e3, far beyond what the step built at x_typical solves
+    const Eigen::VectorXd typical = X0.row(0).transpose();
+    const double dt = 0.1, t_end = 3;
+    const EnsembleResult r = integrate_ensemble(scheme, X0, dt, t_end, with(2, 1, typical));
+    const EnsembleMember& bad = r.members[3];
+    CHECK(bad.status != TrajectoryStatus::ok);
+    CHECK(bad.failed_step == bad.steps + 1);
+    CHECK(bad.failed_t == double(bad.steps) * dt);
+    CHECK(r.x.row(3).allFinite());  // the last state reached, not the overflowed one
+    for (Eigen::Index i = 0; i < 5; ++i) {
+        if (i != 3) CHECK(r.members[std::size_t(i)].status == TrajectoryStatus::ok);
+        require_single_run(scheme, X0, r, i, dt, t_end);
+    }
+}

@@ -1,0 +1,157 @@
+#include "tools/ensemble.hpp"
+
+#include "scheme/ensemble.hpp"
+#include "scheme/trajectory.hpp"
+#include "tools/atomic_file.hpp"
+#include "tools/npy.hpp"
+#include "tools/sample.hpp"
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <iostream>
+#include <map>
+#include <memory>
+
+namespace pgi {
+
+void add_ensemble_options(CLI::App* cmd, EnsembleCommandOptions& o) {
+    auto* states = cmd->add_option("--states", o.states, "initial states, one per row: an NPY file (float64, (m, n)) or a CSV file");
+    auto* sample = cmd->add_option("--sample", o.sample, "grid | box | casimir: seeded initial states instead of --states")
+                       ->check(CLI::IsMember({"grid", "box", "casimir"}));
+    states->excludes(sample);
+    cmd->add_option("--count", o.count, "how many states to sample (grid: g^n)")->needs(sample)->check(CLI::PositiveNumber);
+    cmd->add_option("--seed", o.seed, "the sampler's seed (default 0)")->needs(sample);
+    cmd->add_option("--box", o.box, "lo,hi or lo1,hi1,...,lon,hin: the sampler's box")->needs(sample);
+    cmd->add_option("--threads", o.threads, "worker threads (default: every core)")->check(CLI::PositiveNumber);
+    cmd->add_option("--chunk", o.chunk, "trajectories per task (default: about 8 tasks per thread)")->check(CLI::PositiveNumber);
+    cmd->add_option("--out", o.out, "write PREFIX.x0.npy, PREFIX.x.npy, PREFIX.errors.npy and PREFIX.csv")->required();
+}
+
+namespace {
+
+std::string names(const PhaseSpace& M, const std::string& prefix = "", const std::string& suffix = "") {
+    std::string s;
+    for (const auto& c : M.coordinates()) s += (s.empty() ? "" : ",") + prefix + c + suffix;
+    return s;
+}
+
+RowMatrix initial_states(const Scene& scene, const EnsembleCommandOptions& o) {
+    const std::size_t n = scene.phase_space().dim();
+    if (o.states.empty() && o.sample.empty()) throw InputError("ensemble", "give the initial states: --states FILE or --sample KIND");
+    if (!o.states.empty()) {
+        if (o.x0_given) throw InputError("--x0", "is read only by --sample casimir (the level set through x0)");
+        const std::filesystem::path p(o.states);
+        RowMatrix X = p.extension() == ".npy" ? read_npy(p)
+                    : p.extension() == ".csv" ? read_csv_states(p, n, names(scene.phase_space()))
+                                              : throw InputError(o.states, "--states must be a .npy or .csv file");
+        if (std::size_t(X.cols()) != n)
+            throw InputError(o.states, "holds " + std::to_string(X.cols()) + " columns, the scene has " + std::to_string(n) +
+                                           " coordinates (" + names(scene.phase_space()) + ")");
+        return X;
+    }
+    SampleSpec spec;
+    spec.kind = parse_sample_kind(o.sample);
+    spec.count = o.count;
+    if (!spec.count) throw InputError("--count", "missing: --sample needs --count N");
+    spec.seed = o.seed;
+    if (o.box.empty()) throw InputError("--box", "missing: --sample needs --box lo,hi");
+    parse_box(o.box, n, spec);
+    if (scene.x0) spec.through = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(n));
+    return sample_states(*scene.scheme, spec);
+}
+
+std::string status_line(const EnsembleResult& r, std::size_t i) {
+    const auto& e = r.members[i];
+    if (e.status == TrajectoryStatus::non_finite_start) return fmt::format("row {}: non_finite_start (the initial state is not finite)", i);
+    return fmt::format("row {}: {} at step {} (from t = {}), residual {:.3g}", i, to_string(e.status), e.failed_step, e.failed_t, e.residual);
+}
+
+void write_csv(std::ostream& out, const Scene& scene, const RowMatrix& X0, const EnsembleResult& r) {
+    const auto& M = scene.phase_space();
+    out << "index,status,steps,failed_step,failed_t,residual,newton_iterations_mean,newton_iterations_max,energy_error";
+    for (std::size_t c = 0; c < scene.casimirs.size(); ++c) out << ",casimir_error_" << c + 1;
+    out << "," << names(M, "", "_0") << "," << names(M) << "\n";
+    for (std::size_t i = 0; i < r.members.size(); ++i) {
+        const auto& e = r.members[i];
+        const auto row = Eigen::Index(i);
+        out << fmt::format("{},{},{},{},{},{},{},{},{}", i, to_string(e.status), e.steps, e.failed_step, e.failed_t, e.residual,
+                           e.newton_iterations_mean, e.newton_iterations_max, r.energy_error(row));
+        for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c) out << fmt::format(",{}", r.casimir_error(row, c));
+        for (Eigen::Index c = 0; c < X0.cols(); ++c) out << fmt::format(",{}", X0(row, c));
+        for (Eigen::Index c = 0; c < X0.cols(); ++c) out << fmt::format(",{}", r.x(row, c));
+        out << "\n";
+    }
+}
+
+nlohmann::json summary(const Scene& scene, const EnsembleResult& r, const EnsembleCommandOptions& o, double dt, double t_end,
+                       double seconds, const std::vector<std::string>& files) {
+    std::map<std::string, std::size_t> counts;
+    double energy = 0, casimir = 0;
+    std::size_t steps = 0;
+    for (std::size_t i = 0; i < r.members.size(); ++i) {
+        ++counts[to_string(r.members[i].status)];
+        steps += r.members[i].steps;
+        if (r.members[i].status != TrajectoryStatus::ok) continue;
+        energy = std::max(energy, r.energy_error(Eigen::Index(i)));
+        if (r.casimir_error.cols()) casimir = std::max(casimir, r.casimir_error.row(Eigen::Index(i)).maxCoeff());
+    }
+    nlohmann::json j{{"scene", scene.file.string()}, {"trajectories", r.members.size()}, {"status", counts}, {"threads", r.threads},
+                     {"dt", dt}, {"t_end", t_end}, {"steps", steps_to_reach(t_end, dt)}, {"order", scene.order},
+                     {"method_order", scene.scheme->method_order()}, {"energy_error_max", energy}, {"casimir_error_max", casimir},
+                     {"wall_seconds", seconds}, {"steps_per_second", seconds > 0 ? double(steps) / seconds : 0.0}, {"files", files}};
+    j["x_typical"] = std::vector<double>(r.x_typical.data(), r.x_typical.data() + r.x_typical.size());
+    if (!o.sample.empty()) j["sample"] = {{"kind", o.sample}, {"count", o.count}, {"seed", o.seed}, {"box", o.box}};
+    return j;
+}
+
+std::string summary_text(const nlohmann::json& j) {
+    std::string s = fmt::format("ensemble of {} trajectories x {} steps of dt = {} to t = {} (order {}, method order {}), {} threads:\n",
+                                j["trajectories"].get<std::size_t>(), j["steps"].get<std::size_t>(), j["dt"].get<double>(),
+                                j["t_end"].get<double>(), j["order"].get<std::size_t>(), j["method_order"].get<std::size_t>(),
+                                j["threads"].get<std::size_t>());
+    for (const auto& [status, count] : j["status"].items()) s += fmt::format("  {}: {}\n", status, count.get<std::size_t>());
+    s += fmt::format("  max relative energy error (ok trajectories): {:.3e}\n  max relative Casimir error: {:.3e}\n",
+                     j["energy_error_max"].get<double>(), j["casimir_error_max"].get<double>());
+    s += fmt::format("  {:.3g} s, {:.3g} steps per second\n", j["wall_seconds"].get<double>(), j["steps_per_second"].get<double>());
+    for (const auto& f : j["files"]) s += "  wrote " + f.get<std::string>() + "\n";
+    return s;
+}
+
+}  // namespace
+
+int ensemble_command(const Scene& scene, const EnsembleCommandOptions& o, bool json) {
+    if (!scene.t_end) throw InputError("--t-end", "missing: give --t-end or [run] t_end");
+    const RowMatrix X0 = initial_states(scene, o);
+    // every output opened before any work: a bad directory is refused here, and nothing is half-written
+    const std::vector<std::string> files{o.out + ".x0.npy", o.out + ".x.npy", o.out + ".errors.npy", o.out + ".csv"};
+    std::vector<std::unique_ptr<AtomicFile>> out;
+    for (const auto& f : files) out.push_back(std::make_unique<AtomicFile>(f));
+    require_valid(scene);
+    EnsembleOptions options;
+    options.threads = o.threads;
+    options.chunk = o.chunk;
+    const auto start = std::chrono::steady_clock::now();
+    const EnsembleResult r = integrate_ensemble(*scene.scheme, X0, scene.dt, *scene.t_end, options);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    RowMatrix errors(X0.rows(), 1 + r.casimir_error.cols());
+    errors << r.energy_error, r.casimir_error;
+    write_npy(out[0]->stream(), X0);
+    write_npy(out[1]->stream(), r.x);
+    write_npy(out[2]->stream(), errors);
+    write_csv(out[3]->stream(), scene, X0, r);
+    for (auto& f : out) f->commit();
+    const auto j = summary(scene, r, o, scene.dt, *scene.t_end, seconds, files);
+    std::cout << (json ? j.dump(2) + "\n" : summary_text(j)) << std::flush;
+    std::size_t failed = 0, first = 0;
+    for (std::size_t i = r.members.size(); i-- > 0;)
+        if (r.members[i].status != TrajectoryStatus::ok) ++failed, first = i;
+    if (!failed) return 0;
+    std::cerr << "pgi: " << scene.file.string() << ": " << failed << " of " << r.members.size()
+              << " trajectories did not reach t_end (see " << files[3] << "); first: " << status_line(r, first) << "\n";
+    return 3;
+}
+
+}  // namespace pgi
