@@ -124,7 +124,7 @@ int main(int argc, char** argv) {
             if (m.name == "rk8pd") methods.push_back(std::move(m));
         std::vector<double> steps, tols;
         for (int j = 0; j < 8; ++j) steps.push_back(0.4 / std::pow(2.0, j));
-        for (int e = 6; e <= 14; ++e) tols.push_back(std::pow(10.0, -e));
+        for (int e = 6; e <= 16; ++e) tols.push_back(std::pow(10.0, -e));
         json rows = json::array(), targets = json::array();
         for (const auto& m : methods) {
             std::vector<Point> pts;
