@@ -1,0 +1,289 @@
+#!/usr/bin/python3
+"""Speed against rk8pd and on large lattices (issue 13): both tables, ratios from one run.
+
+Usage: /usr/bin/python3 tools/bench/bench_speed.py [--build build] [--json FILE] [--timeout 120]
+                                                  [--sizes 50,100,200,500,1000] [--skip-wp] [--skip-lattice] [--skip-dmv]
+
+(a) Work-precision against GSL's rk8pd, T = 100, stepping only: pgi_peers (tools/peers: the same compiled
+    field, Monitor and long double Fehlberg 7(8) reference) runs pgi at k = 2, 4, 6, 8, 10 on a dt ladder
+    and rk8pd on a tolerance ladder on the rigid body, the cyclic Lotka-Volterra system and Henon-Heiles.
+    Odd k are not scanned: the step is symmetric and S_2j = 0, so k = 2j-1 and 2j are the same method.
+    For a target error each method's time is interpolated log-log between the first two runs of its
+    ladder (ordered by step count) whose errors straddle it (or it is the cheapest run, where that one
+    already reaches it); pgi's time is the best over k. The
+    exact phase (setup) is excluded from the times and printed apart. Ratio = rk8pd time / pgi time.
+(b) Periodic Volterra lattice ({x_i, x_i+1} = x_i x_i+1, H = sum x_i, no Casimirs declared), k = 4,
+    dt = 1/20, n = 50..1000: one child `pgi_peers --suite --peers rk8pd` per n (scene checks, exact phase,
+    a short pgi run and an rk8pd run at tolerance 1e-10 over the same interval) under a wall-clock timeout
+    and an address-space limit; its peak RSS (wait4's ru_maxrss) is the peak memory of checks + exact
+    phase + steps. Then the whole `pgi integrate` at n = 1000 (checks, exact phase, 1000 steps), timed.
+(c) The rigid body against the discrete Moser-Veselov peer (tools/bench/dmv_bench): see that program.
+
+Every row goes into the JSON file; the tables are printed in Markdown on stdout.
+"""
+import argparse
+import json
+import math
+import os
+import resource
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+WP_SCENES = ["rigid_body", "lotka_volterra", "henon_heiles"]
+ORDERS = [2, 4, 6, 8, 10]
+TOLS = [10.0 ** -e for e in range(6, 17)]
+TARGETS = [1e-10, 1e-12]
+MEMORY_LIMIT = 4 << 30  # address space of each lattice child: the machine is shared
+
+
+def dt_ladder(dt):
+    return [dt * 2 ** e for e in (2, 1, 0, -1, -2, -3, -4)]
+
+
+def run_child(argv, timeout, memory_limit=None):
+    """Runs argv; returns (exit code or None on timeout, stdout, stderr, wall seconds, peak RSS in MiB)."""
+    def limit():
+        if memory_limit:
+            resource.setrlimit(resource.RLIMIT_AS, (memory_limit, memory_limit))
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        start = time.monotonic()
+        proc = subprocess.Popen(argv, stdout=out, stderr=err, preexec_fn=limit, start_new_session=True)
+        code, rss = None, 0.0
+        while True:
+            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+            if pid == proc.pid:
+                code, rss = os.waitstatus_to_exitcode(status), usage.ru_maxrss / 1024.0
+                break
+            if time.monotonic() - start > timeout:
+                os.killpg(proc.pid, signal.SIGKILL)
+                _, _, usage = os.wait4(proc.pid, 0)
+                rss = usage.ru_maxrss / 1024.0
+                break
+            time.sleep(0.05)
+        proc.returncode = code if code is not None else -9  # reaped by wait4: keep Popen from waiting again
+        wall = time.monotonic() - start
+        out.seek(0)
+        err.seek(0)
+        return code, out.read().decode(), err.read().decode(), wall, rss
+
+
+# ---------------------------------------------------------------- (a) work-precision
+
+def time_at_error(points, target):
+    """points: (steps, error, seconds) of one method's ladder, ordered here by steps (cost). Log-log
+    interpolation between the first two consecutive runs whose errors straddle the target; else the
+    cheapest run reaching it (if the cheapest run does); else None. Returns (seconds, how)."""
+    pts = sorted(p for p in points if p[1] > 0)
+    if pts and pts[0][1] <= target:
+        return pts[0][2], "cheapest reaching"
+    for (_, e0, s0), (_, e1, s1) in zip(pts, pts[1:]):
+        if e0 > target >= e1:
+            w = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
+            return math.exp(math.log(s0) + w * (math.log(s1) - math.log(s0))), "interpolated"
+    return None, "not reached"
+
+
+def work_precision(build, scene, timeout):
+    path = os.path.join(ROOT, "tools", "scenes", scene + ".toml")
+    dt = {"rigid_body": 0.1, "lotka_volterra": 0.05, "henon_heiles": 0.1}[scene]
+    argv = [os.path.join(build, "pgi_peers"), path, "--orders", ",".join(map(str, ORDERS)), "--peers", "rk8pd",
+            "--dts", ",".join(repr(v) for v in dt_ladder(dt)), "--tols", ",".join(repr(v) for v in TOLS), "--t-end", "100"]
+    code, out, err, wall, _ = run_child(argv, timeout)
+    if code != 0:
+        raise RuntimeError(f"{' '.join(argv)}: exit {code}\n{err[-2000:]}")
+    wp = json.loads(out)["work_precision"]
+    rows = wp["rows"]
+    result = {"scene": scene, "reference_accuracy": wp["reference"]["accuracy"], "rows": rows, "targets": []}
+    for target in TARGETS:
+        entry = {"error": target}
+        best = None
+        for k in ORDERS:
+            pts = [(r["steps"], r["error"], r["seconds"]) for r in rows if r["method"] == f"pgi-k{k}" and r["usable"]]
+            s, how = time_at_error(pts, target)
+            entry[f"pgi-k{k}"] = s
+            if s is not None and (best is None or s < best[0]):
+                best = (s, k, how)
+        pts = [(r["steps"], r["error"], r["seconds"]) for r in rows if r["method"] == "rk8pd" and r["usable"]]
+        rk, rk_how = time_at_error(pts, target)
+        setups = [r["setup_seconds"] for r in rows if best and r["method"] == f"pgi-k{best[1]}"]
+        entry.update({"pgi_seconds": best[0] if best else None, "pgi_k": best[1] if best else None,
+                      "pgi_how": best[2] if best else "not reached", "rk8pd_seconds": rk, "rk8pd_how": rk_how,
+                      "pgi_exact_phase_seconds": min(setups) if setups else None,
+                      "ratio_rk8pd_over_pgi": rk / best[0] if (rk and best) else None})
+        result["targets"].append(entry)
+    return result
+
+
+def fmt_ms(s):
+    return "-" if s is None else f"{1e3 * s:.3f}"
+
+
+def wp_table(results):
+    lines = ["| scene | error | pgi best k | pgi ms (stepping) | pgi exact phase s | rk8pd ms | rk8pd / pgi |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for r in results:
+        for e in r["targets"]:
+            ratio = "-" if e["ratio_rk8pd_over_pgi"] is None else f"{e['ratio_rk8pd_over_pgi']:.2f}"
+            setup = "-" if e["pgi_exact_phase_seconds"] is None else f"{e['pgi_exact_phase_seconds']:.3f}"
+            how = "" if e["pgi_how"] == "interpolated" else f" ({e['pgi_how']})"
+            rhow = "" if e["rk8pd_how"] == "interpolated" else f" ({e['rk8pd_how']})"
+            lines.append(f"| {r['scene']} | {e['error']:.0e} | {e['pgi_k'] or '-'} | {fmt_ms(e['pgi_seconds'])}{how} | {setup} "
+                         f"| {fmt_ms(e['rk8pd_seconds'])}{rhow} | {ratio} |")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- (b) lattice scaling
+
+def lattice_scene(n):
+    xs = [f"x{i}" for i in range(1, n + 1)]
+    brackets = "\n".join(f'"{xs[i]},{xs[(i + 1) % n]}" = "{xs[i]}*{xs[(i + 1) % n]}"' for i in range(n))
+    # a smooth, non-uniform initial state (positive: the lattice's domain)
+    x0 = ", ".join(repr(1.0 + 0.5 * math.sin(2 * math.pi * i / n) + 0.1 * math.cos(6 * math.pi * i / n)) for i in range(n))
+    return (f'name = "periodic Volterra lattice, n = {n}"\ncoordinates = [{", ".join(chr(34) + x + chr(34) for x in xs)}]\n\n'
+            f"[brackets]\n{brackets}\n\n[hamiltonian]\nH = \"{' + '.join(xs)}\"\n\n"
+            f'[integrator]\norder = 4\ndt = "1/20"\n\n[run]\nx0 = [{x0}]\nt_end = 50\n')
+
+
+def lattice(build, sizes, timeout, workdir):
+    rows = []
+    for n in sizes:
+        path = os.path.join(workdir, f"volterra_{n}.toml")
+        with open(path, "w") as f:
+            f.write(lattice_scene(n))
+        steps = 100 if n <= 100 else 20
+        t_end = steps / 20
+        argv = [os.path.join(build, "pgi_peers"), path, "--suite", "--peers", "rk8pd", "--tol", "1e-10", "--t-end", repr(t_end)]
+        code, out, err, wall, rss = run_child(argv, timeout, MEMORY_LIMIT)
+        row = {"n": n, "pgi_steps_asked": steps, "wall_seconds": wall, "peak_rss_mib": rss, "exit": code}
+        if code is None:
+            row["status"] = f"timeout ({timeout:g} s)"
+        elif code != 0:
+            row["status"] = f"exit {code}: " + (err.strip().splitlines() or [""])[-1][:200]
+        else:
+            suite = {r["method"]: r for r in json.loads(out)["suite"]["rows"]}
+            p, q = suite["pgi-k4"], suite["rk8pd"]
+            row.update({"status": "ok" if p["ok"] else "pgi failed: " + p["failure"],
+                        "exact_phase_seconds": p["setup_seconds"], "pgi_steps": p["steps"], "pgi_seconds": p["seconds"],
+                        "pgi_ns_per_step_site": 1e9 * p["seconds"] / max(p["steps"], 1) / n,
+                        "rk8pd_steps": q["steps"], "rk8pd_seconds": q["seconds"],
+                        "rk8pd_ns_per_step_site": 1e9 * q["seconds"] / max(q["steps"], 1) / n})
+        print(f"lattice n = {n}: {row['status']}, {wall:.1f} s, {rss:.0f} MiB", file=sys.stderr, flush=True)
+        rows.append(row)
+    return rows
+
+
+def integrate_whole(build, n, timeout, workdir):
+    path = os.path.join(workdir, f"volterra_{n}.toml")
+    with open(path, "w") as f:
+        f.write(lattice_scene(n))
+    argv = [os.path.join(build, "pgi"), "integrate", path, "--t-end", "50", "--json"]
+    code, out, err, wall, rss = run_child(argv, timeout, MEMORY_LIMIT)
+    row = {"n": n, "command": "pgi integrate (checks, exact phase, 1000 steps of 1/20)", "wall_seconds": wall,
+           "peak_rss_mib": rss, "exit": code}
+    row["status"] = (f"timeout ({timeout:g} s)" if code is None else "ok" if code == 0
+                     else f"exit {code}: " + (err.strip().splitlines() or [""])[-1][:200])
+    return row
+
+
+def lattice_table(rows, whole):
+    def f(v, spec):
+        return "-" if v is None else format(v, spec)
+    base = next((r.get("pgi_ns_per_step_site") for r in rows if r.get("pgi_ns_per_step_site")), None)
+    lines = ["| n | status | exact phase s | rest of child s | pgi ns/step/site | vs first n | rk8pd ns/step/site | pgi / rk8pd per step "
+             "| peak RSS MiB | child wall s |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for r in rows:
+        p, q = r.get("pgi_ns_per_step_site"), r.get("rk8pd_ns_per_step_site")
+        # the child's wall time less the exact phase and both runs: scene checks (Jacobi), compilations, start-up
+        rest = (r["wall_seconds"] - r["exact_phase_seconds"] - r["pgi_seconds"] - r["rk8pd_seconds"]) if "pgi_seconds" in r else None
+        lines.append(f"| {r['n']} | {r['status']} | {f(r.get('exact_phase_seconds'), '.2f')} | {f(rest, '.1f')} | {f(p, '.0f')} | "
+                     f"{f(p / base if (p and base) else None, '.1f')} | {f(q, '.1f')} | {f(p / q if (p and q) else None, '.0f')} | "
+                     f"{r['peak_rss_mib']:.0f} | {r['wall_seconds']:.1f} |")
+    if whole:
+        lines.append("")
+        lines.append(f"Whole `pgi integrate` at n = {whole['n']} (checks, exact phase, 1000 steps): {whole['status']}, "
+                     f"{whole['wall_seconds']:.1f} s wall, peak RSS {whole['peak_rss_mib']:.0f} MiB (targets: 60 s, 1024 MiB).")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- (c) DMV
+
+def dmv(build, timeout):
+    exe = os.path.join(build, "dmv_bench")
+    if not os.path.exists(exe):
+        return None
+    code, out, err, wall, _ = run_child([exe, os.path.join(ROOT, "tools", "scenes", "rigid_body.toml")], timeout)
+    if code != 0:
+        raise RuntimeError(f"dmv_bench: exit {code}\n{err[-2000:]}")
+    return json.loads(out)
+
+
+def dmv_table(d):
+    lines = ["| method | time to 1e-11 (ms, stepping) | how | ns per step at that point | steps |", "| --- | --- | --- | --- | --- |"]
+    for r in d["at_target"]:
+        lines.append(f"| {r['method']} | {fmt_ms(r['seconds'])} | {r['how']} | {'-' if r['ns_per_step'] is None else format(r['ns_per_step'], '.0f')} "
+                     f"| {r['steps'] or '-'} |")
+    lines.append("")
+    lines.append(f"Ratio DMV / pgi-k10 time at 1e-11: {'-' if d['ratio'] is None else format(d['ratio'], '.2f')} "
+                 f"(issue target for pgi: within 1.5x of the order-10 preprocessed DMV's 0.056 ms).")
+    return "\n".join(lines)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--build", default=os.path.join(ROOT, "build"))
+    ap.add_argument("--json", default="bench_speed.json")
+    ap.add_argument("--timeout", type=float, default=120.0, help="per lattice child (s)")
+    ap.add_argument("--sizes", default="50,100,200,500,1000")
+    ap.add_argument("--skip-wp", action="store_true")
+    ap.add_argument("--skip-lattice", action="store_true")
+    ap.add_argument("--skip-dmv", action="store_true")
+    ap.add_argument("--tables-from", help="print the tables of an earlier run's JSON file, without running anything")
+    a = ap.parse_args()
+    if a.tables_from:
+        with open(a.tables_from) as f:
+            print_tables(json.load(f))
+        return
+    report = {"machine": os.uname().nodename, "started_utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()),
+              "load_average_at_start": os.getloadavg()}
+    if not a.skip_wp:
+        report["work_precision"] = []
+        for scene in WP_SCENES:
+            print(f"work-precision: {scene}", file=sys.stderr, flush=True)
+            report["work_precision"].append(work_precision(a.build, scene, 1800))
+    if not a.skip_lattice:
+        with tempfile.TemporaryDirectory() as work:
+            sizes = [int(s) for s in a.sizes.split(",")]
+            report["lattice"] = lattice(a.build, sizes, a.timeout, work)
+            report["lattice_whole"] = integrate_whole(a.build, max(sizes), a.timeout, work)
+    if not a.skip_dmv:
+        d = dmv(a.build, 600)
+        if d is not None:
+            report["dmv"] = d
+    report["load_average_at_end"] = os.getloadavg()
+    with open(a.json, "w") as f:
+        json.dump(report, f, indent=1)
+    print_tables(report)
+    print(f"rows: {a.json}")
+
+
+def print_tables(report):
+    if "work_precision" in report:
+        print("### Time to final error at T = 100 (stepping only), pgi best k against rk8pd\n")
+        print(wp_table(report["work_precision"]) + "\n")
+    if "lattice" in report:
+        print("### Periodic Volterra lattice, k = 4, dt = 1/20\n")
+        print(lattice_table(report["lattice"], report.get("lattice_whole")) + "\n")
+    if "dmv" in report:
+        print("### Rigid body: pgi k = 10 against the discrete Moser-Veselov peer, error 1e-11\n")
+        print(dmv_table(report["dmv"]) + "\n")
+    print(f"load average {report['load_average_at_start']} at start, {report['load_average_at_end']} at end "
+          f"(on {report['machine']}, {report['started_utc']} UTC; a shared machine: other builds ran alongside)")
+
+
+if __name__ == "__main__":
+    main()
