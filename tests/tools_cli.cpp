@@ -282,16 +282,16 @@ TEST_CASE("cli: report writes Markdown, JSON and LaTeX atomically, and the LaTeX
     fs::remove_all(dir);
 }
 
-TEST_CASE("cli: resource guards stop the exact phase and oversized output before they start, with exit 2") {
+TEST_CASE("cli: resource guards stop the exact phase and oversized output before they start, with exit 4 (a budget)") {
     const std::string nambu = test::scene_path("nambu");
     Run terms = pgi_run({"integrate", nambu, "--dt", "1/2", "--max-terms", "20000", "--json"});
-    CHECK(terms.exit_code == 2);
+    CHECK(terms.exit_code == 4);
     CHECK(terms.out.empty());
     CHECK_MESSAGE(terms.err.find("exact phase stopped: radial realisation, terms of degree ") != std::string::npos, terms.err);
     CHECK(terms.err.find("above the limit of 20000 (raise it with --max-terms)") != std::string::npos);
     const fs::path csv = fs::temp_directory_path() / ("pgi_test_big_" + std::to_string(::getpid()) + ".csv");
     Run big = pgi_run({"integrate", nambu, "--t-end", "1e6", "--csv", csv.string(), "--max-csv-mb", "10"});
-    CHECK(big.exit_code == 2);
+    CHECK(big.exit_code == 4);
     CHECK_MESSAGE(big.err.find("--csv: the trajectory would take about ") != std::string::npos, big.err);
     CHECK_FALSE(fs::exists(csv));
 }
