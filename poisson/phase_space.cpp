@@ -56,9 +56,14 @@ Series PhaseSpace::parse_in_time(std::string_view text) const {
 
 Poly canonical_bracket(const PhaseSpace& M, const Poly& F, const Poly& G) {
     Poly r(M.ring());
+    if (F.is_zero() || G.is_zero()) return r;
+    // only the variables both hold contribute (most pairs of a large sparse scene hold none)
+    std::vector<int> f(M.ring()->size()), g(M.ring()->size());
+    fmpq_mpoly_used_vars(f.data(), F.get(), M.ring()->ctx());
+    fmpq_mpoly_used_vars(g.data(), G.get(), M.ring()->ctx());
     for (std::size_t i = 0; i < M.dim(); ++i) {
-        r += derivative(F, M.x(i)) * derivative(G, M.p(i));
-        r -= derivative(F, M.p(i)) * derivative(G, M.x(i));
+        if (f[M.x(i)] && g[M.p(i)]) r += derivative(F, M.x(i)) * derivative(G, M.p(i));
+        if (f[M.p(i)] && g[M.x(i)]) r -= derivative(F, M.p(i)) * derivative(G, M.x(i));
     }
     return r;
 }
