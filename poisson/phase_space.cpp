@@ -27,10 +27,11 @@ std::vector<std::size_t> PhaseSpace::coordinate_vars() const {
 }
 
 Poly PhaseSpace::parse(std::string_view text) const {
-    Poly f = Poly::parse(coordinate_ring_, text);
-    std::vector<long> map(dim());
-    for (std::size_t i = 0; i < dim(); ++i) map[i] = static_cast<long>(x(i));
-    return rename_variables(f, ring_, map);
+    // Parsed in the coordinate ring first, which refuses a momentum with the parser's own message;
+    // then again in the phase-space ring, where x_i keeps its index: the same polynomial, without
+    // the (2n x n) composition matrix a change of ring builds, which made n brackets cost n^3.
+    Poly::parse(coordinate_ring_, text);
+    return Poly::parse(ring_, text);
 }
 
 Series PhaseSpace::parse_in_time(std::string_view text) const {
