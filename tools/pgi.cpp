@@ -4,6 +4,7 @@
 // memory; 6 output failure (stdout or a file); 130 / 143 interrupted by SIGINT / SIGTERM.
 #include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
+#include "tools/exit_codes.hpp"
 #include "tools/option_values.hpp"
 
 #include <CLI/CLI.hpp>
@@ -117,39 +118,25 @@ int run_command(const std::string& name, const Options& o) {
     return 0;
 }
 
-// The one place exception types become exit codes (the table at the top of this file).
+// Runs the command; exceptions become exit codes in tools/exit_codes.hpp. A failed run with --json
+// still prints its partial document ("status": "step_failed", the last good state).
 int run_and_map_exceptions(const std::string& name, Options& o) {
     try {
         read_numbers(o);
         return run_command(name, o);
-    } catch (const pgi::NumericalFailure& e) {
-        std::cerr << "pgi: " << o.scene << ": " << e.what() << "\n";
-        if (o.json && !e.partial().is_null()) try {
-                print(e.partial().dump(2) + "\n");  // "status": "step_failed", the last good state
-            } catch (const pgi::OutputError&) {
+    } catch (...) {
+        const int code = pgi::exit_code_of_current_exception("pgi", o.scene);
+        if (code == 3 && o.json) try {
+                throw;
+            } catch (const pgi::NumericalFailure& e) {
+                if (!e.partial().is_null()) try {
+                        print(e.partial().dump(2) + "\n");
+                    } catch (const pgi::OutputError&) {
+                        return 6;
+                    }
+            } catch (...) {
             }
-        return 3;
-    } catch (const pgi::SceneError& e) {
-        std::cerr << "pgi: " << e.what() << "\n";
-        return 2;
-    } catch (const pgi::BudgetError& e) {
-        std::cerr << "pgi: " << e.what() << "\n";
-        return 4;
-    } catch (const pgi::ResourceLimitError& e) {
-        std::cerr << "pgi: " << o.scene << ": exact phase stopped: " << e.what() << "\n";
-        return 4;
-    } catch (const pgi::OutputError& e) {
-        std::cerr << "pgi: " << e.what() << "\n";
-        return 6;
-    } catch (const std::bad_alloc&) {
-        std::cerr << "pgi: " << o.scene << ": out of memory (an allocation failed within the budget; lower --max-terms)\n";
-        return 5;
-    } catch (const std::invalid_argument& e) {
-        std::cerr << "pgi: " << o.scene << ": " << e.what() << "\n";
-        return 2;
-    } catch (const std::exception& e) {
-        std::cerr << "pgi: internal error: " << e.what() << "\n";
-        return 1;
+        return code;
     }
 }
 
