@@ -5,8 +5,16 @@
 namespace pgi {
 
 std::string latex_name(const std::string& name) {
-    if (auto u = name.find('_'); u != std::string::npos && u + 1 < name.size())
+    if (auto u = name.find('_'); u != std::string::npos) {
+        // a subscript needs a base that is not itself subscripted and a non-empty subscript ("x_", "_y",
+        // "x1_a" would be a double subscript): anything else is set upright, underscores escaped
+        if (u == 0 || u + 1 == name.size() || std::isdigit(static_cast<unsigned char>(name[u - 1]))) {
+            std::string out = "\\mathrm{";
+            for (char c : name) out += c == '_' ? std::string("\\_") : std::string(1, c);
+            return out + "}";
+        }
         return latex_name(name.substr(0, u)) + "_{" + latex_name(name.substr(u + 1)) + "}";
+    }
     std::size_t d = name.size();
     while (d > 0 && std::isdigit(static_cast<unsigned char>(name[d - 1]))) --d;
     if (d == 0 || d == name.size()) return name;

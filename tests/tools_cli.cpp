@@ -542,4 +542,16 @@ TEST_CASE("issue 11.8: names with control characters are refused; what can be ch
     CHECK(nodir.exit_code == 2);
     CHECK(nodir.out.empty());
     CHECK(nodir.err.find("nodir/x.csv: cannot write: directory 'nodir' does not exist") != std::string::npos);
+    // LaTeX: names that are not plain identifiers are set upright, never a double subscript (57dddde wrote
+    // x_^{2} and x_{1}_{a}, which pdflatex refuses)
+    TempDir dir("latex_names");
+    TempScene odd("latex_names", "name = \"a_b & c%\"\ncoordinates = [\"x_\", \"_y\", \"a_b_c\", \"x1_a\", \"x__2\"]\n"
+                                 "[brackets]\n\"x_,_y\" = \"a_b_c\"\n[hamiltonian]\nH = \"x_^2 + _y^2 + a_b_c + x1_a*x__2\"\n");
+    Run tex = pgi_run({"report", odd.path.string(), "--format", "latex", "--out", (dir.path / "r.tex").string()});
+    REQUIRE(tex.exit_code == 0);
+    const std::string text = slurp(dir.path / "r.tex");
+    CHECK(text.find("\\mathrm{x\\_}^{2}") != std::string::npos);
+    CHECK(text.find("\\mathrm{x1\\_a}") != std::string::npos);
+    const int rc = shell("cd '" + dir.path.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error r.tex > r.log 2>&1");
+    CHECK_MESSAGE(rc == 0, slurp(dir.path / "r.log"));
 }

@@ -174,6 +174,12 @@ int main(int argc, char** argv) {
     realisation->add_option("--degree", o.degree, "total degree D in the momenta, 0..100")->required();
     try {
         app.parse(argc, argv);
+        for (const char* name : {"--csv", "--out"})  // given but empty is not "not given"
+            for (auto* cmd : app.get_subcommands())
+                if (cmd->get_option_no_throw(name) && cmd->count(name) > 0 && (name == std::string("--csv") ? o.csv : o.out).empty()) {
+                    std::cerr << "pgi: " << name << ": an empty path\n";
+                    return 2;
+                }
     } catch (const CLI::Success& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {

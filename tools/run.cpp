@@ -153,8 +153,8 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
         const double rows = double(N / options.every + 2), columns = double(2 + scene.phase_space().dim() + scene.casimirs.size());
         const double mb = rows * columns * 25 / 1e6;
         if (!(mb <= options.max_csv_mb))
-            throw BudgetError(fmt::format("{}: --csv: the trajectory would take about {:.0f} MB ({:.0f} rows of {:.0f} columns), "
-                                          "above the limit of {:.0f} MB: raise --every or --max-csv-mb",
+            throw BudgetError(fmt::format("{}: --csv: the trajectory would take about {:.3g} MB ({:.0f} rows of {:.0f} columns), "
+                                          "above the limit of {:.3g} MB: raise --every or --max-csv-mb",
                                           scene.file.string(), mb, rows, columns, options.max_csv_mb));
         csv.emplace(*options.csv, std::vector<std::filesystem::path>{scene.file});
     }
