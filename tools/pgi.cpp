@@ -131,7 +131,8 @@ int run_and_map_exceptions(const std::string& name, Options& o) {
             } catch (const pgi::NumericalFailure& e) {
                 if (!e.partial().is_null()) try {
                         print(e.partial().dump(2) + "\n");
-                    } catch (const pgi::OutputError&) {
+                    } catch (const pgi::OutputError& out) {
+                        std::cerr << "pgi: " << out.what() << "\n";
                         return 6;
                     }
             } catch (...) {
