@@ -1,5 +1,7 @@
 #include "poisson/phase_space.hpp"
 
+#include <algorithm>
+
 namespace pgi {
 
 namespace {
@@ -27,11 +29,20 @@ std::vector<std::size_t> PhaseSpace::coordinate_vars() const {
 }
 
 Poly PhaseSpace::parse(std::string_view text) const {
-    // Parsed in the coordinate ring first, which refuses a momentum with the parser's own message;
-    // then again in the phase-space ring, where x_i keeps its index: the same polynomial, without
-    // the (2n x n) composition matrix a change of ring builds, which made n brackets cost n^3.
-    Poly::parse(coordinate_ring_, text);
-    return Poly::parse(ring_, text);
+    // Parsed in the coordinate ring (which refuses a momentum with the parser's own message, and whose
+    // parser sets up n variables, not 2n), then moved term by term: x_i keeps its index in the phase-space
+    // ring. A change of ring by composition builds a (2n x n) matrix, which made n brackets cost n^3.
+    const Poly f = Poly::parse(coordinate_ring_, text);
+    Poly r(ring_);
+    std::vector<ulong> e(ring_->size(), 0);
+    for (std::size_t t = 0; t < f.length(); ++t) {
+        const auto ex = f.term_exponents(t);
+        std::copy(ex.begin(), ex.end(), e.begin());
+        fmpq_mpoly_push_term_fmpq_ui(r.get_mut(), f.term_coeff(t).get(), e.data(), ring_->ctx());
+    }
+    fmpq_mpoly_sort_terms(r.get_mut(), ring_->ctx());
+    fmpq_mpoly_combine_like_terms(r.get_mut(), ring_->ctx());
+    return r;
 }
 
 Series PhaseSpace::parse_in_time(std::string_view text) const {
