@@ -207,7 +207,10 @@ std::optional<RealisationDefect> first_defect(std::string identity, std::size_t 
 Series pi_at(const PoissonStructure& pi, std::size_t i, std::size_t j, const std::vector<Series>& y, std::size_t N) {
     const PhaseSpace& M = pi.phase_space();
     std::vector<std::optional<Series>> images(M.ring()->size());
-    for (std::size_t l = 0; l < M.dim(); ++l) images[M.x(l)] = y[l].truncated(N);
+    std::vector<int> used(M.ring()->size());  // only the variables pi_ij holds: O(1) images per pair, not n
+    fmpq_mpoly_used_vars(used.data(), pi(i, j).get(), M.ring()->ctx());
+    for (std::size_t l = 0; l < M.dim(); ++l)
+        if (used[M.x(l)]) images[M.x(l)] = y[l].truncated(N);
     return compose(pi(i, j), images, N);
 }
 
