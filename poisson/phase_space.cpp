@@ -1,5 +1,7 @@
 #include "poisson/phase_space.hpp"
 
+#include <algorithm>
+
 namespace pgi {
 
 namespace {
@@ -27,10 +29,20 @@ std::vector<std::size_t> PhaseSpace::coordinate_vars() const {
 }
 
 Poly PhaseSpace::parse(std::string_view text) const {
-    Poly f = Poly::parse(coordinate_ring_, text);
-    std::vector<long> map(dim());
-    for (std::size_t i = 0; i < dim(); ++i) map[i] = static_cast<long>(x(i));
-    return rename_variables(f, ring_, map);
+    // Parsed in the coordinate ring (which refuses a momentum with the parser's own message, and whose
+    // parser sets up n variables, not 2n), then moved term by term: x_i keeps its index in the phase-space
+    // ring. A change of ring by composition builds a (2n x n) matrix, which made n brackets cost n^3.
+    const Poly f = Poly::parse(coordinate_ring_, text);
+    Poly r(ring_);
+    std::vector<ulong> e(ring_->size(), 0);
+    for (std::size_t t = 0; t < f.length(); ++t) {
+        const auto ex = f.term_exponents(t);
+        std::copy(ex.begin(), ex.end(), e.begin());
+        fmpq_mpoly_push_term_fmpq_ui(r.get_mut(), f.term_coeff(t).get(), e.data(), ring_->ctx());
+    }
+    fmpq_mpoly_sort_terms(r.get_mut(), ring_->ctx());
+    fmpq_mpoly_combine_like_terms(r.get_mut(), ring_->ctx());
+    return r;
 }
 
 Series PhaseSpace::parse_in_time(std::string_view text) const {
@@ -56,9 +68,14 @@ Series PhaseSpace::parse_in_time(std::string_view text) const {
 
 Poly canonical_bracket(const PhaseSpace& M, const Poly& F, const Poly& G) {
     Poly r(M.ring());
+    if (F.is_zero() || G.is_zero()) return r;
+    // only the variables both hold contribute (most pairs of a large sparse scene hold none)
+    std::vector<int> f(M.ring()->size()), g(M.ring()->size());
+    fmpq_mpoly_used_vars(f.data(), F.get(), M.ring()->ctx());
+    fmpq_mpoly_used_vars(g.data(), G.get(), M.ring()->ctx());
     for (std::size_t i = 0; i < M.dim(); ++i) {
-        r += derivative(F, M.x(i)) * derivative(G, M.p(i));
-        r -= derivative(F, M.p(i)) * derivative(G, M.x(i));
+        if (f[M.x(i)] && g[M.p(i)]) r += derivative(F, M.x(i)) * derivative(G, M.p(i));
+        if (f[M.p(i)] && g[M.x(i)]) r -= derivative(F, M.p(i)) * derivative(G, M.x(i));
     }
     return r;
 }

@@ -1,5 +1,6 @@
 #include "poisson/realisation.hpp"
 
+#include <set>
 #include <stdexcept>
 
 namespace pgi {
@@ -233,8 +234,41 @@ std::optional<RealisationDefect> first_defect(std::string identity, std::size_t 
 Series pi_at(const PoissonStructure& pi, std::size_t i, std::size_t j, const std::vector<Series>& y, std::size_t N) {
     const PhaseSpace& M = pi.phase_space();
     std::vector<std::optional<Series>> images(M.ring()->size());
-    for (std::size_t l = 0; l < M.dim(); ++l) images[M.x(l)] = y[l].truncated(N);
+    std::vector<int> used(M.ring()->size());  // only the variables pi_ij holds: O(1) images per pair, not n
+    fmpq_mpoly_used_vars(used.data(), pi(i, j).get(), M.ring()->ctx());
+    for (std::size_t l = 0; l < M.dim(); ++l)
+        if (used[M.x(l)]) images[M.x(l)] = y[l].truncated(N);
     return compose(pi(i, j), images, N);
+}
+
+}  // namespace
+
+namespace {
+
+// The coordinates l whose x_l (resp. p_l) a series holds, over all its degrees.
+void used_coordinates(const PhaseSpace& M, const Series& s, std::size_t i, std::vector<std::vector<std::size_t>>& x_holders,
+                      std::vector<std::vector<std::size_t>>& p_holders) {
+    std::vector<int> used(M.ring()->size()), any(M.ring()->size(), 0);
+    for (std::size_t m = 0; m < s.order(); ++m) {
+        fmpq_mpoly_used_vars(used.data(), s[m].get(), M.ring()->ctx());
+        for (std::size_t v = 0; v < used.size(); ++v) any[v] |= used[v];
+    }
+    for (std::size_t l = 0; l < M.dim(); ++l) {
+        if (any[M.x(l)]) x_holders[l].push_back(i);
+        if (any[M.p(l)]) p_holders[l].push_back(i);
+    }
+}
+
+// The pairs (i, j) where {F_i, G_j}_can can be non-zero: F_i holds x_l and G_j p_l, or the reverse.
+void bracket_pairs(const std::vector<std::vector<std::size_t>>& xF, const std::vector<std::vector<std::size_t>>& pF,
+                   const std::vector<std::vector<std::size_t>>& xG, const std::vector<std::vector<std::size_t>>& pG,
+                   std::set<std::pair<std::size_t, std::size_t>>& pairs) {
+    for (std::size_t l = 0; l < xF.size(); ++l) {
+        for (std::size_t i : xF[l])
+            for (std::size_t j : pG[l]) pairs.insert({i, j});
+        for (std::size_t i : pF[l])
+            for (std::size_t j : xG[l]) pairs.insert({i, j});
+    }
 }
 
 }  // namespace
@@ -243,8 +277,21 @@ std::optional<RealisationDefect> realisation_defect(const PoissonStructure& pi, 
     const PhaseSpace& M = pi.phase_space();
     const std::size_t n = M.dim(), N = r.degree;  // the identities hold in degrees < D
     if (N == 0) return std::nullopt;
+    // A pair whose canonical brackets are 0 term by term and whose pi_ij is 0 holds without computing:
+    // only the pairs that interact are checked (none in a bracket-free scene), in the order (i, j).
+    std::vector<std::vector<std::size_t>> xA(n), pA(n), xB(n), pB(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        used_coordinates(M, r.alpha[i], i, xA, pA);
+        used_coordinates(M, r.beta[i], i, xB, pB);
+    }
+    std::set<std::pair<std::size_t, std::size_t>> pairs;
+    bracket_pairs(xA, pA, xA, pA, pairs);
+    bracket_pairs(xB, pB, xB, pB, pairs);
+    bracket_pairs(xA, pA, xB, pB, pairs);
     for (std::size_t i = 0; i < n; ++i)
-        for (std::size_t j = 0; j < n; ++j) {
+        for (std::size_t j = 0; j < n; ++j)
+            if (!pi(i, j).is_zero()) pairs.insert({i, j});
+    for (const auto& [i, j] : pairs) {
             if (i < j) {
                 if (auto d = first_defect("{alpha_i, alpha_j} = pi_ij(alpha)", i, j,
                                           canonical_bracket(M, r.alpha[i], r.alpha[j]), pi_at(pi, i, j, r.alpha, N)))

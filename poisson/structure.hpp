@@ -2,6 +2,7 @@
 // PoissonStructure: a skew matrix pi(x) of polynomials, its class, its bracket and its checks (docs/math.md section 1).
 #include "poisson/phase_space.hpp"
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,8 +43,13 @@ public:
     Poly bracket(const Poly& f, const Poly& g) const;
     /// The Hamiltonian vector field pi grad H.
     std::vector<Poly> hamiltonian_vector_field(const Poly& H) const;
-    /// sum_l pi_il d_l pi_jk + pi_jl d_l pi_ki + pi_kl d_l pi_ij.
+    /// sum_l pi_il d_l pi_jk + pi_jl d_l pi_ki + pi_kl d_l pi_ij (l only over the variables the
+    /// differentiated entry holds).
     Poly jacobiator(std::size_t i, std::size_t j, std::size_t k) const;
+    /// The triples i < j < k, in lexicographic order, whose jacobiator can be non-zero: a term
+    /// pi_il d_l pi_jk needs pi_jk to hold x_l and pi_il != 0. Every other jacobiator is 0 term by term,
+    /// so the Jacobi check costs in proportion to the brackets, not to n^3 (none for a bracket-free scene).
+    std::vector<std::array<std::size_t, 3>> jacobi_support() const;
     /// The first triple (in lexicographic order) where the Jacobi identity fails, if any.
     std::optional<JacobiFailure> jacobi_failure() const;
     /// Whether pi grad C = 0, exactly; the failing component if not.
@@ -52,6 +58,13 @@ public:
 private:
     PhaseSpace M_;
     std::vector<std::vector<Poly>> pi_;
+    // The non-zero entries of each row i: j (increasing) and the coordinates x_l that pi_ij holds.
+    struct Entry {
+        std::size_t j;
+        std::vector<std::size_t> vars;
+    };
+    std::vector<std::vector<Entry>> rows_;
+    const std::vector<std::size_t>& entry_vars(std::size_t i, std::size_t j) const;
     StructureClass class_;
 };
 

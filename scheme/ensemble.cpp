@@ -45,14 +45,15 @@ namespace {
 // What one worker owns: its copy of the compiled step (reset from the prototype before each trajectory, so
 // a trajectory starts from the state a single run's fresh stepper has), of the invariants, and scratch.
 struct Worker {
+    const Scheme* scheme;  // for the scale of each invariant at the trajectory's x0
     const NewtonStepper* prototype;
     NewtonStepper stepper;
     CompiledMap invariants;
-    std::vector<double> values, initial, worst;
+    std::vector<double> values, initial, worst, scale;
     Eigen::VectorXd x;
 
-    Worker(const NewtonStepper& p, const CompiledMap& inv)
-        : prototype(&p), stepper(p), invariants(inv), values(inv.num_outputs()), initial(values), worst(values),
+    Worker(const Scheme& s, const NewtonStepper& p, const CompiledMap& inv)
+        : scheme(&s), prototype(&p), stepper(p), invariants(inv), values(inv.num_outputs()), initial(values), worst(values),
           x(Eigen::Index(p.dim())) {}
 };
 
@@ -79,12 +80,13 @@ void run_one(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, do
     auto out = r.x.row(i);
     w.stepper = *w.prototype;
     w.x = X0.row(i).transpose();
+    w.scale = invariant_scales(*w.scheme, std::span<const double>(w.x.data(), std::size_t(w.x.size())));
     std::fill(w.worst.begin(), w.worst.end(), 0.0);
     int iterations_max = 0;
     const auto summary = integrate_steps(w.stepper, w.x, N, [&](std::size_t step, double, const Eigen::VectorXd& y) {
         w.invariants.eval(y.data(), w.values.data());
         if (step == 0) w.initial = w.values;
-        for (std::size_t k = 0; k < w.values.size(); ++k) w.worst[k] = std::max(w.worst[k], relative_error(w.values[k], w.initial[k]));
+        for (std::size_t k = 0; k < w.values.size(); ++k) w.worst[k] = std::max(w.worst[k], relative_error(w.values[k], w.initial[k], w.scale[k]));
         iterations_max = std::max(iterations_max, step ? w.stepper.last_iterations() : 0);
         out = y.transpose();  // the last state reached, kept if a later step fails
         return false;
@@ -146,7 +148,7 @@ EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const R
     const CompiledMap invariants = scheme.invariants();
     const std::size_t N = steps_to_reach(t_end, dt);
     const std::size_t chunk = options.chunk ? options.chunk : std::max<std::size_t>(1, std::size_t(m) / (8 * r.threads));
-    tbb::enumerable_thread_specific<Worker> workers([&] { return Worker(prototype, invariants); });
+    tbb::enumerable_thread_specific<Worker> workers([&] { return Worker(scheme, prototype, invariants); });
     std::optional<tbb::global_control> allow;  // more workers than cores when asked (TBB's limit is the cores)
     if (r.threads > std::size_t(tbb::info::default_concurrency()))
         allow.emplace(tbb::global_control::max_allowed_parallelism, r.threads);

@@ -15,7 +15,14 @@ constexpr double digit_em = 0.5, letter_em = 0.55, script = 0.7, sign_em = 1.25,
 // a variable name in LaTeX and its printed width: a trailing run of digits and the part after an
 // underscore become subscripts (at script size)
 std::pair<std::string, double> typeset_name(const std::string& name, double scale) {
-    if (auto u = name.find('_'); u != std::string::npos && u + 1 < name.size()) {
+    if (auto u = name.find('_'); u != std::string::npos) {
+        // a subscript needs a base that is not itself subscripted and a non-empty subscript ("x_", "_y",
+        // "x1_a" would be a double subscript): anything else is set upright, underscores escaped
+        if (u == 0 || u + 1 == name.size() || std::isdigit(static_cast<unsigned char>(name[u - 1]))) {
+            std::string out = "\\mathrm{";
+            for (char c : name) out += c == '_' ? std::string("\\_") : std::string(1, c);
+            return {out + "}", scale * letter_em * double(name.size())};
+        }
         const auto [base, wb] = typeset_name(name.substr(0, u), scale);
         const auto [sub, ws] = typeset_name(name.substr(u + 1), scale * script);
         return {base + "_{" + sub + "}", wb + ws};

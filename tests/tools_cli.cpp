@@ -1,15 +1,20 @@
 // The pgi program as a user and a script meet it: exit codes, stdout, stderr, JSON contract.
 #include "poisson/hamilton_jacobi.hpp"
+#include "tools/atomic_file.hpp"
+#include "tools/commands.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 using namespace pgi;
 namespace fs = std::filesystem;
@@ -54,6 +59,32 @@ std::string expected_message(const fs::path& scene) {
     const std::string tag = "# expect: ";
     REQUIRE(first.rfind(tag, 0) == 0);
     return first.substr(tag.size());
+}
+
+// A scene file written for one test, removed at the end of it.
+struct TempScene {
+    fs::path path;
+    TempScene(const std::string& tag, const std::string& text)
+        : path(fs::temp_directory_path() / ("pgi_test_" + tag + "_" + std::to_string(::getpid()) + ".toml")) {
+        std::ofstream(path) << text;
+    }
+    ~TempScene() { fs::remove(path); }
+};
+
+// A fresh empty directory, removed with what is in it.
+struct TempDir {
+    fs::path path;
+    explicit TempDir(const std::string& tag) : path(fs::temp_directory_path() / ("pgi_test_dir_" + tag + "_" + std::to_string(::getpid()))) {
+        fs::remove_all(path);
+        fs::create_directories(path);
+    }
+    ~TempDir() { fs::remove_all(path); }
+};
+
+// The exit status of a shell command (run through sh), -1 if it died of a signal.
+int shell(const std::string& cmd) {
+    const int status = std::system(cmd.c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 }  // namespace
@@ -182,7 +213,7 @@ TEST_CASE("cli: step --json gives the state after one step, the Newton iteration
     CHECK(nan.out.empty());
 }
 
-TEST_CASE("cli: integrate --json --csv writes the summary and the trajectory") {
+TEST_CASE("issue 11.9: cli: integrate --json --csv writes the summary and the trajectory") {
     const fs::path csv = fs::temp_directory_path() / ("pgi_test_" + std::to_string(::getpid()) + ".csv");
     Run r = pgi_run({"integrate", test::scene_path("nambu"), "--t-end", "10", "--csv", csv.string(), "--every", "50", "--json"});
     REQUIRE(r.exit_code == 0);
@@ -192,7 +223,9 @@ TEST_CASE("cli: integrate --json --csv writes the summary and the trajectory") {
     CHECK(j["casimir_error_max"][0].get<double>() <= 1e-13);
     CHECK(j["energy_error_max"].get<double>() < 1e-6);
     CHECK(j["newton_iterations_mean"].get<double>() <= 2.0);
-    CHECK(j["wall_seconds"].get<double>() >= 0.0);
+    // issue 11.9: was wall_seconds >= 0, which cannot fail; the per-step time is the wall time over the steps
+    CHECK(j["ns_per_step"].get<double>() == doctest::Approx(j["wall_seconds"].get<double>() / 200 * 1e9).epsilon(1e-12));
+    CHECK(j["status"] == "ok");
     std::string text = slurp(csv);
     CHECK(text.rfind("t,x1,x2,x3,H,C1\n", 0) == 0);
     CHECK(std::count(text.begin(), text.end(), '\n') == 1 + 5);  // header, t = 0, 2.5, 5, 7.5, 10
@@ -293,16 +326,16 @@ TEST_CASE("cli: report writes Markdown, JSON and LaTeX atomically, and the LaTeX
     fs::remove_all(dir);
 }
 
-TEST_CASE("cli: resource guards stop the exact phase and oversized output before they start, with exit 2") {
+TEST_CASE("cli: resource guards stop the exact phase and oversized output before they start, with exit 4 (a budget)") {
     const std::string nambu = test::scene_path("nambu");
     Run terms = pgi_run({"integrate", nambu, "--dt", "1/2", "--max-terms", "20000", "--json"});
-    CHECK(terms.exit_code == 2);
+    CHECK(terms.exit_code == 4);
     CHECK(terms.out.empty());
     CHECK_MESSAGE(terms.err.find("exact phase stopped: radial realisation, terms of degree ") != std::string::npos, terms.err);
     CHECK(terms.err.find("above the limit of 20000 (raise it with --max-terms)") != std::string::npos);
     const fs::path csv = fs::temp_directory_path() / ("pgi_test_big_" + std::to_string(::getpid()) + ".csv");
     Run big = pgi_run({"integrate", nambu, "--t-end", "1e6", "--csv", csv.string(), "--max-csv-mb", "10"});
-    CHECK(big.exit_code == 2);
+    CHECK(big.exit_code == 4);
     CHECK_MESSAGE(big.err.find("--csv: the trajectory would take about ") != std::string::npos, big.err);
     CHECK_FALSE(fs::exists(csv));
 }
@@ -332,4 +365,205 @@ TEST_CASE("cli: no bad scene leaves an output file behind") {
         CHECK(fs::is_empty(dir));
     }
     fs::remove_all(dir);
+}
+
+TEST_CASE("issue 11.1: the step count is computed in checked arithmetic and refused above --max-steps before any work") {
+    const std::string rb = test::scene_path("rigid_body");
+    // t_end / dt = 1e600 steps: on 57dddde the cast to size_t gave 0 steps and exit 0
+    Run huge = pgi_run({"integrate", rb, "--t-end", "1e300", "--dt", "1e-300", "--json"});
+    CHECK(huge.exit_code == 4);
+    CHECK(huge.out.empty());
+    CHECK_MESSAGE(huge.err.find("above the step budget of 100000000 (raise it with --max-steps") != std::string::npos, huge.err);
+    Run run = pgi_run({"run", rb, "--t-end", "1e9"});  // 1e10 steps: refused before the check is printed
+    CHECK(run.exit_code == 4);
+    CHECK(run.out.empty());
+    Run budget = pgi_run({"integrate", rb, "--t-end", "1", "--max-steps", "9"});
+    CHECK(budget.exit_code == 4);
+    CHECK_MESSAGE(budget.err.find("needs 10 steps, above the step budget of 9") != std::string::npos, budget.err);
+    Run ok = pgi_run({"integrate", rb, "--t-end", "1", "--max-steps", "10", "--json"});
+    REQUIRE(ok.exit_code == 0);
+    CHECK(nlohmann::json::parse(ok.out)["steps"] == 10);
+    // t_end not a whole number of steps: rounded up, and the final t says where the run ended
+    Run partial = pgi_run({"integrate", rb, "--t-end", "0.25", "--json"});
+    REQUIRE(partial.exit_code == 0);
+    auto j = nlohmann::json::parse(partial.out);
+    CHECK(j["steps"] == 3);
+    CHECK(j["t"].get<double>() == 3 * 0.1);
+    CHECK(j["t_end"].get<double>() == 0.25);
+    Run text = pgi_run({"integrate", rb, "--t-end", "0.25"});
+    CHECK_MESSAGE(text.out.find("t_end = 0.25 is not a whole number of steps: the last step ends at t = 0.30000000000000004") !=
+                      std::string::npos,
+                  text.out);
+    // a t_end far below dt still takes one step, never zero
+    Run tiny = pgi_run({"integrate", rb, "--t-end", "1e-300", "--json"});
+    REQUIRE(tiny.exit_code == 0);
+    CHECK(nlohmann::json::parse(tiny.out)["steps"] == 1);
+}
+
+TEST_CASE("issue 11.2: a failed step stops the run: step, t, residual and a hint on stderr; --json gives status and the last good state") {
+    const std::string rb = test::scene_path("rigid_body");
+    Run r = pgi_run({"integrate", rb, "--dt", "5", "--order", "2", "--json"});
+    CHECK(r.exit_code == 3);
+    CHECK_MESSAGE(r.err.find("residual ") != std::string::npos, r.err);
+    CHECK(r.err.find("a smaller dt may help") != std::string::npos);
+    CHECK(r.err.find("(the last good state is step ") != std::string::npos);
+    auto j = nlohmann::json::parse(r.out);  // on 57dddde stdout was empty with --json
+    CHECK(j["status"] == "step_failed");
+    CHECK(j["failed_step"].get<std::size_t>() == j["steps"].get<std::size_t>() + 1);
+    CHECK(j["t"].get<double>() == 5.0 * j["steps"].get<double>());
+    CHECK(j["failure"].get<std::string>() == r.err.substr(r.err.find(": step ") + 2, r.err.size() - r.err.find(": step ") - 3));
+    // dt = 5 fails within a few steps; the last good state is a state of the run: on the Casimir's sphere
+    const auto x = j["x"].get<std::vector<double>>();
+    CHECK(j["steps"].get<std::size_t>() < 10);
+    CHECK(std::abs(x[0] * x[0] + x[1] * x[1] + x[2] * x[2] - 1.0) < 1e-13);
+    // an invariant that is not finite stops the run (57dddde printed energy error 0 and exited 0)
+    Run inf = pgi_run({"integrate", test::scene_path("harmonic_oscillator"), "--x0", "1e200,0", "--t-end", "1", "--json"});
+    CHECK(inf.exit_code == 3);
+    CHECK_MESSAGE(inf.err.find("the invariant H = inf at x0 is not finite") != std::string::npos, inf.err);
+    CHECK(nlohmann::json::parse(inf.out)["status"] == "step_failed");
+    Run good = pgi_run({"step", rb, "--json"});
+    REQUIRE(good.exit_code == 0);
+    CHECK(nlohmann::json::parse(good.out)["status"] == "ok");
+}
+
+TEST_CASE("issue 11.5: every numeric option is one finite number in its range; lists are strict") {
+    const std::string rb = test::scene_path("rigid_body"), nambu = test::scene_path("nambu");
+    const std::vector<std::pair<std::vector<std::string>, std::string>> cases{
+        {{"integrate", nambu, "--max-csv-mb", "nan", "--csv", "/tmp/pgi_never.csv"}, "--max-csv-mb: 'nan' is not a number above 0"},
+        {{"integrate", nambu, "--max-csv-mb", "inf"}, "--max-csv-mb: 'inf'"},
+        {{"realisation", rb, "--degree", "1e9"}, "--degree: '1e9' is not a whole number from 0 to 100"},
+        {{"realisation", rb, "--degree", "-1"}, "--degree: '-1' is not a whole number from 0 to 100"},
+        {{"realisation", rb, "--degree", "18446744073709551615"}, "--degree: '18446744073709551615'"},
+        {{"modified", rb, "--upto", "-1"}, "--upto: '-1' is not a whole number from 0 to 64"},
+        {{"magnus", rb, "--upto", "1.5"}, "--upto: '1.5'"},
+        {{"integrate", rb, "--every", "0"}, "--every: '0'"},
+        {{"integrate", rb, "--every", "nan"}, "--every: 'nan'"},
+        {{"terms", rb, "--max-terms", "-5"}, "--max-terms: '-5'"},
+        {{"integrate", rb, "--max-steps", "0"}, "--max-steps: '0'"},
+        {{"terms", rb, "--order", "1e9"}, "--order: '1e9' is not an integer"},
+        {{"terms", rb, "--order", "65"}, "--order: the order k must be at most 64"},
+        {{"step", rb, "--dt", "nan"}, "--dt:"},
+        {{"step", rb, "--dt", "-1/10"}, "--dt: the step dt must be positive"},
+        {{"integrate", rb, "--t-end", "inf"}, "--t-end:"},
+        {{"step", rb, "--x0", "1,0,"}, "--x0: value 3 of '1,0,' is empty"},
+        {{"step", rb, "--x0", ",1,0"}, "--x0: value 1 of ',1,0' is empty"},
+        {{"step", rb, "--x0", "1,,0"}, "--x0: value 2 of '1,,0' is empty"},
+        {{"step", rb, "--x0", "1,0,1e999"}, "--x0:"},
+    };
+    for (const auto& [args, message] : cases) {
+        CAPTURE(args[2]);
+        CAPTURE(args.size() > 3 ? args[3] : "");
+        Run r = pgi_run(args);
+        CHECK(r.exit_code == 2);
+        CHECK(r.out.empty());
+        CHECK_MESSAGE(r.err.find(message) != std::string::npos, r.err);
+    }
+    CHECK_FALSE(fs::exists("/tmp/pgi_never.csv"));
+}
+
+TEST_CASE("issue 11.6: a Casimir through 0 has its error measured against the size of its terms, not against |C(x0)|") {
+    // C = x1^2 + x2^2 + x3^2 - 1 at a point of the unit sphere: C(x0) = -1.1e-16 in double, the size of its
+    // terms 2; 57dddde divided the round-off drift by |C(x0)| and reported about 2
+    TempScene scene("casimir_zero", "name = \"rigid body, C through 0\"\ncoordinates = [\"x1\", \"x2\", \"x3\"]\n[brackets]\n"
+                                    "\"x1,x2\" = \"-x3\"\n\"x2,x3\" = \"-x1\"\n\"x3,x1\" = \"-x2\"\n[hamiltonian]\n"
+                                    "H = \"1/4*x1^2 + 1/2*x2^2 + 3/4*x3^2\"\ncasimirs = [\"x1^2 + x2^2 + x3^2 - 1\"]\n"
+                                    "[run]\nx0 = [0.3, 0.4, 0.8660254037844386]\nt_end = 100\n");
+    Run r = pgi_run({"integrate", scene.path.string(), "--json"});
+    REQUIRE(r.exit_code == 0);
+    // 1000 steps of a method that keeps C to round-off: a few eps of the terms' size, far below 1e-14
+    CHECK(nlohmann::json::parse(r.out)["casimir_error_max"][0].get<double>() < 1e-14);
+    // the shared rule itself (pgi and pgi_peers): |value - initial| / sum of |terms| at x0
+    Scene s = load_scene(scene.path);
+    const auto scale = invariant_scales(s, *s.x0);
+    REQUIRE(scale.size() == 2);
+    CHECK(scale[0] == doctest::Approx(0.25 * 0.09 + 0.5 * 0.16 + 0.75 * 0.75).epsilon(1e-15));
+    CHECK(scale[1] == doctest::Approx(0.09 + 0.16 + 0.75 + 1).epsilon(1e-15));
+    CHECK(relative_error(-1.1e-16 + 2.2e-16, -1.1e-16, scale[1]) == doctest::Approx(1.1e-16).epsilon(1e-6));
+    CHECK(relative_error(3.0, 1.0, 0.0) == 2.0);  // all terms 0 at x0: the absolute change
+}
+
+TEST_CASE("issue 11.7: output paths are checked before the run; temporaries are exclusive and removed on SIGTERM") {
+    const std::string rb = test::scene_path("rigid_body");
+    TempDir dir("files");
+    const fs::path fifo = dir.path / "fifo.csv";
+    REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+    // (a device node is tested through check_output_path alone: a broken pgi run as root would replace /dev/null)
+    CHECK_THROWS_WITH_AS(check_output_path("/dev/null"), doctest::Contains("not a regular file (a device or special file)"),
+                         std::invalid_argument);
+    for (const std::string& target : std::vector<std::string>{fifo.string(), dir.path.string()}) {
+        CAPTURE(target);
+        Run r = pgi_run({"integrate", rb, "--csv", target});
+        CHECK(r.exit_code == 2);
+        CHECK(r.out.empty());
+        CHECK_MESSAGE(r.err.find("cannot write: it exists and is not a regular file") != std::string::npos, r.err);
+    }
+    CHECK(fs::is_fifo(fifo));
+    // the scene itself, through another name, is never overwritten
+    const fs::path copy = dir.path / "scene.toml", link = dir.path / "alias.toml";
+    fs::copy_file(rb, copy);
+    fs::create_symlink(copy, link);
+    const std::string before = slurp(copy);
+    Run self = pgi_run({"integrate", copy.string(), "--csv", link.string()});
+    CHECK(self.exit_code == 2);
+    CHECK_MESSAGE(self.err.find("cannot write: it is the input file") != std::string::npos, self.err);
+    Run report_self = pgi_run({"report", copy.string(), "--out", copy.string()});
+    CHECK(report_self.exit_code == 2);
+    CHECK(slurp(copy) == before);
+    // a scene that is a FIFO or a directory is refused without blocking
+    Run fifo_scene = pgi_run({"check", fifo.string()});
+    CHECK(fifo_scene.exit_code == 2);
+    CHECK(fifo_scene.err.find("is not a regular file") != std::string::npos);
+    Run dir_scene = pgi_run({"check", dir.path.string()});
+    CHECK(dir_scene.exit_code == 2);
+    CHECK(dir_scene.err.find("is a directory") != std::string::npos);
+    // SIGTERM during a long run: exit 143 and no temporary file left (57dddde left "out.csv.tmp<pid>")
+    fs::remove(fifo);
+    const fs::path out = dir.path / "out.csv";
+    const int rc = shell("timeout --preserve-status -s TERM 1 '" + std::string(PGI_BINARY) + "' integrate '" + rb +
+                         "' --t-end 1e6 --dt 1/100 --every 1000000 --csv '" + out.string() + "' >/dev/null 2>&1");
+    CHECK(rc == 143);
+    std::vector<std::string> left;
+    for (const auto& e : fs::directory_iterator(dir.path)) left.push_back(e.path().filename().string());
+    std::sort(left.begin(), left.end());
+    CHECK(left == std::vector<std::string>{"alias.toml", "scene.toml"});
+    // a failed write to stdout: exit 6 with a message
+    CHECK(shell("'" + std::string(PGI_BINARY) + "' terms '" + rb + "' > /dev/full 2>/dev/null") == 6);
+    // a successful file keeps the permissions of an ordinary new file, not mkstemp's 0600
+    Run ok = pgi_run({"integrate", rb, "--t-end", "1", "--csv", out.string()});
+    REQUIRE(ok.exit_code == 0);
+    struct stat st {};
+    REQUIRE(::stat(out.c_str(), &st) == 0);
+    const mode_t mask = ::umask(0);
+    ::umask(mask);
+    CHECK((st.st_mode & 0777) == (0666 & ~mask));
+}
+
+TEST_CASE("issue 11.8: names with control characters are refused; what can be checked is checked before anything is printed") {
+    TempScene name("ctl_name", "name = \"a\\u001b[2Jb\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = \"q^2\"\n");
+    Run r = pgi_run({"check", name.path.string()});
+    CHECK(r.exit_code == 2);
+    CHECK(r.out.empty());
+    CHECK_MESSAGE(r.err.find(": name: contains a control character: 'a\\x1b[2Jb'") != std::string::npos, r.err);
+    CHECK(r.err.find('\x1b') == std::string::npos);  // never echoed raw to the terminal
+    TempScene coord("ctl_coord", "name = \"n\"\ncoordinates = [\"q\\u0007\", \"p\"]\n[brackets]\n\"p,p\" = \"0\"\n[hamiltonian]\nH = \"p^2\"\n");
+    Run c = pgi_run({"check", coord.path.string()});
+    CHECK(c.exit_code == 2);
+    CHECK_MESSAGE(c.err.find("coordinates[0]: the coordinate name 'q\\x07' contains a control character") != std::string::npos, c.err);
+    // 57dddde printed eleven lines of check and terms before finding the directory missing
+    Run nodir = pgi_run({"run", test::scene_path("rigid_body"), "--csv", "nodir/x.csv"});
+    CHECK(nodir.exit_code == 2);
+    CHECK(nodir.out.empty());
+    CHECK(nodir.err.find("nodir/x.csv: cannot write: directory 'nodir' does not exist") != std::string::npos);
+    // LaTeX: names that are not plain identifiers are set upright, never a double subscript (57dddde wrote
+    // x_^{2} and x_{1}_{a}, which pdflatex refuses)
+    TempDir dir("latex_names");
+    TempScene odd("latex_names", "name = \"a_b & c%\"\ncoordinates = [\"x_\", \"_y\", \"a_b_c\", \"x1_a\", \"x__2\"]\n"
+                                 "[brackets]\n\"x_,_y\" = \"a_b_c\"\n[hamiltonian]\nH = \"x_^2 + _y^2 + a_b_c + x1_a*x__2\"\n");
+    Run tex = pgi_run({"report", odd.path.string(), "--format", "latex", "--out", (dir.path / "r.tex").string()});
+    REQUIRE(tex.exit_code == 0);
+    const std::string text = slurp(dir.path / "r.tex");
+    CHECK(text.find("\\mathrm{x\\_}^{2}") != std::string::npos);
+    CHECK(text.find("\\mathrm{x1\\_a}") != std::string::npos);
+    const int rc = shell("cd '" + dir.path.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error r.tex > r.log 2>&1");
+    CHECK_MESSAGE(rc == 0, slurp(dir.path / "r.log"));
 }

@@ -117,7 +117,7 @@ TEST_CASE("LaTeX reports of the Volterra lattice (k = 6) and Henon-Heiles (throu
 }
 
 TEST_CASE("RunSeries: at most the requested number of bins, and every bin keeps its largest error") {
-    RunSeries s(10000, 1, {"H"}, 100);
+    RunSeries s(10000, 1, {"H"}, {1.0}, 100);  // H(x0) = 1 made of terms of size 1
     double x = 0;
     for (std::size_t n = 0; n <= 10000; ++n) {
         // the error peaks once, at step 4321, between two bins' first steps

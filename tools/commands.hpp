@@ -21,14 +21,39 @@ nlohmann::json terms_report(const Scene& scene);
 /// alpha and beta truncated at p-degree D.
 nlohmann::json realisation_report(const Scene& scene, std::size_t D);
 
-/// Thrown when a run stops on a failed step (exit code 3): what() says which step, t, the residual and why.
+/// Thrown when a run stops on a failed step or a non-finite state or invariant (exit code 3): what() says
+/// which step, t, the residual and why; partial() is the JSON document of what was computed up to the last
+/// good step, with "status": "step_failed" (null when nothing was).
 class NumericalFailure : public std::runtime_error {
+public:
+    explicit NumericalFailure(const std::string& message, nlohmann::json partial = nullptr)
+        : std::runtime_error(message), partial_(std::move(partial)) {}
+    const nlohmann::json& partial() const { return partial_; }
+
+private:
+    nlohmann::json partial_;
+};
+
+/// A budget of the tools refused the work before it started (exit code 4): the step count above
+/// --max-steps, a CSV above --max-csv-mb.
+class BudgetError : public std::runtime_error {
 public:
     using std::runtime_error::runtime_error;
 };
 
+/// The default of --max-steps: 1e8 steps, about 30 s at the fastest step measured (rigid body, 330 ns)
+/// and minutes for larger scenes; longer runs say so with --max-steps.
+inline constexpr std::size_t default_max_steps = 100'000'000;
+
+/// The number of steps of a run to the scene's t_end: ceil(t_end / dt) (a t_end that is not a whole
+/// number of steps is rounded up, and the run ends at N dt >= t_end), computed in floating point and
+/// checked. Throws BudgetError above max_steps (or when t_end / dt overflows), SceneError without t_end.
+std::size_t step_count(const Scene& scene, std::size_t max_steps);
+
 /// H, the Casimirs, then the extra polynomials, compiled over the coordinates: what runs watch.
 CompiledMap invariants(const Scene& scene, const std::vector<Poly>& extra = {});
+/// invariant_scales (scheme/trajectory.hpp) for the scene's Scheme at x: what relative_error divides by.
+std::vector<double> invariant_scales(const Scene& scene, const std::vector<double>& x, const std::vector<Poly>& extra = {});
 /// The message of a failed step: which step, from which t, why, the iterations, residual and last correction.
 std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus status);
 
@@ -36,6 +61,7 @@ std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus
 struct IntegrateOptions {
     std::optional<std::filesystem::path> csv;
     std::size_t every = 1;            // one CSV row every this many steps
+    std::size_t max_steps = default_max_steps;  // refuse (before any work) a run of more steps
     double max_csv_mb = 1024;         // refuse (before running) a CSV that would be larger than this
     bool progress = false;            // a progress line on stderr for runs longer than a second or two
     std::optional<Poly> modified;     // also track this (a truncated modified Hamiltonian) along the run

@@ -1,28 +1,38 @@
-// pgi: the command-line program. Exit codes: 0 success, 2 bad input (nothing on stdout), 3 a step failed
-// (Newton did not converge or the state overflowed), 1 internal error.
+// pgi: the command-line program. Exit codes (README "Limits and exit codes"): 0 success; 1 internal error;
+// 2 bad input (scene, options, paths, names, failed checks; nothing on stdout); 3 numerical failure (a step
+// failed, a non-finite state or invariant); 4 a budget exceeded (exact phase, steps, CSV size); 5 out of
+// memory; 6 output failure (stdout or a file); 130 / 143 interrupted by SIGINT / SIGTERM.
 #include "tools/atomic_file.hpp"
 #include "scheme/version.hpp"
 #include "tools/commands.hpp"
 #include "tools/ensemble.hpp"
 #include "tools/plot.hpp"
 #include "tools/section.hpp"
+#include "tools/exit_codes.hpp"
+#include "tools/option_values.hpp"
 
 #include <CLI/CLI.hpp>
 
 #include <flint/flint.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
 #include <cstdlib>
+#include <cstring>
 #include <functional>
 #include <iostream>
+#include <new>
 
 namespace {
 
+// Numeric options are read as text and converted by read_numbers(), strictly and with their ranges.
 struct Options {
     std::string scene;
     bool json = false;
     pgi::SceneOverrides overrides;
-    std::size_t degree = 0;
-    std::size_t upto = 4;
+    std::string degree, upto = "4", every = "1", max_csv_mb = "1024", max_terms, max_steps;
+    std::size_t degree_value = 0, upto_value = 4;
     std::string format = "markdown", out;
     pgi::IntegrateOptions integrate;
     std::string csv;
@@ -31,6 +41,24 @@ struct Options {
     pgi::SectionOptions section;
     pgi::EnsembleCommandOptions ensemble;
 };
+
+// The ranges of the numeric options (README "Limits and exit codes").
+constexpr std::size_t max_degree = 100, max_upto = 64, max_count = std::size_t(1) << 53;
+
+void read_numbers(Options& o) {
+    o.degree_value = o.degree.empty() ? 0 : pgi::whole_number("--degree", o.degree, 0, max_degree);
+    o.upto_value = pgi::whole_number("--upto", o.upto, 0, max_upto);
+    o.integrate.every = pgi::whole_number("--every", o.every, 1, max_count);
+    o.integrate.max_csv_mb = pgi::positive_number("--max-csv-mb", o.max_csv_mb, 1e9);
+    if (!o.max_terms.empty()) o.overrides.max_terms = pgi::whole_number("--max-terms", o.max_terms, 1, max_count);
+    if (!o.max_steps.empty()) o.integrate.max_steps = pgi::whole_number("--max-steps", o.max_steps, 1, max_count);
+}
+
+// Standard output, flushed and checked: a closed pipe or a full disk is an OutputError (exit 6).
+void print(const std::string& text) {
+    std::cout << text << std::flush;
+    if (!std::cout) throw pgi::OutputError(std::string("standard output: write failed (") + std::strerror(errno) + ")");
+}
 
 // The options a subcommand reads, and only those: each flag of Use says which of the scene's values it uses.
 namespace use {
@@ -45,17 +73,28 @@ void scene_options(CLI::App* cmd, Options& o, unsigned uses) {
     if (uses & use::realisation) cmd->add_option("--realisation", o.overrides.realisation, "auto | closed-form | radial");
     if (uses & use::x0) cmd->add_option("--x0", o.overrides.x0, "initial state, comma-separated");
     if (uses & use::t_end) cmd->add_option("--t-end", o.overrides.t_end, "final time");
-    cmd->add_option("--max-terms", o.overrides.max_terms, "bound on the terms of any product of the exact phase")
-        ->check(CLI::PositiveNumber);
+    cmd->add_option("--max-terms", o.max_terms, "bound on the terms of any product of the exact phase (default 2e7)");
 }
 
 void emit(const Options& o, const nlohmann::json& report, const std::function<std::string(const nlohmann::json&)>& text) {
-    if (o.json) std::cout << report.dump(2) << "\n";
-    else std::cout << text(report);
+    print(o.json ? report.dump(2) + "\n" : text(report));
+}
+
+// What can be refused before any work: output paths, a --csv without a run, the step count.
+void check_before_work(const std::string& name, const Options& o, const pgi::Scene& scene) {
+    const bool runs = name == "integrate" || name == "run" || name == "report";
+    if (!o.csv.empty()) {
+        if (name == "run" && !(scene.x0 && scene.t_end))
+            throw pgi::SceneError(scene.file, "--csv", "the scene has no run to write (give [run] x0 and t_end, or --x0 and --t-end)");
+        pgi::check_output_path(o.csv, {scene.file});
+    }
+    if (!o.out.empty()) pgi::check_output_path(o.out, {scene.file});
+    if (runs && scene.t_end && (name == "integrate" || scene.x0)) pgi::step_count(scene, o.integrate.max_steps);
 }
 
 int run_command(const std::string& name, const Options& o) {
     pgi::Scene scene = pgi::load_scene(o.scene, o.overrides);
+    check_before_work(name, o, scene);
     if (name == "ensemble") {
         auto eo = o.ensemble;
         eo.x0_given = o.overrides.x0.has_value();
@@ -72,18 +111,18 @@ int run_command(const std::string& name, const Options& o) {
     }
     pgi::require_valid(scene);
     if (name == "terms") emit(o, pgi::terms_report(scene), pgi::terms_text);
-    if (name == "realisation") emit(o, pgi::realisation_report(scene, o.degree), pgi::realisation_text);
-    if (name == "magnus") emit(o, pgi::magnus_report(scene, o.upto), pgi::series_text);
+    if (name == "realisation") emit(o, pgi::realisation_report(scene, o.degree_value), pgi::realisation_text);
+    if (name == "magnus") emit(o, pgi::magnus_report(scene, o.upto_value), pgi::series_text);
     if (name == "modified" && !o.splitting.empty())
-        emit(o, pgi::splitting_report(scene, pgi::parse_splitting_method(o.splitting), o.upto), pgi::splitting_text);
-    else if (name == "modified") emit(o, pgi::modified_report(scene, o.upto), pgi::series_text);
+        emit(o, pgi::splitting_report(scene, pgi::parse_splitting_method(o.splitting), o.upto_value), pgi::splitting_text);
+    else if (name == "modified") emit(o, pgi::modified_report(scene, o.upto_value), pgi::series_text);
     if (name == "report") {
-        auto data = pgi::report_data(scene, o.upto);
+        auto data = pgi::report_data(scene, o.upto_value);
         std::string text = o.format == "json" ? data.dump(2) + "\n" : o.format == "latex" ? pgi::report_latex(data) : pgi::report_markdown(data);
         if (o.out.empty()) {
-            std::cout << text;
+            print(text);
         } else {
-            pgi::AtomicFile file(o.out);
+            pgi::AtomicFile file(o.out, {scene.file});
             file.stream() << text;
             file.commit();
         }
@@ -104,19 +143,43 @@ int run_command(const std::string& name, const Options& o) {
     }
     if (name == "integrate") emit(o, pgi::integrate_report(scene, io), pgi::integrate_text);
     if (name == "run") {
-        std::cout << pgi::check_text(pgi::check_report(scene)) << "\n" << pgi::terms_text(pgi::terms_report(scene)) << "\n"
-                  << std::flush;
-        if (scene.x0 && scene.t_end) std::cout << pgi::integrate_text(pgi::integrate_report(scene, io));
+        print(pgi::check_text(pgi::check_report(scene)) + "\n" + pgi::terms_text(pgi::terms_report(scene)) + "\n");
+        if (scene.x0 && scene.t_end) print(pgi::integrate_text(pgi::integrate_report(scene, io)));
     }
     if (plot)
         for (const auto& f : plot->write()) std::cerr << "pgi: wrote " << f.string() << "\n";
     return 0;
 }
 
+// Runs the command; exceptions become exit codes in tools/exit_codes.hpp. A failed run with --json
+// still prints its partial document ("status": "step_failed", the last good state).
+int run_and_map_exceptions(const std::string& name, Options& o) {
+    try {
+        read_numbers(o);
+        return run_command(name, o);
+    } catch (...) {
+        const int code = pgi::exit_code_of_current_exception("pgi", o.scene);
+        if (code == 3 && o.json) try {
+                throw;
+            } catch (const pgi::NumericalFailure& e) {
+                if (!e.partial().is_null()) try {
+                        print(e.partial().dump(2) + "\n");
+                    } catch (const pgi::OutputError& out) {
+                        std::cerr << "pgi: " << out.what() << "\n";
+                        return 6;
+                    }
+            } catch (...) {
+            }
+        return code;
+    }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
     std::atexit(flint_cleanup_master);  // FLINT's own caches, so memcheck sees every block freed
+    std::signal(SIGPIPE, SIG_IGN);      // a closed pipe is a failed write (exit 6), not a silent death
+    pgi::remove_temporaries_on_signals();
     CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
     app.require_subcommand(1);
     app.set_version_flag("--version", "pgi " + std::string(pgi::version()));
@@ -153,43 +216,34 @@ int main(int argc, char** argv) {
     pgi::add_ensemble_options(ensemble, o.ensemble);
     report->add_option("--format", o.format, "markdown | latex | json")->check(CLI::IsMember({"markdown", "latex", "json"}));
     report->add_option("--out", o.out, "write to this file (atomically) instead of stdout");
-    report->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian (default 4)");
-    magnus->add_option("--upto", o.upto, "last power of eps (default 4)");
-    modified->add_option("--upto", o.upto, "last power of dt (default 4)");
+    report->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian, 0..64 (default 4)");
+    magnus->add_option("--upto", o.upto, "last power of eps, 0..64 (default 4)");
+    modified->add_option("--upto", o.upto, "last power of dt, 0..64 (default 4)");
     modified->add_option("--splitting", o.splitting, "lie-trotter | strang | yoshida: the splitting method's for [splitting] H = A + B")
         ->check(CLI::IsMember({"lie-trotter", "strang", "yoshida"}));
-    for (auto* cmd : {integrate, run}) {
+    for (auto* cmd : {integrate, run}) {  // report's run keeps the default step budget
+        cmd->add_option("--max-steps", o.max_steps, "refuse a run of more steps than this, before any work (default 1e8)");
         cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
-        cmd->add_option("--every", o.integrate.every, "one CSV row every M steps")->check(CLI::PositiveNumber);
+        cmd->add_option("--every", o.every, "one CSV row every M steps");
         cmd->add_option("--plot", o.plot, "draw the trajectory and the invariants' errors (SVG and PNG, by gnuplot) into this directory");
-        cmd->add_option("--max-csv-mb", o.integrate.max_csv_mb, "refuse a CSV larger than this (default 1024)")
-            ->check(CLI::PositiveNumber);
+        cmd->add_option("--max-csv-mb", o.max_csv_mb, "refuse a CSV larger than this (default 1024)");
     }
-    realisation->add_option("--degree", o.degree, "total degree D in the momenta")->required();
+    realisation->add_option("--degree", o.degree, "total degree D in the momenta, 0..100")->required();
     try {
         app.parse(argc, argv);
+        for (const char* name : {"--csv", "--out"})  // given but empty is not "not given"
+            for (auto* cmd : app.get_subcommands())
+                if (const auto* opt = cmd->get_option_no_throw(name);
+                    opt && opt->count() > 0 && std::any_of(opt->results().begin(), opt->results().end(),
+                                                           [](const std::string& r) { return r.empty(); })) {
+                    std::cerr << "pgi: " << name << ": an empty path\n";
+                    return 2;
+                }
     } catch (const CLI::Success& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
         app.exit(e);
         return 2;
     }
-    try {
-        return run_command(app.get_subcommands().front()->get_name(), o);
-    } catch (const pgi::NumericalFailure& e) {
-        std::cerr << "pgi: " << o.scene << ": " << e.what() << "\n";
-        return 3;
-    } catch (const pgi::SceneError& e) {
-        std::cerr << "pgi: " << e.what() << "\n";
-        return 2;
-    } catch (const pgi::ResourceLimitError& e) {
-        std::cerr << "pgi: " << o.scene << ": exact phase stopped: " << e.what() << "\n";
-        return 2;
-    } catch (const std::invalid_argument& e) {
-        std::cerr << "pgi: " << o.scene << ": " << e.what() << "\n";
-        return 2;
-    } catch (const std::exception& e) {
-        std::cerr << "pgi: internal error: " << e.what() << "\n";
-        return 1;
-    }
+    return run_and_map_exceptions(app.get_subcommands().front()->get_name(), o);
 }

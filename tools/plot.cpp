@@ -23,8 +23,10 @@ namespace pgi {
 
 namespace fs = std::filesystem;
 
-RunSeries::RunSeries(std::size_t steps, std::size_t dim, std::vector<std::string> invariant_names, std::size_t bins)
-    : stride_(std::max<std::size_t>(1, (steps + bins) / bins)), dim_(dim), names_(std::move(invariant_names)) {}
+RunSeries::RunSeries(std::size_t steps, std::size_t dim, std::vector<std::string> invariant_names, std::vector<double> scales,
+                     std::size_t bins)
+    : stride_(std::max<std::size_t>(1, (steps + bins) / bins)), dim_(dim), names_(std::move(invariant_names)),
+      scales_(std::move(scales)) {}
 
 void RunSeries::record(std::size_t n, double t, const double* x, const std::vector<double>& invariants) {
     if (n == 0) initial_ = invariants;
@@ -33,7 +35,7 @@ void RunSeries::record(std::size_t n, double t, const double* x, const std::vect
     }
     Bin& b = bins_.back();
     for (std::size_t i = 0; i < names_.size() && i < invariants.size(); ++i) {
-        const double e = relative_error(invariants[i], initial_[i]);
+        const double e = relative_error(invariants[i], initial_[i], i < scales_.size() ? scales_[i] : 0.0);
         if (!(e <= b.error[i])) {  // NaN too: a non-finite value is a peak to show
             b.error[i] = e;
             b.error_t[i] = t;
@@ -227,7 +229,8 @@ void RunPlot::attach(IntegrateOptions& options) {
     if (!options.modified && modified_) options.modified = modified_;
     if (options.modified) names.push_back(fmt::format("modified H through dt^{}", modified_upto_));
     const auto steps = static_cast<std::size_t>(std::ceil(*scene_.t_end / scene_.dt - 1e-9));
-    series_.emplace(steps, scene_.phase_space().dim(), names);
+    const std::vector<Poly> extra = options.modified ? std::vector<Poly>{*options.modified} : std::vector<Poly>{};
+    series_.emplace(steps, scene_.phase_space().dim(), names, invariant_scales(*scene_.scheme, *scene_.x0, extra));
     options.observe = [this](std::size_t n, double t, const Eigen::VectorXd& x, const std::vector<double>& values) {
         series_->record(n, t, x.data(), values);
     };

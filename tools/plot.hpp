@@ -15,7 +15,9 @@ namespace pgi {
 /// (the trajectory) and, for every invariant, its largest relative error and when (so no peak is lost).
 class RunSeries {
 public:
-    RunSeries(std::size_t steps, std::size_t dim, std::vector<std::string> invariant_names, std::size_t bins = 2000);
+    /// scales: each invariant's size at x0 (invariant_scales), what its relative error divides by.
+    RunSeries(std::size_t steps, std::size_t dim, std::vector<std::string> invariant_names, std::vector<double> scales,
+              std::size_t bins = 2000);
     /// Step n (0 = the initial state) at time t: the state and the invariants' values.
     void record(std::size_t n, double t, const double* x, const std::vector<double>& invariants);
 
@@ -31,7 +33,7 @@ public:
 private:
     std::size_t stride_, dim_;
     std::vector<std::string> names_;
-    std::vector<double> initial_;
+    std::vector<double> scales_, initial_;
     std::vector<Bin> bins_;
 };
 

@@ -69,42 +69,65 @@ private:
 
 CompiledMap invariants(const Scene& scene, const std::vector<Poly>& extra) { return scene.scheme->invariants(extra); }
 
+std::vector<double> invariant_scales(const Scene& scene, const std::vector<double>& x, const std::vector<Poly>& extra) {
+    return invariant_scales(*scene.scheme, x, extra);
+}
+
 std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus status) {
     return step_failure_message(s, step, status);
+}
+
+std::size_t step_count(const Scene& scene, std::size_t max_steps) {
+    if (!scene.t_end) throw SceneError(scene.file, "run.t_end", "missing: give [run] t_end or --t-end");
+    const double q = *scene.t_end / scene.dt;  // both finite and positive: q is positive, possibly inf or 0
+    // whole steps reaching t_end; the 1e-9 keeps t_end = 10, dt = 0.1 (q = 100.00000000000001) at 100 steps
+    const double N = std::max(1.0, std::ceil(q - 1e-9));
+    if (!(N <= double(max_steps)))
+        throw BudgetError(fmt::format("{}: t_end / dt = {:.6g} / {:.6g} needs {:.6g} steps, above the step budget of {} "
+                                      "(raise it with --max-steps, or use a larger dt)",
+                                      scene.file.string(), *scene.t_end, scene.dt, N, max_steps));
+    return static_cast<std::size_t>(N);
 }
 
 json step_report(const Scene& scene) {
     NewtonStepper s = build_stepper(scene);
     Eigen::VectorXd x = to_vector(require_x0(scene)), increment(x.size());
     StepStatus status = s.step(x, increment);
-    if (status != StepStatus::ok) throw NumericalFailure(failure_message(s, 1, status));
+    if (status == StepStatus::ok && !(x + increment).allFinite()) status = StepStatus::non_finite;
+    if (status != StepStatus::ok) {
+        const std::string message = failure_message(s, 1, status);
+        throw NumericalFailure(message, {{"status", "step_failed"}, {"failure", message}, {"steps", 0}, {"t", 0.0},
+                                         {"x", require_x0(scene)}, {"dt", scene.dt}});
+    }
     const int iterations = s.last_iterations();
     const double correction = s.last_correction();
-    json r{{"x", to_std(x + increment)}, {"newton_iterations", iterations}, {"residual", s.residual_at_solution(x)},
-           {"correction", correction}, {"dt", scene.dt}};
+    json r{{"status", "ok"}, {"x", to_std(x + increment)}, {"newton_iterations", iterations},
+           {"residual", s.residual_at_solution(x)}, {"correction", correction}, {"dt", scene.dt}};
     r.update(stepper_info(scene, s));
     return r;
 }
 
 json integrate_report(const Scene& scene, const IntegrateOptions& options) {
-    if (!scene.t_end) throw SceneError(scene.file, "run.t_end", "missing: give [run] t_end or --t-end");
-    const auto built = Clock::now();
-    NewtonStepper s = build_stepper(scene);
-    const double build_seconds = std::chrono::duration<double>(Clock::now() - built).count();
-    const std::size_t N = steps_to_reach(*scene.t_end, scene.dt);
-    CompiledMap inv = invariants(scene, options.modified ? std::vector<Poly>{*options.modified} : std::vector<Poly>{});
-    std::vector<double> values(inv.num_outputs()), initial(inv.num_outputs()), worst(inv.num_outputs(), 0.0);
+    const std::size_t N = step_count(scene, options.max_steps);
+    const std::vector<Poly> extra = options.modified ? std::vector<Poly>{*options.modified} : std::vector<Poly>{};
     std::optional<AtomicFile> csv;
     if (options.csv) {
         // at most 25 characters a number: refuse before running rather than fill the disk
         const double rows = double(N / options.every + 2), columns = double(2 + scene.phase_space().dim() + scene.casimirs.size());
         const double mb = rows * columns * 25 / 1e6;
-        if (mb > options.max_csv_mb)
-            throw SceneError(scene.file, "--csv",
-                             fmt::format("the trajectory would take about {:.0f} MB ({:.0f} rows of {:.0f} columns), above the "
-                                         "limit of {:.0f} MB: raise --every or --max-csv-mb",
-                                         mb, rows, columns, options.max_csv_mb));
-        csv.emplace(*options.csv);
+        if (!(mb <= options.max_csv_mb))
+            throw BudgetError(fmt::format("{}: --csv: the trajectory would take about {:.3g} MB ({:.0f} rows of {:.0f} columns), "
+                                          "above the limit of {:.3g} MB: raise --every or --max-csv-mb",
+                                          scene.file.string(), mb, rows, columns, options.max_csv_mb));
+        csv.emplace(*options.csv, std::vector<std::filesystem::path>{scene.file});
+    }
+    const auto built = Clock::now();
+    NewtonStepper s = build_stepper(scene);
+    const double build_seconds = std::chrono::duration<double>(Clock::now() - built).count();
+    CompiledMap inv = invariants(scene, extra);
+    std::vector<double> values(inv.num_outputs()), initial(inv.num_outputs()), worst(inv.num_outputs(), 0.0);
+    const std::vector<double> scale = invariant_scales(scene, require_x0(scene), extra);
+    if (csv) {
         csv->stream() << "t";
         for (const auto& c : scene.phase_space().coordinates()) csv->stream() << "," << c;
         csv->stream() << ",H";
@@ -112,13 +135,24 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
         csv->stream() << "\n";
     }
     Progress progress(options.progress, N);
-    Eigen::VectorXd x = to_vector(require_x0(scene));
+    Eigen::VectorXd x = to_vector(require_x0(scene)), last_good = x;
+    std::size_t last_good_n = 0;
+    bool started = false;  // x0 itself was observed, with finite invariants
+    std::string non_finite;  // which invariant became inf or NaN, if one did
     const auto start = Clock::now();
     auto summary = integrate_steps(s, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& y) {
         inv.eval(y.data(), values.data());
+        for (std::size_t i = 0; i < values.size(); ++i)
+            if (!std::isfinite(values[i])) {
+                non_finite = fmt::format("{} = {}", i == 0 ? std::string("H") : i <= scene.casimirs.size() ? fmt::format("C{}", i) : "Htilde", values[i]);
+                return true;  // stop: this state is not a result
+            }
         if (n == 0) initial = values;
-        for (std::size_t i = 0; i < values.size(); ++i) worst[i] = std::max(worst[i], relative_error(values[i], initial[i]));
+        for (std::size_t i = 0; i < values.size(); ++i) worst[i] = std::max(worst[i], relative_error(values[i], initial[i], scale[i]));
         if (options.observe) options.observe(n, t, y, values);
+        last_good = y;
+        last_good_n = n;
+        started = true;
         if (csv && (n % options.every == 0 || n == N)) {
             csv->stream() << fmt::format("{:.17g}", t);
             for (Eigen::Index i = 0; i < y.size(); ++i) csv->stream() << fmt::format(",{:.17g}", y[i]);
@@ -129,22 +163,34 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
         return false;
     });
     const double wall = std::chrono::duration<double>(Clock::now() - start).count();
-    if (summary.status != StepStatus::ok) {
-        std::string message = failure_message(s, summary.steps + 1, summary.status);
+    std::vector<double> casimir_errors(worst.begin() + 1, worst.begin() + 1 + long(scene.casimirs.size()));
+    json r{{"status", "ok"}, {"steps", last_good_n}, {"t", double(last_good_n) * scene.dt}, {"x", to_std(last_good)},
+           {"energy_error_max", worst[0]}, {"casimir_error_max", casimir_errors},
+           {"newton_iterations_mean", summary.mean_iterations}, {"wall_seconds", wall}, {"build_seconds", build_seconds},
+           {"ns_per_step", wall / double(std::max<std::size_t>(summary.steps, 1)) * 1e9}, {"dt", scene.dt},
+           {"t_end", *scene.t_end}};
+    if (options.modified) r["modified_energy_error_max"] = worst.back();
+    r.update(stepper_info(scene, s));
+    if (summary.status != StepStatus::ok || !non_finite.empty()) {
+        const std::size_t failed = started ? last_good_n + 1 : 0;
+        std::string message =
+            non_finite.empty() ? failure_message(s, failed, summary.status)
+            : started ? fmt::format("step {} (from t = {:.17g}) failed: non-finite invariant {} after the step; a smaller dt may help",
+                                    failed, double(last_good_n) * s.dt(), non_finite)
+                      : fmt::format("the invariant {} at x0 is not finite: nothing to integrate", non_finite);
+        if (started) message += fmt::format(" (the last good state is step {}, t = {:.17g})", last_good_n, double(last_good_n) * s.dt());
         if (csv) {
             csv->stream() << "# INCOMPLETE: " << message << "\n";
             csv->commit();
         }
-        throw NumericalFailure(message);
+        r["status"] = "step_failed";
+        r["failure"] = message;
+        r["failed_step"] = failed;
+        r["residual"] = s.last_residual();
+        r["last_correction"] = s.last_correction();
+        throw NumericalFailure(message, r);
     }
     if (csv) csv->commit();
-    std::vector<double> casimir_errors(worst.begin() + 1, worst.begin() + 1 + long(scene.casimirs.size()));
-    json r{{"steps", summary.steps}, {"t", double(summary.steps) * scene.dt}, {"x", to_std(x)},
-           {"energy_error_max", worst[0]}, {"casimir_error_max", casimir_errors},
-           {"newton_iterations_mean", summary.mean_iterations}, {"wall_seconds", wall}, {"build_seconds", build_seconds},
-           {"ns_per_step", wall / double(std::max<std::size_t>(summary.steps, 1)) * 1e9}, {"dt", scene.dt}};
-    if (options.modified) r["modified_energy_error_max"] = worst.back();
-    r.update(stepper_info(scene, s));
     return r;
 }
 
@@ -164,6 +210,9 @@ std::string integrate_text(const json& r) {
         r["steps"].get<std::size_t>(), r["dt"].get<double>(), r["t"].get<double>(), r["order"].get<std::size_t>(),
         r["method_order"].get<std::size_t>(), r["realisation"].get<std::string>(),
         r["degree"].get<std::size_t>());
+    if (r["t"].get<double>() != r["t_end"].get<double>())
+        out += fmt::format("  (t_end = {} is not a whole number of steps: the last step ends at t = {:.17g})\n",
+                           r["t_end"].get<double>(), r["t"].get<double>());
     out += fmt::format("  x(t) = ({:.17g})\n", fmt::join(r["x"].get<std::vector<double>>(), ", "));
     out += fmt::format("  max relative energy error: {:.3e}\n", r["energy_error_max"].get<double>());
     for (const auto& c : r["casimir_error_max"]) out += fmt::format("  max relative Casimir error: {:.3e}\n", c.get<double>());

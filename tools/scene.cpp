@@ -4,7 +4,12 @@
 
 #include <toml++/toml.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cerrno>
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -13,6 +18,22 @@
 #include <sstream>
 
 namespace pgi {
+
+std::string printable(const std::string& s) {
+    std::string out;
+    for (char c : s) {
+        const auto u = static_cast<unsigned char>(c);
+        if (u < 0x20 || u == 0x7f) {
+            const char* hex = "0123456789abcdef";
+            out += "\\x";
+            out += hex[u >> 4];
+            out += hex[u & 15];
+        } else {
+            out += c;
+        }
+    }
+    return out;
+}
 
 namespace {
 
@@ -27,6 +48,7 @@ public:
         toml::table doc = parse_document(text);
         check_keys(doc, "", {"name", "coordinates", "brackets", "hamiltonian", "integrator", "run", "magnus", "splitting"});
         std::string name = string_at(doc, "name", true).value_or("");
+        if (has_control(name)) fail("name", "contains a control character: '" + name + "'");
         PhaseSpace M(read_coordinates(doc), ov_.max_terms);
         PoissonStructure pi = read_brackets(doc, M);
         const toml::table& ham = table_at(doc, "hamiltonian", true);
@@ -53,15 +75,38 @@ public:
     }
 
 private:
+    static bool has_control(const std::string& s) {
+        return std::any_of(s.begin(), s.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; });
+    }
+
     [[noreturn]] void fail(const std::string& key, const std::string& problem) const { throw SceneError(file_, key, problem); }
 
+    // Opened without blocking (a FIFO would wait for a writer), then refused unless a regular file of at
+    // most max_scene_bytes; read whole.
     std::string file_text() const {
-        std::ifstream in(file_, std::ios::binary);
-        if (!in) fail("", std::string("cannot read the file (") + std::strerror(errno) + ")");
-        std::stringstream buffer;
-        buffer << in.rdbuf();
-        if (in.bad()) fail("", "cannot read the file");
-        return buffer.str();
+        const int fd = ::open(file_.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+        if (fd < 0) fail("", std::string("cannot read the file (") + std::strerror(errno) + ")");
+        struct Closer {
+            int fd;
+            ~Closer() { ::close(fd); }
+        } closer{fd};
+        struct stat st {};
+        if (::fstat(fd, &st) != 0) fail("", std::string("cannot read the file (") + std::strerror(errno) + ")");
+        if (!S_ISREG(st.st_mode)) fail("", S_ISDIR(st.st_mode) ? "is a directory, not a scene file" : "is not a regular file (a FIFO or device?)");
+        if (std::size_t(st.st_size) > max_scene_bytes)
+            fail("", "the file has " + std::to_string(st.st_size) + " bytes, above the limit of " + std::to_string(max_scene_bytes) +
+                         " for a scene");
+        std::string text(std::size_t(st.st_size), '\0');
+        std::size_t got = 0;
+        while (got < text.size()) {
+            const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
+            if (n < 0 && (errno == EINTR || errno == EAGAIN)) continue;
+            if (n < 0) fail("", std::string("cannot read the file (") + std::strerror(errno) + ")");
+            if (n == 0) break;  // shrank while read
+            got += std::size_t(n);
+        }
+        text.resize(got);
+        return text;
     }
 
     toml::table parse_document(std::string_view text) const {
@@ -115,9 +160,16 @@ private:
         const toml::array* arr = n->as_array();
         if (!arr || arr->empty()) fail("coordinates", "must be a non-empty list of names");
         std::vector<std::string> names;
+        std::set<std::string> seen;
         for (std::size_t i = 0; i < arr->size(); ++i) {
-            if (!(*arr)[i].is_string()) fail("coordinates[" + std::to_string(i) + "]", "must be a string");
-            names.push_back(*(*arr)[i].value<std::string>());
+            std::string key = "coordinates[" + std::to_string(i) + "]";
+            if (!(*arr)[i].is_string()) fail(key, "must be a string");
+            std::string s = (*arr)[i].as_string()->get();
+            if (s.empty()) fail(key, "empty coordinate name");
+            if (has_control(s)) fail(key, "the coordinate name '" + s + "' contains a control character");
+            if (s == "t") fail(key, "'t' is reserved for the time step");
+            if (!seen.insert(s).second) fail(key, "duplicate coordinate '" + s + "'");
+            names.push_back(std::move(s));
         }
         try {
             check_coordinates(names);
@@ -211,9 +263,19 @@ private:
         const std::size_t n = scene.phase_space().dim();
         std::vector<double> x0;
         if (ov_.x0) {
-            std::stringstream ss(*ov_.x0);
-            std::string item;
-            while (std::getline(ss, item, ',')) x0.push_back(real("--x0", item));
+            // strictly a,b,c: every item a number, no empty item (a trailing comma is an error)
+            const std::string& list = *ov_.x0;
+            std::size_t begin = 0;
+            for (std::size_t i = 0;; ++i) {
+                const std::size_t comma = std::min(list.find(',', begin), list.size());
+                std::string item = list.substr(begin, comma - begin);
+                item.erase(0, item.find_first_not_of(" \t"));
+                item.erase(item.find_last_not_of(" \t") + 1);
+                if (item.empty()) fail("--x0", "value " + std::to_string(i + 1) + " of '" + list + "' is empty");
+                x0.push_back(real("--x0", item));
+                if (comma == list.size()) break;
+                begin = comma + 1;
+            }
         } else if (const toml::node* node = t.get("x0")) {
             const toml::array* arr = node->as_array();
             if (!arr) fail("run.x0", "must be a list of numbers");

@@ -12,12 +12,19 @@
 
 namespace pgi {
 
-/// Bad input: what() reads "FILE: key: problem".
+/// s with every control character (and DEL) written as \xNN, so a message never carries raw terminal codes.
+std::string printable(const std::string& s);
+
+/// Bad input: what() reads "FILE: key: problem", control characters escaped.
 class SceneError : public std::runtime_error {
 public:
     SceneError(const std::filesystem::path& file, const std::string& key, const std::string& problem)
-        : std::runtime_error(file.string() + ": " + (key.empty() ? "" : key + ": ") + problem) {}
+        : std::runtime_error(printable(file.string() + ": " + (key.empty() ? "" : key + ": ") + problem)) {}
 };
+
+/// Scene files larger than this are refused before they are read (the largest bundled scene is 1 kB; a
+/// 1000-coordinate lattice is about 40 kB).
+inline constexpr std::size_t max_scene_bytes = 8u << 20;
 
 /// Command-line values that replace the scene's, in the scene's own forms ("1/10", "0.6,0.8,0.3").
 struct SceneOverrides {

@@ -17,6 +17,7 @@
 // Suite (--suite): one run of every method at the scene's order and dt (adaptive peers at tolerance
 // --tol, default 1e-6) with its outcome: finished or why not, errors, watched quantities (final / initial).
 #include "tools/atomic_file.hpp"
+#include "tools/exit_codes.hpp"
 #include "tools/peers/methods.hpp"
 
 #include <CLI/CLI.hpp>
@@ -237,6 +238,8 @@ void plot_work_precision(const std::string& csv, const std::string& svg, const s
 }  // namespace
 
 int main(int argc, char** argv) {
+    std::signal(SIGPIPE, SIG_IGN);  // a closed pipe is a failed write (exit 6)
+    pgi::remove_temporaries_on_signals();
     CLI::App app{"pgi_peers: pgi against GSL's and Boost.Odeint's integrators: work-precision, drift, long runs, outcomes"};
     std::string scene_file, csv_file, drift_file;
     pgi::SceneOverrides overrides;
@@ -279,12 +282,13 @@ int main(int argc, char** argv) {
         for (double v : tols)
             if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--tols: {} is not a positive tolerance", v));
         if (!plot_file.empty() && csv_file.empty()) throw std::invalid_argument("--plot draws from the --csv file: give both");
-        // output directories are checked before hours of runs, not after
-        for (const auto& [option, path] : {std::pair<std::string, std::string>{"--csv", csv_file}, {"--plot", plot_file}, {"--drift", drift_file}}) {
-            const std::filesystem::path dir = std::filesystem::path(path).has_parent_path() ? std::filesystem::path(path).parent_path() : ".";
-            if (!path.empty() && !std::filesystem::is_directory(dir))
-                throw std::invalid_argument(option + ": " + path + ": directory '" + dir.string() + "' does not exist");
-        }
+        // output paths are checked before hours of runs, not after (pgi's rules: directory, regular target, not the scene)
+        for (const auto& [option, path] : {std::pair<std::string, std::string>{"--csv", csv_file}, {"--plot", plot_file}, {"--drift", drift_file}})
+            if (!path.empty()) try {
+                    pgi::check_output_path(path, {scene_file});
+                } catch (const std::invalid_argument& e) {
+                    throw std::invalid_argument(option + ": " + e.what());
+                }
         std::vector<pgi::RealisationChoice> extra;
         for (const auto& r : extra_realisations) try {
                 extra.push_back(pgi::parse_realisation_choice(r));
@@ -311,10 +315,10 @@ int main(int argc, char** argv) {
             if (!drift_file.empty()) summary["drift"] = drift(pr, methods, x0, drift_t_end, drift_file);
             if (long_t_end > 0) summary["long"] = long_table(pr, methods, x0, long_t_end);
         }
-        std::cout << summary.dump(2) << "\n";
-    } catch (const std::exception& e) {
-        std::cerr << "pgi_peers: " << e.what() << "\n";
-        return 2;
+        std::cout << summary.dump(2) << "\n" << std::flush;
+        if (!std::cout) throw pgi::OutputError("standard output: write failed");
+    } catch (...) {
+        return pgi::exit_code_of_current_exception("pgi_peers", "");
     }
     return 0;
 }

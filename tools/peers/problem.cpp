@@ -10,7 +10,7 @@
 namespace pgi::peers {
 
 Problem::Problem(const Scene& s, const std::vector<Poly>& watched)
-    : scene(s), n(s.phase_space().dim()), num_watched(watched.size()) {
+    : scene(s), n(s.phase_space().dim()), watched(watched), num_watched(watched.size()) {
     const auto xs = s.phase_space().coordinate_vars();
     auto fs = s.pi.hamiltonian_vector_field(s.H);
     std::vector<Poly> J;
@@ -22,11 +22,12 @@ Problem::Problem(const Scene& s, const std::vector<Poly>& watched)
 }
 
 Monitor::Monitor(const Problem& p, const double* x0, Samples* s)
-    : pr(p), initial(p.invariants.num_outputs()), value(initial), worst(initial.size(), 0.0), samples(s) {
+    : pr(p), initial(p.invariants.num_outputs()), value(initial), worst(initial.size(), 0.0),
+      scale(invariant_scales(p.scene, std::vector<double>(x0, x0 + p.n), p.watched)), samples(s) {
     pr.invariants.eval(x0, initial.data());
 }
 
-double Monitor::relative_change(std::size_t i) const { return relative_error(value[i], initial[i]); }
+double Monitor::relative_change(std::size_t i) const { return relative_error(value[i], initial[i], scale[i]); }
 
 void Monitor::operator()(double t, const double* x) {
     pr.invariants.eval(x, value.data());

@@ -21,6 +21,7 @@ struct Problem {
     std::size_t n;
     CompiledMap field, jacobian;  // pi grad H; its Jacobian, row-major (as GSL wants dfdy)
     CompiledMap invariants;       // H, the Casimirs, then the watched quantities
+    std::vector<Poly> watched;
     std::size_t num_watched;
     mutable std::size_t evaluations = 0;  // field (or Jacobian) evaluations since the last reset
 
@@ -36,6 +37,7 @@ struct Problem {
 struct Monitor {
     const Problem& pr;
     std::vector<double> initial, value, worst;
+    std::vector<double> scale;  // each invariant's size of terms at x0, what its error is relative to
     Samples* samples = nullptr;
     double next_sample = 0;
     Monitor(const Problem& p, const double* x0, Samples* s);
