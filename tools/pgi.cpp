@@ -6,8 +6,12 @@
 #include <CLI/CLI.hpp>
 
 #include <flint/flint.h>
+#include <gmp.h>
+#include <unistd.h>
 
+#include <cmath>
 #include <cstdlib>
+#include <new>
 #include <functional>
 #include <iostream>
 
@@ -22,6 +26,7 @@ struct Options {
     std::string format = "markdown", out;
     pgi::IntegrateOptions integrate;
     std::string csv;
+    bool quiet = false;
 };
 
 void scene_options(CLI::App* cmd, Options& o) {
@@ -34,6 +39,45 @@ void scene_options(CLI::App* cmd, Options& o) {
     cmd->add_option("--t-end", o.overrides.t_end, "final time");
     cmd->add_option("--max-terms", o.overrides.max_terms, "bound on the terms of any product of the exact phase")
         ->check(CLI::PositiveNumber);
+    cmd->add_option("--max-memory-mb", o.overrides.max_memory_mb,
+                    "memory budget of the exact phase in MB (default: half the physical memory, at most 3/4 of ulimit -v)")
+        ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 40));
+    cmd->add_option("--max-seconds", o.overrides.max_seconds, "wall-time budget of the exact phase (default 60)")
+        ->check(CLI::Range(1e-3, 1e9));
+    cmd->add_flag("--quiet", o.quiet, "no progress lines on stderr");
+}
+
+// FLINT and GMP abort the process (SIGABRT, their message on stdout) when an allocation fails. Throwing
+// std::bad_alloc from their allocator does unwind, but it leaves the FLINT object being built half-formed,
+// and clearing it on the way out crashes; so an allocation failure inside them ends the process at once,
+// with a message and exit code 5 (out of memory). Nothing is being written to a file during the exact phase.
+[[noreturn]] void out_of_memory() {
+    static const char message[] = "pgi: out of memory: an allocation in the exact algebra failed within the memory budget "
+                                  "(lower --max-memory-mb or raise the memory limit, ulimit -v)\n";
+    [[maybe_unused]] auto n = ::write(2, message, sizeof message - 1);
+    std::_Exit(5);
+}
+void* checked_malloc(std::size_t n) {
+    void* p = std::malloc(n);
+    if (!p && n) out_of_memory();
+    return p;
+}
+void* checked_calloc(std::size_t n, std::size_t size) {
+    void* p = std::calloc(n, size);
+    if (!p && n && size) out_of_memory();
+    return p;
+}
+void* checked_realloc(void* old, std::size_t n) {
+    void* p = std::realloc(old, n);
+    if (!p && n) out_of_memory();
+    return p;
+}
+void* gmp_realloc(void* old, std::size_t, std::size_t n) { return checked_realloc(old, n); }
+void gmp_free(void* p, std::size_t) { std::free(p); }
+
+void throw_on_allocation_failure() {
+    __flint_set_memory_functions(checked_malloc, checked_calloc, checked_realloc, std::free);
+    mp_set_memory_functions(checked_malloc, gmp_realloc, gmp_free);
 }
 
 void emit(const Options& o, const nlohmann::json& report, const std::function<std::string(const nlohmann::json&)>& text) {
@@ -41,7 +85,8 @@ void emit(const Options& o, const nlohmann::json& report, const std::function<st
     else std::cout << text(report);
 }
 
-int run_command(const std::string& name, const Options& o) {
+int run_command(const std::string& name, Options o) {
+    if (!o.quiet && ::isatty(2)) o.overrides.progress = [](const std::string& line) { std::cerr << "pgi: " << line << std::endl; };
     pgi::Scene scene = pgi::load_scene(o.scene, o.overrides);
     if (name == "check") {
         auto report = pgi::check_report(scene);
@@ -85,6 +130,7 @@ int run_command(const std::string& name, const Options& o) {
 
 int main(int argc, char** argv) {
     std::atexit(flint_cleanup_master);  // FLINT's own caches, so memcheck sees every block freed
+    throw_on_allocation_failure();
     CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
     app.require_subcommand(1);
     Options o;
@@ -128,7 +174,11 @@ int main(int argc, char** argv) {
         return 2;
     } catch (const pgi::ResourceLimitError& e) {
         std::cerr << "pgi: " << o.scene << ": exact phase stopped: " << e.what() << "\n";
-        return 2;
+        return 4;
+    } catch (const std::bad_alloc&) {
+        std::cerr << "pgi: " << o.scene << ": out of memory (an allocation failed within the memory budget; lower "
+                     "--max-memory-mb or raise ulimit -v)\n";
+        return 5;
     } catch (const std::invalid_argument& e) {
         std::cerr << "pgi: " << o.scene << ": " << e.what() << "\n";
         return 2;
