@@ -72,8 +72,13 @@ double monomials_up_to(std::size_t n, double d) {
 }
 
 Budget::Budget(BudgetLimits limits, ProgressSink progress)
-    : limits_(limits), progress_(std::move(progress)), start_(Clock::now()), next_poll_(start_),
-      next_progress_(start_ + std::chrono::seconds(1)) {}
+    : limits_(limits), progress_(std::move(progress)), next_poll_(Clock::now()), next_progress_(next_poll_),
+      last_(next_poll_) {}
+
+void Budget::restart() const {
+    busy_ = {};
+    last_ = next_progress_ = Clock::now();
+}
 
 Budget::Stage Budget::exchange_stage(Stage s) const {
     std::swap(stage_, s);
@@ -90,13 +95,15 @@ std::string describe(const Budget::Stage& s) {
 
 }  // namespace
 
-double Budget::seconds() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+double Budget::seconds() const { return std::chrono::duration<double>(busy_).count(); }
 
 void Budget::refuse(BudgetExceeded::Resource r, const std::string& what) const {
     throw BudgetExceeded(r, stage_.name.empty() ? what : describe(stage_) + ": " + what);
 }
 
-bool Budget::exceeds(double terms, double bytes_per_term) const {
+bool Budget::begin_and_exceeds(double terms, double bytes_per_term) const {
+    begun_ = Clock::now();
+    estimated_ = true;
     return terms > static_cast<double>(limits_.max_terms) ||
            terms * bytes_per_term + static_cast<double>(resident_) > static_cast<double>(limits_.max_bytes);
 }
@@ -105,12 +112,11 @@ void Budget::refuse_reserve(const std::string& operation, double terms, double b
     if (terms > static_cast<double>(limits_.max_terms))
         refuse(BudgetExceeded::Resource::terms, operation + " could reach " + count(terms) + " terms, above the limit of " +
                                                     count(static_cast<double>(limits_.max_terms)) + " (raise it with --max-terms)");
-    const double bytes = terms * bytes_per_term;
-    if (bytes + static_cast<double>(resident_) > static_cast<double>(limits_.max_bytes))
-        refuse(BudgetExceeded::Resource::memory,
-               operation + " could take " + megabytes(bytes) + " (with the " + megabytes(static_cast<double>(resident_)) +
-                   " in use), above the memory budget of " + megabytes(static_cast<double>(limits_.max_bytes)) +
-                   " (raise it with --max-memory-mb)");
+    const double bytes = terms * bytes_per_term;  // called only when the terms or these bytes are above the budget
+    refuse(BudgetExceeded::Resource::memory,
+           operation + " could take " + megabytes(bytes) + " (with the " + megabytes(static_cast<double>(resident_)) +
+               " in use), above the memory budget of " + megabytes(static_cast<double>(limits_.max_bytes)) +
+               " (raise it with --max-memory-mb)");
 }
 
 void Budget::account(std::string_view operation, std::size_t terms) const {
@@ -119,12 +125,19 @@ void Budget::account(std::string_view operation, std::size_t terms) const {
                                                     std::to_string(limits_.max_terms) + " (raise it with --max-terms)");
     largest_ = std::max(largest_, terms);
     const auto now = Clock::now();
+    // a gap of a second or more between operations is time spent elsewhere, unless an estimated
+    // (possibly long) operation filled it
+    constexpr auto idle = std::chrono::seconds(1);
+    if (now - last_ < idle) busy_ += now - last_;
+    else if (estimated_) busy_ += now - begun_;
+    last_ = now;
+    estimated_ = false;
     if (now >= next_poll_) poll(now);
 }
 
 void Budget::poll(Clock::time_point now) const {
     next_poll_ = now + std::chrono::milliseconds(20);
-    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    const double elapsed = seconds();
     if (elapsed > limits_.max_seconds)
         refuse(BudgetExceeded::Resource::time, "the exact phase has run " + seconds_text(elapsed) + ", above the time budget of " +
                                                    seconds_text(limits_.max_seconds) + " (raise it with --max-seconds)");
@@ -133,7 +146,7 @@ void Budget::poll(Clock::time_point now) const {
         refuse(BudgetExceeded::Resource::memory, "the process uses " + megabytes(static_cast<double>(resident_)) +
                                                      ", above the memory budget of " + megabytes(static_cast<double>(limits_.max_bytes)) +
                                                      " (raise it with --max-memory-mb)");
-    if (progress_ && now >= next_progress_) {
+    if (progress_ && elapsed >= 1 && now >= next_progress_) {
         next_progress_ = now + std::chrono::seconds(2);
         progress_("exact phase: " + (stage_.name.empty() ? std::string() : describe(stage_) + ": ") +
                   std::to_string(largest_) + " terms, " + seconds_text(elapsed));

@@ -43,7 +43,7 @@ struct BudgetLimits {
     static constexpr double default_max_seconds = 60;
     std::size_t max_terms = default_max_terms;      // terms of any one result (products: predicted)
     std::size_t max_bytes = default_memory_budget();  // resident memory of the process
-    double max_seconds = default_max_seconds;       // wall time since the budget was created
+    double max_seconds = default_max_seconds;       // busy time of the algebra (see Budget::seconds)
 };
 
 class Budget {
@@ -67,29 +67,38 @@ public:
     /// is called only then).
     template <class Describe>
     void reserve(double terms, double bytes_per_term, Describe describe) const {
-        if (exceeds(terms, bytes_per_term)) refuse_reserve(describe(), terms, bytes_per_term);
+        if (begin_and_exceeds(terms, bytes_per_term)) refuse_reserve(describe(), terms, bytes_per_term);
     }
     /// After an operation whose result has `terms` terms: checks the term bound, the clock and (at most
     /// every 20 ms) the resident memory; may emit a progress line.
     void account(std::string_view operation, std::size_t terms) const;
+    /// The busy time of the algebra since the budget was created or restarted: the time between
+    /// operations less than a second apart, and the whole duration of an estimated operation (a product,
+    /// power or substitution). Time spent elsewhere (integrating, waiting) does not count.
     double seconds() const;
+    /// Starts a new exact phase with the same budget: the busy time back to zero (a program that builds
+    /// several steppers from one scene gives each the whole time budget).
+    void restart() const;
 
 private:
     using Clock = std::chrono::steady_clock;
     [[noreturn]] void refuse(BudgetExceeded::Resource r, const std::string& what) const;
-    bool exceeds(double terms, double bytes_per_term) const;
+    bool begin_and_exceeds(double terms, double bytes_per_term) const;
     [[noreturn]] void refuse_reserve(const std::string& operation, double terms, double bytes_per_term) const;
     void poll(Clock::time_point now) const;
 
     BudgetLimits limits_;
     ProgressSink progress_;
-    Clock::time_point start_;
     // NOTE: the state below changes inside const checks (the rings holding the budget are const);
     // an exact phase runs on one thread.
     mutable Stage stage_;
     mutable std::size_t largest_ = 0;
     mutable std::size_t resident_ = 0;
     mutable Clock::time_point next_poll_, next_progress_;
+    mutable Clock::time_point last_;      // the previous account() or restart()
+    mutable Clock::time_point begun_;     // the start of the estimated operation under way
+    mutable bool estimated_ = false;      // reserve() was called for the operation under way
+    mutable Clock::duration busy_{};
 };
 
 /// Names a stage of the exact phase while it lives, e.g. BudgetStage s(budget, "Hamilton-Jacobi term S_3", 3, 6);
