@@ -69,8 +69,8 @@ public:
     void reserve(double terms, double bytes_per_term, Describe describe) const {
         if (begin_and_exceeds(terms, bytes_per_term)) refuse_reserve(describe(), terms, bytes_per_term);
     }
-    /// After an operation whose result has `terms` terms: checks the term bound, the clock and (at most
-    /// every 20 ms) the resident memory; may emit a progress line.
+    /// After an operation whose result has `terms` terms: checks the term bound, and every 32nd time the
+    /// clock and (at most every 20 ms) the resident memory; may emit a progress line.
     void account(std::string_view operation, std::size_t terms) const;
     /// The busy time of the algebra since the budget was created or restarted: the time between
     /// operations less than a second apart, and the whole duration of an estimated operation (a product,
@@ -99,6 +99,7 @@ private:
     mutable Clock::time_point begun_;     // the start of the estimated operation under way
     mutable bool estimated_ = false;      // reserve() was called for the operation under way
     mutable Clock::duration busy_{};
+    mutable unsigned operations_ = 0;
 };
 
 /// Names a stage of the exact phase while it lives, e.g. BudgetStage s(budget, "Hamilton-Jacobi term S_3", 3, 6);

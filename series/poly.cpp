@@ -30,7 +30,17 @@ double coefficient_bits(const Poly& f) {
     return static_cast<double>(std::abs(fmpz_mpoly_max_bits(f.get()->zpoly)));
 }
 
-double degree(const Poly& f) { return static_cast<double>(std::max(f.total_degree(), 0L)); }
+// The total degree, for estimates: in the rings' degree-first order the leading term has it, which is
+// cheaper than FLINT's scan of every term (exponents beyond a word fall back to the scan).
+double degree(const Poly& f) {
+    if (f.is_zero()) return 0;
+    if (f.get()->zpoly->bits > FLINT_BITS) return static_cast<double>(std::max(f.total_degree(), 0L));
+    std::vector<ulong> e(static_cast<std::size_t>(f.ctx()->zctx->minfo->nvars));
+    fmpq_mpoly_get_term_exp_ui(e.data(), f.get(), 0, f.ctx());
+    double d = 0;
+    for (ulong v : e) d += static_cast<double>(v);
+    return d;
+}
 
 std::string terms_text(std::size_t n) { return std::to_string(n) + "-term"; }
 
@@ -135,11 +145,18 @@ Poly operator-(const Poly& a) {
 Poly operator*(const Poly& a, const Poly& b) {
     require_same_ring(a, b, "pgi::mul");
     const std::size_t la = a.length(), lb = b.length();
-    const double d = degree(a) + degree(b);
-    const double terms = std::min(static_cast<double>(la) * static_cast<double>(lb), monomials_up_to(a.ring()->size(), d));
-    const double bits = coefficient_bits(a) + coefficient_bits(b) + std::log2(static_cast<double>(std::min(la, lb)) + 1);
-    a.ring()->budget().reserve(terms, bytes_per_term(a.ring()->size(), d, bits),
-                               [&] { return "a product of a " + terms_text(la) + " and a " + terms_text(lb) + " polynomial"; });
+    // NOTE: most products of the exact phase are small; estimating them cost as much as forming them, and
+    // a product of at most small_product terms (and at most max_terms) cannot outgrow the budget by much
+    // before its result is accounted.
+    constexpr double small_product = 1024;
+    const double at_most = static_cast<double>(la) * static_cast<double>(lb);
+    if (at_most > std::min(small_product, static_cast<double>(a.ring()->max_terms()))) {
+        const double d = degree(a) + degree(b);
+        const double terms = std::min(at_most, monomials_up_to(a.ring()->size(), d));
+        const double bits = coefficient_bits(a) + coefficient_bits(b) + std::log2(static_cast<double>(std::min(la, lb)) + 1);
+        a.ring()->budget().reserve(terms, bytes_per_term(a.ring()->size(), d, bits),
+                                   [&] { return "a product of a " + terms_text(la) + " and a " + terms_text(lb) + " polynomial"; });
+    }
     Poly r(a.ring());
     fmpq_mpoly_mul(r.get_mut(), a.get(), b.get(), a.ctx());
     return accounted(std::move(r), "a product");
