@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -40,7 +41,9 @@ std::size_t default_memory_budget();
 struct BudgetLimits {
     /// About a gigabyte of coefficients and exponents in one polynomial.
     static constexpr std::size_t default_max_terms = 20'000'000;
-    static constexpr double default_max_seconds = 60;
+    /// No time limit by default in the library (a program that reuses a scene for many steppers or tests
+    /// would add up their time); the pgi program sets one (60 s, --max-seconds).
+    static constexpr double default_max_seconds = std::numeric_limits<double>::infinity();
     std::size_t max_terms = default_max_terms;      // terms of any one result (products: predicted)
     std::size_t max_bytes = default_memory_budget();  // resident memory of the process
     double max_seconds = default_max_seconds;       // busy time of the algebra (see Budget::seconds)

@@ -42,7 +42,7 @@ void scene_options(CLI::App* cmd, Options& o) {
     cmd->add_option("--max-memory-mb", o.overrides.max_memory_mb,
                     "memory budget of the exact phase in MB (default: half the physical memory, at most 3/4 of ulimit -v)")
         ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 40));
-    cmd->add_option("--max-seconds", o.overrides.max_seconds, "wall-time budget of the exact phase (default 60)")
+    cmd->add_option("--max-seconds", o.overrides.max_seconds, "time budget of the exact phase's algebra (default 60)")
         ->check(CLI::Range(1e-3, 1e9));
     cmd->add_flag("--quiet", o.quiet, "no progress lines on stderr");
 }
@@ -134,6 +134,7 @@ int main(int argc, char** argv) {
     CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
     app.require_subcommand(1);
     Options o;
+    o.overrides.max_seconds = 60;  // the program's time budget of the exact phase (the library sets none)
     auto* check = app.add_subcommand("check", "class, Jacobi, Casimirs and realisation identities of a scene");
     auto* terms = app.add_subcommand("terms", "the Hamilton-Jacobi terms S_1..S_k");
     auto* realisation = app.add_subcommand("realisation", "alpha and beta truncated at a p-degree");
