@@ -23,6 +23,7 @@ std::vector<Poly> modified_hamiltonian(const PoissonStructure& pi, const Poly& H
                                        std::size_t m) {
     if (k < 1) throw std::invalid_argument("modified_hamiltonian: the order k must be at least 1");
     const PhaseSpace& M = pi.phase_space();
+    BudgetStage stage(M.ring()->budget(), "modified Hamiltonian through dt^" + std::to_string(m), 0, 0);
     // h through t^m needs beta through p-degree m, and S_1..S_k need alpha through degree k - 1
     Realisation r = build_realisation(pi, choice, std::max(m, realisation_degree_for_order(k)));
     return modified_hamiltonian(pi, r, hamilton_jacobi_terms(M, r, H, k), m);

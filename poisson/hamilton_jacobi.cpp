@@ -30,15 +30,14 @@ std::vector<Poly> hamilton_jacobi_terms(const PhaseSpace& M, const Realisation& 
         throw std::invalid_argument("hamilton_jacobi_terms: order " + std::to_string(k) + " needs a realisation of p-degree " +
                                     std::to_string(k - 1) + ", got " + std::to_string(r.degree));
     std::vector<Poly> S{H};
-    for (std::size_t i = 1; i < k; ++i) try {
+    for (std::size_t i = 1; i < k; ++i) {
+        BudgetStage stage(M.ring()->budget(), "Hamilton-Jacobi term S_" + std::to_string(i + 1), i + 1, k);  // names refusals, progress
         auto a = alpha_along_gradient(M, r, S, i);
         std::vector<std::optional<Series>> images(M.ring()->size());
         for (std::size_t l = 0; l < M.dim(); ++l) images[M.x(l)] = std::move(a[l]);
         // S_{i+1} = 1/(i+1) [t^i] H(alpha(x, grad S_t^(i)(x)))
         Series HoA = compose(H, images, i + 1);
         S.push_back(Rational(1, static_cast<unsigned long>(i + 1)) * HoA[i]);
-    } catch (const ResourceLimitError& e) {
-        throw ResourceLimitError("Hamilton-Jacobi term S_" + std::to_string(i + 1) + ": " + e.what());
     }
     return S;
 }

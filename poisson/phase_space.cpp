@@ -15,9 +15,12 @@ std::vector<std::string> phase_space_names(const std::vector<std::string>& coord
 }  // namespace
 
 PhaseSpace::PhaseSpace(std::vector<std::string> coordinates, std::size_t max_terms)
+    : PhaseSpace(std::move(coordinates), std::make_shared<const Budget>(BudgetLimits{.max_terms = max_terms})) {}
+
+PhaseSpace::PhaseSpace(std::vector<std::string> coordinates, std::shared_ptr<const Budget> budget)
     : coordinates_(std::move(coordinates)),
-      coordinate_ring_(make_ring(coordinates_, max_terms)),
-      ring_(make_ring(phase_space_names(coordinates_), max_terms)),
+      coordinate_ring_(make_ring(coordinates_, budget)),
+      ring_(make_ring(phase_space_names(coordinates_), budget)),
       momenta_(2 * coordinates_.size(), false) {
     for (std::size_t i = 0; i < dim(); ++i) momenta_[p(i)] = true;
 }
@@ -48,7 +51,7 @@ Poly PhaseSpace::parse(std::string_view text) const {
 Series PhaseSpace::parse_in_time(std::string_view text) const {
     std::vector<std::string> names = coordinates_;
     names.push_back("t");
-    const auto with_t = make_ring(names, ring_->max_terms());
+    const auto with_t = make_ring(names, ring_->budget_ptr());
     const Poly f = Poly::parse(with_t, text);
     VarMask t_only(names.size(), false);
     t_only.back() = true;

@@ -11,7 +11,9 @@ namespace pgi {
 class PhaseSpace {
 public:
     /// Requires distinct identifiers (std::invalid_argument otherwise). Momenta are named p_<coordinate>.
-    /// max_terms bounds every product of the exact phase (Ring::max_terms).
+    /// budget bounds every operation of the exact phase in its rings (series/budget.hpp).
+    PhaseSpace(std::vector<std::string> coordinates, std::shared_ptr<const Budget> budget);
+    /// With a budget of its own: the default limits with max_terms terms.
     explicit PhaseSpace(std::vector<std::string> coordinates, std::size_t max_terms = Ring::default_max_terms);
 
     std::size_t dim() const { return coordinates_.size(); }

@@ -165,7 +165,8 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
     const std::size_t n = M.dim();
     auto alpha = identity_map(M, D);
     std::vector<std::vector<Gradient>> grad(n);  // grad[i][a]: gradients of A_{a,i}, a >= 1
-    for (std::size_t m = 0; m < D; ++m) try {
+    for (std::size_t m = 0; m < D; ++m) {
+        BudgetStage stage(M.ring()->budget(), "radial realisation, terms of degree " + std::to_string(m + 1) + " in p", m + 1, D);
         // [pi_ij(A_0 + ... + A_m)]_deg m: compose with alpha truncated after degree m
         std::vector<std::optional<Series>> images(M.ring()->size());
         for (std::size_t i = 0; i < n; ++i) images[M.x(i)] = alpha[i].truncated(m + 1);
@@ -187,13 +188,12 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
             alpha[j][m + 1] = Rational(1, static_cast<unsigned long>(m + 2)) * next[j];
             grad[j].emplace_back(M, alpha[j][m + 1]);
         }
-    } catch (const ResourceLimitError& e) {
-        throw ResourceLimitError("radial realisation, terms of degree " + std::to_string(m + 1) + " in p: " + e.what());
     }
     return symmetric(to_string(RealisationForm::radial), D, std::move(alpha));
 }
 
 Realisation build_realisation(const PoissonStructure& pi, RealisationChoice choice, std::size_t D) {
+    BudgetStage stage(pi.phase_space().ring()->budget(), "realisation through p-degree " + std::to_string(D), 0, 0);
     switch (realisation_form(pi.structure_class(), choice)) {
         case RealisationForm::constant: return constant_realisation(pi, D);
         case RealisationForm::lie_poisson: return lie_poisson_realisation(pi, D);
@@ -292,6 +292,7 @@ std::optional<RealisationDefect> realisation_defect(const PoissonStructure& pi, 
         for (std::size_t j = 0; j < n; ++j)
             if (!pi(i, j).is_zero()) pairs.insert({i, j});
     for (const auto& [i, j] : pairs) {
+        BudgetStage stage(M.ring()->budget(), "realisation identities, row " + M.coordinates()[i], i + 1, n);
             if (i < j) {
                 if (auto d = first_defect("{alpha_i, alpha_j} = pi_ij(alpha)", i, j,
                                           canonical_bracket(M, r.alpha[i], r.alpha[j]), pi_at(pi, i, j, r.alpha, N)))

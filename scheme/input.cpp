@@ -44,6 +44,8 @@ void check_coordinates(const std::vector<std::string>& names) {
 Poly parse_polynomial(const PhaseSpace& M, const std::string& key, const std::string& text) {
     try {
         return M.parse(text);
+    } catch (const ResourceLimitError& e) {  // a budget refusal stays one (exit 4), naming the key
+        throw ParseBudgetError(key + ": " + e.what());
     } catch (const std::exception& e) {
         throw InputError(key, e.what());
     }

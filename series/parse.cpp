@@ -1,62 +1,198 @@
-// Poly::parse: FLINT's fmpq_mpoly_set_str_pretty does the parsing; this file only guards it.
-// NOTE: FLINT aborts the process on a division by zero inside its parser and happily builds
-// x^(10^20); both must become errors, so the text is scanned first for what FLINT cannot refuse.
+// Poly::parse: a recursive-descent reader that builds the polynomial with pgi's own operations, so every
+// product and power is estimated by the ring's budget before it is formed, and every error has a position.
+// NOTE: FLINT's fmpq_mpoly_set_str_pretty cannot be bounded: it aborts the process on a division by zero,
+// expands (x1+...+x6)^1000 until memory runs out and recurses without limit; hence this reader.
+//   expression := term (('+' | '-') term)*
+//   term       := unary (('*' | '/') unary)*       (a divisor must be a non-zero constant)
+//   unary      := ('+' | '-') unary | power
+//   power      := atom ['^' integer]                 (no chained exponents: write (a^b)^c)
+//   atom       := integer | variable | '(' expression ')'
 #include "series/poly.hpp"
 
+#include <algorithm>
 #include <cctype>
 
 namespace pgi {
 
 namespace {
 
-class Guard {
+// A value read so far and the product of the exponents applied inside it (the "scale" of its powers):
+// ((x)^10)^10 has scale 100, which max_exponent bounds like a single x^100.
+struct Operand {
+    Poly value;
+    unsigned long scale = 1;
+};
+
+class Reader {
 public:
-    Guard(const RingPtr& r, std::string_view text, unsigned long max_exponent)
+    Reader(const RingPtr& r, std::string_view text, unsigned long max_exponent)
         : ring_(r), text_(text), max_exponent_(max_exponent) {}
 
-    void run() {
-        const auto multiplier = group_multipliers();
-        long depth = 0;
-        std::vector<unsigned long> scale{1};  // product of the powers the enclosing groups are raised to
-        for (std::size_t i = 0; i < text_.size();) {
-            char c = text_[i];
-            if (std::isspace(static_cast<unsigned char>(c))) { ++i; continue; }
-            if (c == '(') {
-                ++depth;
-                scale.push_back(scale.back() * multiplier.at(i));
-                ++i;
-                continue;
+    Poly read() {
+        try {
+            if (skip_space() == text_.size()) fail("empty");
+            Operand e = expression();
+            if (skip_space() < text_.size()) {
+                const char c = text_[i_];
+                if (c == ')') fail("unbalanced parentheses: ')' without '(' at position " + pos(i_));
+                if (std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '(')
+                    fail("syntax error at position " + pos(i_) + ": expected an operator");
+                unexpected(c);
             }
-            if (c == ')') {
-                if (--depth < 0) fail("unbalanced parentheses: ')' without '(' at position " + pos(i));
-                scale.pop_back();
-                ++i;
-                continue;
-            }
-            if (c == '^') { i = check_exponent(i + 1, scale.back()); continue; }
-            if (c == '/') { i = check_divisor(i + 1); continue; }
-            if (c == '+' || c == '-' || c == '*') { ++i; continue; }
-            if (std::isdigit(static_cast<unsigned char>(c))) { i = skip_number(i); continue; }
-            if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
-                std::size_t j = skip_identifier(i);
-                std::string_view name = text_.substr(i, j - i);
-                if (ring_->index_of(name) < 0) fail("unknown variable '" + std::string(name) + "'");
-                i = j;
-                continue;
-            }
-            fail(std::string("unexpected character '") + c + "' at position " + pos(i) +
-                 (c == '.' ? " (write decimal coefficients as fractions, e.g. 3/2)" : ""));
+            return std::move(e.value);
+        } catch (const ResourceLimitError& e) {
+            throw ParseBudgetError("polynomial '" + quoted() + "': expanding the '" + std::string(1, text_[op_]) +
+                                   "' at position " + pos(op_) + ": " + e.what());
         }
-        if (depth != 0) fail("unbalanced parentheses: " + std::to_string(depth) + " '(' not closed");
     }
 
 private:
-    [[noreturn]] void fail(const std::string& why) const {
-        throw ParseError("malformed polynomial '" + std::string(text_) + "': " + why);
+    // Nesting of parentheses and signs (a division's divisor nests through them), bounded by max_parse_depth.
+    class Nested {
+    public:
+        explicit Nested(Reader& r) : r_(r) {
+            if (++r_.depth_ > max_parse_depth)
+                r_.fail("nesting deeper than " + std::to_string(max_parse_depth) + " (parentheses and signs) at position " +
+                        r_.pos(r_.i_));
+        }
+        ~Nested() { --r_.depth_; }
+        Nested(const Nested&) = delete;
+        Nested& operator=(const Nested&) = delete;
+
+    private:
+        Reader& r_;
+    };
+
+    Operand expression() {
+        Operand a = term();
+        while (skip_space() < text_.size() && (text_[i_] == '+' || text_[i_] == '-')) {
+            const std::size_t at = i_++;
+            Operand b = term();
+            op_ = at;
+            const bool minus = text_[at] == '-';
+            if (minus) a.value -= b.value;
+            else a.value += b.value;
+            a.scale = std::max(a.scale, b.scale);
+        }
+        return a;
     }
+
+    Operand term() {
+        Operand a = unary();
+        while (skip_space() < text_.size() && (text_[i_] == '*' || text_[i_] == '/')) {
+            const std::size_t at = i_++;
+            if (text_[at] == '/') {
+                Rational inverse = divisor();
+                op_ = at;
+                a.value *= inverse;
+                continue;
+            }
+            Operand b = unary();
+            op_ = at;
+            a.value = a.value * b.value;
+            a.scale = std::max(a.scale, b.scale);
+        }
+        return a;
+    }
+
+    // After '/': the reciprocal of a non-zero constant.
+    Rational divisor() {
+        const std::size_t start = skip_space();
+        Operand d = unary();
+        if (d.value.total_degree() > 0) {
+            const std::string_view name = text_.substr(start, skip_identifier(start) - start);
+            if (!name.empty() && d.value == Poly::gen(ring_, static_cast<std::size_t>(ring_->index_of(name))))
+                fail("division by the variable '" + std::string(name) + "' at position " + pos(start) +
+                     " (only constants may divide)");
+            fail("division by the non-constant '" + d.value.to_string() + "' at position " + pos(start));
+        }
+        if (d.value.is_zero()) fail("division by zero at position " + pos(start));
+        return Rational(1) / d.value.term_coeff(0);
+    }
+
+    Operand unary() {
+        if (skip_space() < text_.size() && (text_[i_] == '-' || text_[i_] == '+')) {
+            Nested guard(*this);
+            const std::size_t at = i_++;
+            Operand a = unary();
+            if (text_[at] == '-') {
+                op_ = at;
+                a.value = -a.value;
+            }
+            return a;
+        }
+        return power();
+    }
+
+    Operand power() {
+        Operand a = atom();
+        if (skip_space() >= text_.size() || text_[i_] != '^') return a;
+        const std::size_t at = i_++;
+        const std::size_t start = skip_space(), end = skip_number(start);
+        if (end == start) fail("'^' must be followed by a non-negative integer at position " + pos(start));
+        const std::string digits(text_.substr(start, end - start));
+        if (digits.size() > 18 || std::stoul(digits) > max_exponent_)
+            fail("exponent " + digits + " exceeds the limit " + std::to_string(max_exponent_) + " (at position " + pos(start) + ")");
+        const unsigned long n = std::stoul(digits);
+        if (n != 0 && a.scale > max_exponent_ / n)
+            fail("exponent " + std::to_string(a.scale) + " inside groups raised to the power " + digits + " exceeds the limit " +
+                 std::to_string(max_exponent_) + " (at position " + pos(start) + ")");
+        i_ = end;
+        if (skip_space() < text_.size() && text_[i_] == '^') fail("chained exponents at position " + pos(i_) + ": write (a^b)^c");
+        op_ = at;
+        return {pow(a.value, n), std::max<unsigned long>(1, a.scale * n)};
+    }
+
+    Operand atom() {
+        if (skip_space() >= text_.size()) fail("syntax error at the end: expected a number, a variable or '('");
+        const char c = text_[i_];
+        if (c == '(') {
+            Nested guard(*this);
+            const std::size_t open = i_++;
+            Operand e = expression();
+            if (skip_space() >= text_.size() || text_[i_] != ')')
+                fail("unbalanced parentheses: '(' at position " + pos(open) + " not closed");
+            ++i_;
+            return e;
+        }
+        if (std::isdigit(static_cast<unsigned char>(c))) {
+            const std::size_t end = skip_number(i_);
+            Rational value = Rational::parse(text_.substr(i_, end - i_));
+            i_ = end;
+            return {Poly::constant(ring_, value)};
+        }
+        if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
+            const std::size_t end = skip_identifier(i_);
+            const std::string_view name = text_.substr(i_, end - i_);
+            const long v = ring_->index_of(name);
+            if (v < 0) fail("unknown variable '" + std::string(name) + "' at position " + pos(i_));
+            i_ = end;
+            return {Poly::gen(ring_, static_cast<std::size_t>(v))};
+        }
+        if (c == ')' || c == '*' || c == '/' || c == '^')
+            fail(std::string("syntax error at position ") + pos(i_) + ": expected a number, a variable or '(' before '" + c + "'");
+        unexpected(c);
+    }
+
+    [[noreturn]] void unexpected(char c) const {
+        fail(std::string("unexpected character '") + printable(c) + "' at position " + pos(i_) +
+             (c == '.' ? " (write decimal coefficients as fractions, e.g. 3/2)" : ""));
+    }
+
+    [[noreturn]] void fail(const std::string& why) const {
+        throw ParseError("malformed polynomial '" + quoted() + "': " + why);
+    }
+    // The text for messages: at most 60 characters, control characters shown as '?'.
+    std::string quoted() const {
+        std::string s;
+        for (char c : text_.substr(0, 60)) s += printable(c);
+        return text_.size() > 60 ? s + "..." : s;
+    }
+    static char printable(char c) { return std::isprint(static_cast<unsigned char>(c)) ? c : '?'; }
     std::string pos(std::size_t i) const { return std::to_string(i + 1); }
 
-    std::size_t skip_space(std::size_t i) const {
+    std::size_t skip_space() { return i_ = skip_space_from(i_); }
+    std::size_t skip_space_from(std::size_t i) const {
         while (i < text_.size() && std::isspace(static_cast<unsigned char>(text_[i]))) ++i;
         return i;
     }
@@ -69,91 +205,16 @@ private:
         return i;
     }
 
-    // After '^': a non-negative integer literal n with n times the powers of the enclosing groups at most
-    // max_exponent_ (so neither x^1001 nor ((x+1)^100)^100 nor 7^777^7 is built), not itself raised to a power.
-    std::size_t check_exponent(std::size_t i, unsigned long enclosing) const {
-        i = skip_space(i);
-        std::size_t j = skip_number(i);
-        if (j == i) fail("'^' must be followed by a non-negative integer at position " + pos(i));
-        std::string_view digits = text_.substr(i, j - i);
-        if (digits.size() > 18 || std::stoul(std::string(digits)) > max_exponent_)
-            fail("exponent " + std::string(digits) + " exceeds the limit " + std::to_string(max_exponent_));
-        if (std::stoul(std::string(digits)) * enclosing > max_exponent_)
-            fail("exponent " + std::string(digits) + " inside groups raised to the power " + std::to_string(enclosing) +
-                 " exceeds the limit " + std::to_string(max_exponent_));
-        if (std::size_t k = skip_space(j); k < text_.size() && text_[k] == '^')
-            fail("chained exponents at position " + pos(k) + ": write (a^b)^c");
-        return j;
-    }
-
-    // For each '(' the power its group is raised to (1 when none), capped so products cannot overflow.
-    std::vector<unsigned long> group_multipliers() const {
-        std::vector<unsigned long> m(text_.size(), 1);
-        std::vector<std::size_t> open;
-        for (std::size_t i = 0; i < text_.size(); ++i) {
-            if (text_[i] == '(') open.push_back(i);
-            if (text_[i] != ')' || open.empty()) continue;
-            std::size_t k = skip_space(i + 1);
-            if (k < text_.size() && text_[k] == '^') {
-                std::size_t a = skip_space(k + 1), b = skip_number(a);
-                std::string_view digits = text_.substr(a, b - a);
-                if (!digits.empty()) m[open.back()] = digits.size() > 6 ? max_exponent_ + 1 : std::stoul(std::string(digits));
-            }
-            open.pop_back();
-        }
-        for (auto& v : m) v = std::max<unsigned long>(1, std::min<unsigned long>(v, max_exponent_ + 1));
-        return m;
-    }
-
-    // After '/': the divisor must be a non-zero constant (a number or a parenthesised constant).
-    std::size_t check_divisor(std::size_t i) const {
-        i = skip_space(i);
-        while (i < text_.size() && (text_[i] == '-' || text_[i] == '+')) i = skip_space(i + 1);
-        if (i >= text_.size()) fail("'/' without a divisor");
-        if (std::isdigit(static_cast<unsigned char>(text_[i]))) {
-            std::size_t j = skip_number(i);
-            if (text_.substr(i, j - i).find_first_not_of('0') == std::string_view::npos) fail("division by zero");
-            return j;
-        }
-        if (text_[i] == '(') {
-            std::size_t close = matching(i);
-            Poly d = Poly::parse(ring_, text_.substr(i + 1, close - i - 1), max_exponent_);
-            if (d.is_zero()) fail("division by zero");
-            if (d.total_degree() > 0) fail("division by the non-constant '" + d.to_string() + "'");
-            return close + 1;
-        }
-        std::size_t j = skip_identifier(i);
-        if (j > i) fail("division by the variable '" + std::string(text_.substr(i, j - i)) + "' (only constants may divide)");
-        return i;  // let FLINT report the syntax error
-    }
-
-    std::size_t matching(std::size_t open) const {
-        long depth = 0;
-        for (std::size_t i = open; i < text_.size(); ++i) {
-            if (text_[i] == '(') ++depth;
-            if (text_[i] == ')' && --depth == 0) return i;
-        }
-        fail("unbalanced parentheses: '(' at position " + pos(open) + " not closed");
-    }
-
     const RingPtr& ring_;
     std::string_view text_;
     unsigned long max_exponent_;
+    std::size_t i_ = 0, op_ = 0, depth_ = 0;
 };
 
 }  // namespace
 
 Poly Poly::parse(RingPtr r, std::string_view text, unsigned long max_exponent) {
-    Guard(r, text, max_exponent).run();
-    if (text.find_first_not_of(" \t\r\n") == std::string_view::npos)
-        throw ParseError("malformed polynomial '" + std::string(text) + "': empty");
-    std::vector<const char*> names;
-    for (const auto& n : r->names()) names.push_back(n.c_str());
-    Poly p(std::move(r));
-    std::string s(text);
-    if (fmpq_mpoly_set_str_pretty(p.get_mut(), s.c_str(), names.data(), p.ctx()) != 0)
-        throw ParseError("malformed polynomial '" + s + "': syntax error");
-    return p;
+    return Reader(r, text, max_exponent).read();
 }
 
 }  // namespace pgi

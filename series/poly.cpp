@@ -1,6 +1,8 @@
 #include "series/poly.hpp"
 
+#include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <stdexcept>
 
 namespace pgi {
@@ -18,9 +20,38 @@ void require_same_ring(const Poly& a, const Poly& b, const char* where) {
     if (a.ring() != b.ring()) throw std::invalid_argument(std::string(where) + ": operands belong to different rings");
 }
 
+// The result of an operation, accounted by its ring's budget (terms, clock, memory).
+Poly accounted(Poly r, std::string_view operation) {
+    r.ring()->budget().account(operation, r.length());
+    return r;
+}
+
+double coefficient_bits(const Poly& f) {
+    return static_cast<double>(std::abs(fmpz_mpoly_max_bits(f.get()->zpoly)));
+}
+
+// The total degree, for estimates: in the rings' degree-first order the leading term has it, which is
+// cheaper than FLINT's scan of every term (exponents beyond a word fall back to the scan).
+double degree(const Poly& f) {
+    if (f.is_zero()) return 0;
+    if (f.get()->zpoly->bits > FLINT_BITS) return static_cast<double>(std::max(f.total_degree(), 0L));
+    std::vector<ulong> e(static_cast<std::size_t>(f.ctx()->zctx->minfo->nvars));
+    fmpq_mpoly_get_term_exp_ui(e.data(), f.get(), 0, f.ctx());
+    double d = 0;
+    for (ulong v : e) d += static_cast<double>(v);
+    return d;
+}
+
+std::string terms_text(std::size_t n) { return std::to_string(n) + "-term"; }
+
 }  // namespace
 
-Ring::Ring(std::vector<std::string> names, std::size_t max_terms) : names_(std::move(names)), max_terms_(max_terms) {
+Ring::Ring(std::vector<std::string> names, std::size_t max_terms)
+    : Ring(std::move(names), std::make_shared<const Budget>(BudgetLimits{.max_terms = max_terms})) {}
+
+Ring::Ring(std::vector<std::string> names, std::shared_ptr<const Budget> budget)
+    : names_(std::move(names)), budget_(std::move(budget)) {
+    if (!budget_) throw std::invalid_argument("pgi::Ring: no budget");
     for (std::size_t i = 0; i < names_.size(); ++i) {
         if (!is_identifier(names_[i]))
             throw std::invalid_argument("variable name '" + names_[i] + "' is not an identifier");
@@ -85,15 +116,18 @@ std::string Poly::to_string() const {
 Poly& Poly::operator+=(const Poly& o) {
     require_same_ring(*this, o, "pgi::add");
     fmpq_mpoly_add(p_, p_, o.p_, ctx());
+    ring_->budget().account("a sum", length());
     return *this;
 }
 Poly& Poly::operator-=(const Poly& o) {
     require_same_ring(*this, o, "pgi::sub");
     fmpq_mpoly_sub(p_, p_, o.p_, ctx());
+    ring_->budget().account("a difference", length());
     return *this;
 }
 Poly& Poly::operator*=(const Rational& c) {
     fmpq_mpoly_scalar_mul_fmpq(p_, p_, c.get(), ctx());
+    ring_->budget().account("a multiple", length());
     return *this;
 }
 
@@ -106,34 +140,50 @@ Poly operator-(const Poly& a, const Poly& b) { Poly r(a); r -= b; return r; }
 Poly operator-(const Poly& a) {
     Poly r(a.ring());
     fmpq_mpoly_neg(r.get_mut(), a.get(), a.ctx());
-    return r;
+    return accounted(std::move(r), "a negation");
 }
 Poly operator*(const Poly& a, const Poly& b) {
     require_same_ring(a, b, "pgi::mul");
-    const std::size_t la = a.length(), lb = b.length(), limit = a.ring()->max_terms();
-    if (la != 0 && lb > limit / la)
-        throw ResourceLimitError("a product of a " + std::to_string(la) + "-term and a " + std::to_string(lb) +
-                                 "-term polynomial could reach " + std::to_string(la * lb) + " terms, above the limit of " +
-                                 std::to_string(limit) + " (raise it with --max-terms)");
+    const std::size_t la = a.length(), lb = b.length();
+    // NOTE: most products of the exact phase are small; estimating them cost as much as forming them, and
+    // a product of at most small_product terms (and at most max_terms) cannot outgrow the budget by much
+    // before its result is accounted.
+    constexpr double small_product = 1024;
+    const double at_most = static_cast<double>(la) * static_cast<double>(lb);
+    if (at_most > std::min(small_product, static_cast<double>(a.ring()->max_terms()))) {
+        const double d = degree(a) + degree(b);
+        const double terms = std::min(at_most, monomials_up_to(a.ring()->size(), d));
+        const double bits = coefficient_bits(a) + coefficient_bits(b) + std::log2(static_cast<double>(std::min(la, lb)) + 1);
+        a.ring()->budget().reserve(terms, bytes_per_term(a.ring()->size(), d, bits),
+                                   [&] { return "a product of a " + terms_text(la) + " and a " + terms_text(lb) + " polynomial"; });
+    }
     Poly r(a.ring());
     fmpq_mpoly_mul(r.get_mut(), a.get(), b.get(), a.ctx());
-    return r;
+    return accounted(std::move(r), "a product");
 }
 Poly operator*(const Rational& c, const Poly& a) { Poly r(a); r *= c; return r; }
 
 Poly pow(const Poly& f, unsigned long k) {
+    // f^k has at most binomial(length + k - 1, k) terms (multisets of k terms of f) and at most the
+    // monomials of degree k deg f; its coefficients at most k times as many bits, plus k log2(length).
+    const double l = static_cast<double>(f.length()), kk = static_cast<double>(k), d = kk * degree(f);
+    const double terms = f.length() == 0 ? 1 : std::min(monomials_up_to(f.length() - 1, kk), monomials_up_to(f.ring()->size(), d));
+    const double bits = kk * (coefficient_bits(f) + std::log2(l + 1));
+    f.ring()->budget().reserve(terms, bytes_per_term(f.ring()->size(), d, bits), [&] {
+        return "the power " + std::to_string(k) + " of a " + terms_text(f.length()) + " polynomial";
+    });
     Poly r(f.ring());
     if (!fmpq_mpoly_pow_ui(r.get_mut(), f.get(), k, f.ctx()))
         throw std::overflow_error("pgi::pow: exponent overflow raising a " + std::to_string(f.length()) +
                                   "-term polynomial to the power " + std::to_string(k));
-    return r;
+    return accounted(std::move(r), "a power");
 }
 
 Poly derivative(const Poly& f, std::size_t var) {
     if (var >= f.ring()->size()) throw std::out_of_range("pgi::derivative: variable index out of range");
     Poly r(f.ring());
     fmpq_mpoly_derivative(r.get_mut(), f.get(), static_cast<slong>(var), f.ctx());
-    return r;
+    return accounted(std::move(r), "a derivative");
 }
 
 Poly substitute(const Poly& f, const std::vector<Poly>& images) {
@@ -145,10 +195,22 @@ Poly substitute(const Poly& f, const std::vector<Poly>& images) {
         c.push_back(const_cast<fmpq_mpoly_struct*>(g.get()));  // FLINT's signature lacks const; it only reads
     }
     if (c.empty()) return f;
+    // each term of f becomes a product of at most deg f images: at most length(f) L^deg f terms (L the
+    // longest image), at most the monomials of degree deg f times the highest image degree
+    double longest = 1, image_degree = 0, bits = 0;
+    for (const auto& g : images) {
+        longest = std::max(longest, static_cast<double>(g.length()));
+        image_degree = std::max(image_degree, degree(g));
+        bits = std::max(bits, coefficient_bits(g));
+    }
+    const double d = degree(f) * image_degree;
+    const double terms = std::min(static_cast<double>(f.length()) * std::pow(longest, degree(f)), monomials_up_to(f.ring()->size(), d));
+    f.ring()->budget().reserve(terms, bytes_per_term(f.ring()->size(), d, coefficient_bits(f) + degree(f) * (bits + std::log2(longest + 1))),
+                               [&] { return "a substitution into a " + terms_text(f.length()) + " polynomial"; });
     Poly r(f.ring());
     if (!fmpq_mpoly_compose_fmpq_mpoly(r.get_mut(), f.get(), c.data(), f.ctx(), f.ctx()))
         throw std::overflow_error("pgi::substitute: exponent overflow");
-    return r;
+    return accounted(std::move(r), "a substitution");
 }
 
 Poly sum_powers(const std::vector<Poly>& c, const Rational& t, unsigned long first) {
@@ -200,7 +262,7 @@ Poly filter_terms(const Poly& f, const VarMask& mask, Keep keep) {
     }
     fmpq_clear(c);
     fmpq_mpoly_reduce(r.get_mut(), f.ctx());  // terms arrive sorted; reduce normalises content
-    return r;
+    return accounted(std::move(r), "a truncation");
 }
 
 }  // namespace
@@ -235,7 +297,7 @@ Poly rename_variables(const Poly& f, RingPtr target, const std::vector<long>& va
     std::vector<slong> c(var_map.begin(), var_map.end());
     if (c.empty()) c.push_back(0);
     fmpq_mpoly_compose_fmpq_mpoly_gen(r.get_mut(), f.get(), c.data(), f.ctx(), r.ctx());
-    return r;
+    return accounted(std::move(r), "a change of ring");
 }
 
 }  // namespace pgi

@@ -1,5 +1,6 @@
 #pragma once
 // Ring and Poly: multivariate polynomials over Q as value types over FLINT's fmpq_mpoly.
+#include "series/budget.hpp"
 #include "series/rational.hpp"
 
 #include <flint/fmpq_mpoly.h>
@@ -14,21 +15,16 @@
 
 namespace pgi {
 
-/// Thrown before an exact computation would outgrow its ring's term limit; what() says what and how large.
-class ResourceLimitError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
-
-/// Owns one fmpq_mpoly context, the names of its variables and the term limit of its products.
-/// Shared by its polynomials through RingPtr, never copied.
+/// Owns one fmpq_mpoly context, the names of its variables and the budget of the computations in it
+/// (shared with the other rings of the same exact phase). Shared by its polynomials through RingPtr,
+/// never copied.
 class Ring {
 public:
-    /// The default bound on the terms a product may reach (its factors' lengths multiplied): about a
-    /// gigabyte of coefficients and exponents.
-    static constexpr std::size_t default_max_terms = 20'000'000;
+    static constexpr std::size_t default_max_terms = BudgetLimits::default_max_terms;
     /// Requires distinct, non-empty names made of letters, digits and '_', not starting with a digit.
     /// Throws std::invalid_argument naming the offending name.
+    explicit Ring(std::vector<std::string> names, std::shared_ptr<const Budget> budget);
+    /// A ring with a budget of its own: the default limits with max_terms terms.
     explicit Ring(std::vector<std::string> names, std::size_t max_terms = default_max_terms);
     ~Ring() { fmpq_mpoly_ctx_clear(ctx_); }
     Ring(const Ring&) = delete;
@@ -39,16 +35,21 @@ public:
     const std::vector<std::string>& names() const { return names_; }
     /// Index of a variable, or -1.
     long index_of(std::string_view name) const;
-    std::size_t max_terms() const { return max_terms_; }
+    std::size_t max_terms() const { return budget_->limits().max_terms; }
+    const Budget& budget() const { return *budget_; }
+    const std::shared_ptr<const Budget>& budget_ptr() const { return budget_; }
 
 private:
     fmpq_mpoly_ctx_t ctx_;
     std::vector<std::string> names_;
-    std::size_t max_terms_;
+    std::shared_ptr<const Budget> budget_;
 };
 using RingPtr = std::shared_ptr<const Ring>;
 inline RingPtr make_ring(std::vector<std::string> names, std::size_t max_terms = Ring::default_max_terms) {
     return std::make_shared<const Ring>(std::move(names), max_terms);
+}
+inline RingPtr make_ring(std::vector<std::string> names, std::shared_ptr<const Budget> budget) {
+    return std::make_shared<const Ring>(std::move(names), std::move(budget));
 }
 
 /// A polynomial of Q[ring variables]. Copy is a deep copy; move swaps with an empty poly.
@@ -68,8 +69,9 @@ public:
     static Poly gen(RingPtr r, std::size_t var);
     static Poly constant(RingPtr r, const Rational& c);
     /// Parses text in the ring's variable names: integers, rationals a/b, + - * / ^ and parentheses.
-    /// Throws ParseError naming the problem (unknown variable, syntax, division by zero or by a
-    /// non-constant, an exponent above max_exponent).
+    /// Throws ParseError naming the problem and its position (unknown variable, syntax, division by zero
+    /// or by a non-constant, an exponent above max_exponent, nesting deeper than max_parse_depth), and
+    /// ParseBudgetError when an expansion would outgrow the ring's budget.
     static Poly parse(RingPtr r, std::string_view text, unsigned long max_exponent = 1000);
 
     const RingPtr& ring() const { return ring_; }
@@ -99,15 +101,25 @@ private:
 struct ParseError : std::invalid_argument {
     using std::invalid_argument::invalid_argument;
 };
+/// Thrown by Poly::parse when expanding the text would outgrow the budget; what() names the text, the
+/// position of the operator and the budget's refusal.
+struct ParseBudgetError : ResourceLimitError {
+    using ResourceLimitError::ResourceLimitError;
+};
+/// The deepest nesting of parentheses, signs and divisions Poly::parse accepts.
+inline constexpr std::size_t max_parse_depth = 200;
 
 bool operator==(const Poly& a, const Poly& b);
 Poly operator+(const Poly& a, const Poly& b);
 Poly operator-(const Poly& a, const Poly& b);
 Poly operator-(const Poly& a);
-/// The product; throws ResourceLimitError before multiplying when length(a) length(b) exceeds the ring's max_terms().
+/// Every operation below checks the ring's budget: products, powers and substitutions estimate their
+/// result (terms and bytes) before forming it, and every result is accounted (terms, clock, memory).
+/// The product; throws BudgetExceeded before multiplying when its predicted terms (at most length(a)
+/// length(b), at most the monomials of its degree) or bytes exceed the budget.
 Poly operator*(const Poly& a, const Poly& b);
 Poly operator*(const Rational& c, const Poly& a);
-/// Set the result to f^k. Throws std::overflow_error when an exponent overflows.
+/// f^k, estimated before it is formed. Throws std::overflow_error when an exponent overflows.
 Poly pow(const Poly& f, unsigned long k);
 /// d f / d x_var.
 Poly derivative(const Poly& f, std::size_t var);

@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <functional>
 #include <random>
 
 using namespace pgi;
@@ -45,25 +46,25 @@ TEST_CASE("poly: a name that prefixes another is read whole (x1 versus x10)") {
 
 TEST_CASE("poly: malformed polynomials get a message naming the problem") {
     auto r = xyz();
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x + w"), "malformed polynomial 'x + w': unknown variable 'w'", ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "(x + y"), "malformed polynomial '(x + y': unbalanced parentheses: 1 '(' not closed",
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x + w"), "malformed polynomial 'x + w': unknown variable 'w' at position 5", ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "(x + y"), "malformed polynomial '(x + y': unbalanced parentheses: '(' at position 1 not closed",
                          ParseError);
     CHECK_THROWS_WITH_AS(Poly::parse(r, "x)"), "malformed polynomial 'x)': unbalanced parentheses: ')' without '(' at position 2",
                          ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "1/0"), "malformed polynomial '1/0': division by zero", ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x/(y - y)"), "malformed polynomial 'x/(y - y)': division by zero", ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "1/0"), "malformed polynomial '1/0': division by zero at position 3", ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x/(y - y)"), "malformed polynomial 'x/(y - y)': division by zero at position 3", ParseError);
     CHECK_THROWS_WITH_AS(Poly::parse(r, "x/y"),
-                         "malformed polynomial 'x/y': division by the variable 'y' (only constants may divide)", ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x/(x+1)"), "malformed polynomial 'x/(x+1)': division by the non-constant 'x + 1'",
+                         "malformed polynomial 'x/y': division by the variable 'y' at position 3 (only constants may divide)", ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x/(x+1)"), "malformed polynomial 'x/(x+1)': division by the non-constant 'x + 1' at position 3",
                          ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x^100000"), "malformed polynomial 'x^100000': exponent 100000 exceeds the limit 1000",
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x^100000"), "malformed polynomial 'x^100000': exponent 100000 exceeds the limit 1000 (at position 3)",
                          ParseError);
     CHECK_THROWS_WITH_AS(Poly::parse(r, "1.5*x"),
                          "malformed polynomial '1.5*x': unexpected character '.' at position 2 (write decimal coefficients as "
                          "fractions, e.g. 3/2)",
                          ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x +"), "malformed polynomial 'x +': syntax error", ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x y"), "malformed polynomial 'x y': syntax error", ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x +"), "malformed polynomial 'x +': syntax error at the end: expected a number, a variable or '('", ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x y"), "malformed polynomial 'x y': syntax error at position 3: expected an operator", ParseError);
     CHECK_THROWS_WITH_AS(Poly::parse(r, "  "), "malformed polynomial '  ': empty", ParseError);
     CHECK_THROWS_AS(Poly::parse(r, "x^-1"), ParseError);
 }
@@ -73,7 +74,7 @@ TEST_CASE("poly: regression (fuzzer timeout): nested and chained powers are boun
     CHECK_THROWS_WITH_AS(Poly::parse(r, "77^777^7^777^777"), "malformed polynomial '77^777^7^777^777': chained exponents at position 7: write (a^b)^c",
                          ParseError);
     CHECK_THROWS_WITH_AS(Poly::parse(r, "((x+y)^100)^100"),
-                         "malformed polynomial '((x+y)^100)^100': exponent 100 inside groups raised to the power 100 exceeds the limit 1000",
+                         "malformed polynomial '((x+y)^100)^100': exponent 100 inside groups raised to the power 100 exceeds the limit 1000 (at position 13)",
                          ParseError);
     CHECK_THROWS_AS(Poly::parse(r, "(((x)^10)^10)^11"), ParseError);
     CHECK(Poly::parse(r, "((x)^10)^10") == pow(Poly::gen(r, 0), 100));
@@ -205,4 +206,76 @@ TEST_CASE("compile: CompiledMap agrees with exact evaluation, in double and in l
     // a long double path that secretly rounded to double would not be 100 times better overall
     REQUIRE(total_double > 0);
     CHECK(total_long * 100 < total_double);
+}
+
+TEST_CASE("issue 11.4: a power is estimated before it is expanded and refused with its position") {
+    auto r = make_ring({"x1", "x2", "x3", "x4", "x5", "x6"}, 1000);
+    // (x1+...+x6)^10 has binomial(15, 5) = 3003 terms: above 1000, refused before FLINT expands it
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^10"),
+                         "polynomial '(x1+x2+x3+x4+x5+x6)^10': expanding the '^' at position 20: the power 10 of a 6-term "
+                         "polynomial could reach 3003 terms, above the limit of 1000 (raise it with --max-terms)",
+                         ResourceLimitError);
+    CHECK(Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^5").length() == 252);  // binomial(10, 5): within the budget
+    // the same for a product: 126 * 126 terms, at most binomial(14, 6) = 3003 monomials of degree 8
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^4 * (x1+x2+x3+x4+x5+x6)^4"),
+                         doctest::Contains("expanding the '*' at position 23: a product of a 126-term and a 126-term polynomial "
+                                           "could reach 3003 terms"),
+                         ResourceLimitError);
+}
+
+TEST_CASE("issue 11.4: nesting is bounded (parentheses, signs, divisions), with the position") {
+    auto r = xyz();
+    auto nested = [](const std::string& open, const std::string& inner, const std::string& close, int n) {
+        std::string s;
+        for (int i = 0; i < n; ++i) s += open;
+        s += inner;
+        for (int i = 0; i < n; ++i) s += close;
+        return s;
+    };
+    const std::string deep = "nesting deeper than " + std::to_string(max_parse_depth) + " (parentheses and signs) at position ";
+    CHECK_THROWS_WITH_AS(Poly::parse(r, nested("1/(", "x", ")", 100000)), doctest::Contains((deep + "603").c_str()), ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, nested("(", "x", ")", 10000)), doctest::Contains((deep + "201").c_str()), ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, nested("-", "x", "", 100000)), doctest::Contains((deep + "201").c_str()), ParseError);
+    // the message quotes only the start of a long text
+    CHECK_THROWS_WITH_AS(Poly::parse(r, nested("(", "x", ")", 10000)),
+                         doctest::Contains(("malformed polynomial '" + std::string(60, '(') + "...'").c_str()), ParseError);
+    // depth up to the bound is fine, and means what it says
+    CHECK(Poly::parse(r, nested("1/(", "2", ")", 60)) == Poly::constant(r, Rational(2)));  // 1/(1/2) = 2, 30 times
+    CHECK(Poly::parse(r, nested("-", "x", "", 199)) == -Poly::gen(r, 0));
+    CHECK(Poly::parse(r, nested("(", "x+y", ")", 199)) == Poly::gen(r, 0) + Poly::gen(r, 1));
+}
+
+TEST_CASE("poly: the reader agrees with FLINT's own parser on random expressions") {
+    auto r = xyz();
+    std::mt19937 gen(11);
+    // expression := term (+|-) term ...; term := factor * factor ...; factor := atom [^e] | (expression)[^e]
+    std::function<std::string(int)> expression = [&](int depth) {
+        auto pick = [&](int n) { return std::uniform_int_distribution<int>(0, n - 1)(gen); };
+        auto atom = [&]() -> std::string {
+            switch (pick(depth > 0 ? 4 : 3)) {
+                case 0: return std::to_string(pick(20));
+                case 1: return std::string(1, "xyz"[pick(3)]);
+                case 2: return std::to_string(pick(9) + 1) + "/" + std::to_string(pick(9) + 1);
+                default: return "(" + expression(depth - 1) + ")";
+            }
+        };
+        std::string s = pick(4) == 0 ? "-" : "";
+        for (int t = pick(3) + 1; t > 0; --t) {
+            for (int f = pick(3) + 1; f > 0; --f) {
+                s += atom();
+                if (pick(3) == 0) s += "^" + std::to_string(pick(4));
+                if (f > 1) s += pick(2) ? "*" : " * ";
+            }
+            if (t > 1) s += pick(2) ? " + " : "-";
+        }
+        return s;
+    };
+    std::vector<const char*> names{"x", "y", "z"};
+    for (int trial = 0; trial < 300; ++trial) {
+        const std::string text = expression(2);
+        CAPTURE(text);
+        Poly theirs(r);
+        REQUIRE(fmpq_mpoly_set_str_pretty(theirs.get_mut(), text.c_str(), names.data(), theirs.ctx()) == 0);
+        CHECK(Poly::parse(r, text) == theirs);
+    }
 }

@@ -329,7 +329,7 @@ TEST_CASE("cli: report writes Markdown, JSON and LaTeX atomically, and the LaTeX
 TEST_CASE("cli: resource guards stop the exact phase and oversized output before they start, with exit 4 (a budget)") {
     const std::string nambu = test::scene_path("nambu");
     Run terms = pgi_run({"integrate", nambu, "--dt", "1/2", "--max-terms", "20000", "--json"});
-    CHECK(terms.exit_code == 4);
+    CHECK(terms.exit_code == 4);  // budget exceeded (the shared exit codes)
     CHECK(terms.out.empty());
     CHECK_MESSAGE(terms.err.find("exact phase stopped: radial realisation, terms of degree ") != std::string::npos, terms.err);
     CHECK(terms.err.find("above the limit of 20000 (raise it with --max-terms)") != std::string::npos);

@@ -14,12 +14,15 @@
 #include <CLI/CLI.hpp>
 
 #include <flint/flint.h>
+#include <gmp.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
+#include <cmath>
 #include <functional>
 #include <iostream>
 #include <new>
@@ -40,6 +43,8 @@ struct Options {
     std::string plot;       // pgi run/integrate --plot DIR
     pgi::SectionOptions section;
     pgi::EnsembleCommandOptions ensemble;
+    std::string max_memory_mb, max_seconds;  // the exact phase's budget, read by read_numbers
+    bool quiet = false;
 };
 
 // The ranges of the numeric options (README "Limits and exit codes").
@@ -52,6 +57,8 @@ void read_numbers(Options& o) {
     o.integrate.max_csv_mb = pgi::positive_number("--max-csv-mb", o.max_csv_mb, 1e9);
     if (!o.max_terms.empty()) o.overrides.max_terms = pgi::whole_number("--max-terms", o.max_terms, 1, max_count);
     if (!o.max_steps.empty()) o.integrate.max_steps = pgi::whole_number("--max-steps", o.max_steps, 1, max_count);
+    if (!o.max_memory_mb.empty()) o.overrides.max_memory_mb = pgi::whole_number("--max-memory-mb", o.max_memory_mb, 1, std::size_t(1) << 40);
+    if (!o.max_seconds.empty()) o.overrides.max_seconds = pgi::positive_number("--max-seconds", o.max_seconds, 1e9);
 }
 
 // Standard output, flushed and checked: a closed pipe or a full disk is an OutputError (exit 6).
@@ -74,6 +81,43 @@ void scene_options(CLI::App* cmd, Options& o, unsigned uses) {
     if (uses & use::x0) cmd->add_option("--x0", o.overrides.x0, "initial state, comma-separated");
     if (uses & use::t_end) cmd->add_option("--t-end", o.overrides.t_end, "final time");
     cmd->add_option("--max-terms", o.max_terms, "bound on the terms of any product of the exact phase (default 2e7)");
+    cmd->add_option("--max-memory-mb", o.max_memory_mb,
+                    "memory budget of the exact phase in MB (default: half the physical memory, at most 3/4 of ulimit -v)");
+    cmd->add_option("--max-seconds", o.max_seconds, "time budget of the exact phase's algebra (default 60)");
+    cmd->add_flag("--quiet", o.quiet, "no progress lines on stderr");
+}
+
+// FLINT and GMP abort the process (SIGABRT, their message on stdout) when an allocation fails. Throwing
+// std::bad_alloc from their allocator does unwind, but it leaves the FLINT object being built half-formed,
+// and clearing it on the way out crashes; so an allocation failure inside them ends the process at once,
+// with a message and exit code 5 (out of memory). Nothing is being written to a file during the exact phase.
+[[noreturn]] void out_of_memory() {
+    static const char message[] = "pgi: out of memory: an allocation in the exact algebra failed within the memory budget "
+                                  "(lower --max-memory-mb or raise the memory limit, ulimit -v)\n";
+    [[maybe_unused]] auto n = ::write(2, message, sizeof message - 1);
+    std::_Exit(5);
+}
+void* checked_malloc(std::size_t n) {
+    void* p = std::malloc(n);
+    if (!p && n) out_of_memory();
+    return p;
+}
+void* checked_calloc(std::size_t n, std::size_t size) {
+    void* p = std::calloc(n, size);
+    if (!p && n && size) out_of_memory();
+    return p;
+}
+void* checked_realloc(void* old, std::size_t n) {
+    void* p = std::realloc(old, n);
+    if (!p && n) out_of_memory();
+    return p;
+}
+void* gmp_realloc(void* old, std::size_t, std::size_t n) { return checked_realloc(old, n); }
+void gmp_free(void* p, std::size_t) { std::free(p); }
+
+void throw_on_allocation_failure() {
+    __flint_set_memory_functions(checked_malloc, checked_calloc, checked_realloc, std::free);
+    mp_set_memory_functions(checked_malloc, gmp_realloc, gmp_free);
 }
 
 void emit(const Options& o, const nlohmann::json& report, const std::function<std::string(const nlohmann::json&)>& text) {
@@ -92,7 +136,8 @@ void check_before_work(const std::string& name, const Options& o, const pgi::Sce
     if (runs && scene.t_end && (name == "integrate" || scene.x0)) pgi::step_count(scene, o.integrate.max_steps);
 }
 
-int run_command(const std::string& name, const Options& o) {
+int run_command(const std::string& name, Options o) {
+    if (!o.quiet && ::isatty(2)) o.overrides.progress = [](const std::string& line) { std::cerr << "pgi: " << line << std::endl; };
     pgi::Scene scene = pgi::load_scene(o.scene, o.overrides);
     check_before_work(name, o, scene);
     if (name == "ensemble") {
@@ -180,10 +225,12 @@ int main(int argc, char** argv) {
     std::atexit(flint_cleanup_master);  // FLINT's own caches, so memcheck sees every block freed
     std::signal(SIGPIPE, SIG_IGN);      // a closed pipe is a failed write (exit 6), not a silent death
     pgi::remove_temporaries_on_signals();
+    throw_on_allocation_failure();
     CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
     app.require_subcommand(1);
     app.set_version_flag("--version", "pgi " + std::string(pgi::version()));
     Options o;
+    o.overrides.max_seconds = 60;  // the program's time budget of the exact phase (the library sets none)
     auto* check = app.add_subcommand("check", "class, Jacobi, Casimirs and realisation identities of a scene");
     auto* terms = app.add_subcommand("terms", "the Hamilton-Jacobi terms S_1..S_k");
     auto* realisation = app.add_subcommand("realisation", "alpha and beta truncated at a p-degree");

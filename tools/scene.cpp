@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -49,7 +50,7 @@ public:
         check_keys(doc, "", {"name", "coordinates", "brackets", "hamiltonian", "integrator", "run", "magnus", "splitting"});
         std::string name = string_at(doc, "name", true).value_or("");
         if (has_control(name)) fail("name", "contains a control character: '" + name + "'");
-        PhaseSpace M(read_coordinates(doc), ov_.max_terms);
+        PhaseSpace M(read_coordinates(doc), budget());
         PoissonStructure pi = read_brackets(doc, M);
         const toml::table& ham = table_at(doc, "hamiltonian", true);
         check_keys(ham, "hamiltonian", {"H", "casimirs"});
@@ -146,9 +147,18 @@ private:
         return n->value<std::string>();
     }
 
+    // The budget of the scene's exact phase, from the overrides (it starts its clock now).
+    std::shared_ptr<const Budget> budget() const {
+        BudgetLimits limits{.max_terms = ov_.max_terms, .max_seconds = ov_.max_seconds};
+        if (ov_.max_memory_mb != 0) limits.max_bytes = std::min<std::size_t>(ov_.max_memory_mb, SIZE_MAX >> 20) << 20;
+        return std::make_shared<const Budget>(limits, ov_.progress);
+    }
+
     Poly poly(const PhaseSpace& M, const std::string& key, const std::string& text) const {
         try {
             return parse_polynomial(M, key, text);
+        } catch (const ResourceLimitError& e) {  // a budget refusal stays one (exit 4), naming the key
+            throw ParseBudgetError(file_.string() + ": " + e.what());
         } catch (const InputError& e) {
             fail(e.key(), e.problem());
         }
@@ -298,6 +308,8 @@ private:
         if (auto h = string_at(t, "h", false, "magnus.")) {
             try {
                 scene.magnus_h = scene.phase_space().parse_in_time(*h);
+            } catch (const ResourceLimitError& e) {
+                throw ParseBudgetError(file_.string() + ": magnus.h: " + e.what());
             } catch (const std::exception& e) {
                 fail("magnus.h", e.what());
             }

@@ -30,6 +30,9 @@ inline constexpr std::size_t max_scene_bytes = 8u << 20;
 struct SceneOverrides {
     std::optional<std::string> order, dt, realisation, x0, t_end;
     std::size_t max_terms = Ring::default_max_terms;   // --max-terms: the exact phase's product bound
+    std::size_t max_memory_mb = 0;                      // --max-memory-mb: its memory (0: default_memory_budget())
+    double max_seconds = BudgetLimits::default_max_seconds;  // --max-seconds: its algebra's time (none; pgi: 60)
+    Budget::ProgressSink progress;                      // progress lines of a long exact phase
 };
 
 struct Scene {

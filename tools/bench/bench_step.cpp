@@ -50,6 +50,7 @@ int main(int argc, char** argv) {
         opt.realisation = s.realisation;
         opt.predictor_order = predictor;
         auto t0 = Clock::now();
+        s.phase_space().ring()->budget().restart();  // each build has the whole time budget
         auto st = pgi::NewtonStepper::build(s.pi, s.H, opt, x0);
         const double build_s = std::chrono::duration<double>(Clock::now() - t0).count();
         // the trajectory the step times are taken on, and its mean Newton iterations

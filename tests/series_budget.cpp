@@ -1,0 +1,113 @@
+// The budget of the exact phase (series/budget.hpp): terms, memory and time, checked between the
+// operations and estimated before the predictable ones; refusals name the stage, the size and the budget.
+#include "poisson/hamilton_jacobi.hpp"
+#include "test_util.hpp"
+
+#include <doctest/doctest.h>
+
+#include <string>
+
+using namespace pgi;
+
+namespace {
+
+std::vector<std::string> names(std::size_t n) {
+    std::vector<std::string> v;
+    for (std::size_t i = 1; i <= n; ++i) v.push_back("x" + std::to_string(i));
+    return v;
+}
+
+// sum_{i<m} c_i x1^i x2^(m-i) with coefficients of about `bits` bits: m terms, all distinct.
+Poly wide(const RingPtr& r, std::size_t m, std::size_t bits, std::size_t shift) {
+    Poly f(r);
+    for (std::size_t i = 0; i < m; ++i) {
+        std::string c = "2^" + std::to_string(bits) + " + " + std::to_string(i + shift);
+        f += Poly::parse(r, "(" + c + ")*x1^" + std::to_string(i) + "*x2^" + std::to_string(m - i + shift));
+    }
+    return f;
+}
+
+}  // namespace
+
+TEST_CASE("issue 11.3: sums are bounded by the ring's term budget, not only products") {
+    auto r = make_ring(names(2), 50);
+    Poly sum(r);
+    CHECK_THROWS_WITH_AS(
+        [&] {
+            for (int i = 0; i < 60; ++i) sum += pow(Poly::gen(r, 0), static_cast<unsigned long>(i));
+        }(),
+        doctest::Contains("a sum reached 51 terms, above the limit of 50 (raise it with --max-terms)"), ResourceLimitError);
+    CHECK(sum.length() <= 51);  // refused at the first result above the bound, not later
+}
+
+TEST_CASE("issue 11.3: a product is refused before it is formed when its bytes would exceed the memory budget") {
+    // 300 x 300 terms is far below the term bound; with 40 variables and 600-bit coefficients the product
+    // could take 90000 * (6 exponent words + a 1200-bit coefficient) bytes, about 20 MB: above a budget
+    // of 8 MB more than the process holds now.
+    const std::size_t headroom = 8u << 20;
+    auto budget = std::make_shared<const Budget>(BudgetLimits{.max_bytes = resident_memory() + headroom});
+    auto r = make_ring(names(40), budget);
+    Poly a = wide(r, 300, 600, 0), b = wide(r, 300, 600, 7);
+    const std::size_t before = resident_memory();
+    try {
+        (void)(a * b);
+        FAIL("the product was formed");
+    } catch (const BudgetExceeded& e) {
+        CHECK(e.resource() == BudgetExceeded::Resource::memory);
+        CHECK_MESSAGE(std::string(e.what()).find("a product of a 300-term and a 300-term polynomial could take ") == 0, e.what());
+        CHECK_MESSAGE(std::string(e.what()).find("(raise it with --max-memory-mb)") != std::string::npos, e.what());
+    }
+    CHECK(resident_memory() < before + headroom);  // nothing of the size was allocated
+    // with room for it, the same product is formed: the estimate is an upper bound, not a guess
+    auto roomy = make_ring(names(40), std::make_shared<const Budget>(BudgetLimits{.max_bytes = resident_memory() + (512u << 20)}));
+    const Poly c = wide(roomy, 300, 600, 0) * wide(roomy, 300, 600, 7);
+    CHECK(c.length() > 300);
+    CHECK(c.length() <= 90000);
+}
+
+TEST_CASE("issue 11.3: the estimate of a product counts the variables and the coefficient sizes") {
+    const double few = bytes_per_term(2, 10, 10), many = bytes_per_term(60, 10, 10), big = bytes_per_term(2, 10, 6400);
+    CHECK(few == 16);          // one exponent word (3 fields of 8 bits) and one coefficient word
+    CHECK(many == 8 * 8 + 8);  // 61 fields of 8 bits: 8 words
+    CHECK(big == 8 + 8 + 16 + 8 * 100);
+    CHECK(bytes_per_term(2, 1000, 10) == 8 + 8);       // 16-bit fields: still one word
+    CHECK(bytes_per_term(8, 1000, 10) == 3 * 8 + 8);   // 9 fields of 16 bits: 3 words
+    CHECK(monomials_up_to(6, 1000) == doctest::Approx(1418299634202451.0).epsilon(1e-12));  // binomial(1006, 6)
+    CHECK(monomials_up_to(3, 2) == 10);
+}
+
+TEST_CASE("issue 11.3: the time budget stops an exact computation between operations, naming its stage") {
+    auto budget = std::make_shared<const Budget>(BudgetLimits{.max_seconds = 1e-9});
+    auto r = make_ring(names(2), budget);
+    BudgetStage stage(*budget, "Hamilton-Jacobi term S_2", 2, 3);
+    try {
+        Poly f = Poly::gen(r, 0);
+        for (int i = 0; i < 1000000; ++i) f += Poly::gen(r, 1);
+        FAIL("no refusal");
+    } catch (const BudgetExceeded& e) {
+        CHECK(e.resource() == BudgetExceeded::Resource::time);
+        CHECK_MESSAGE(std::string(e.what()).find("Hamilton-Jacobi term S_2 (2 of 3): the exact phase has run ") == 0, e.what());
+        CHECK_MESSAGE(std::string(e.what()).find("above the time budget of 1e-09 s (raise it with --max-seconds)") != std::string::npos,
+                      e.what());
+    }
+}
+
+TEST_CASE("issue 11.3: a refusal inside the Hamilton-Jacobi terms names the term as k of K") {
+    PhaseSpace M({"x1", "x2", "x3"}, 100);  // the rigid body with a budget of 100 terms
+    std::vector<std::vector<Poly>> m(3, std::vector<Poly>(3, Poly(M.ring())));
+    for (auto [i, j, s] : {std::tuple{0, 1, "x3"}, {1, 2, "x1"}, {2, 0, "x2"}}) {
+        m[i][j] = M.parse(s);
+        m[j][i] = -m[i][j];
+    }
+    PoissonStructure pi(M, m);
+    Realisation real = build_realisation(pi, RealisationChoice::automatic, realisation_degree_for_order(12));
+    try {
+        hamilton_jacobi_terms(M, real, M.parse("x1^2/2 + x2^2/3 + x3^2/7"), 12);
+        FAIL("no refusal");
+    } catch (const BudgetExceeded& e) {
+        const std::string what = e.what();
+        CHECK_MESSAGE(what.find("Hamilton-Jacobi term S_") == 0, what);
+        CHECK_MESSAGE(what.find(" of 12): ") != std::string::npos, what);
+        CHECK_MESSAGE(what.find("above the limit of 100 (raise it with --max-terms)") != std::string::npos, what);
+    }
+}
