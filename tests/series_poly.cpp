@@ -206,3 +206,29 @@ TEST_CASE("compile: CompiledMap agrees with exact evaluation, in double and in l
     REQUIRE(total_double > 0);
     CHECK(total_long * 100 < total_double);
 }
+
+TEST_CASE("compile: every coefficient is the correctly rounded double of its exact rational, at any size") {
+    // f = A x + B y shares one content between A and B; at (1, 0) and (0, 1) the map returns each coefficient
+    // as compiled. Numerators and denominators of 1 to 100 bits cover both sides of 2^53.
+    auto r = xyz();
+    std::mt19937_64 gen(16);
+    const auto integer = [&](unsigned bits) {
+        Rational z(0);
+        for (unsigned b = 0; b < bits; b += 20)
+            z = z * Rational(1L << std::min(20u, bits - b)) + Rational(static_cast<long>(gen() >> (64 - std::min(20u, bits - b))));
+        return z + Rational(1);
+    };
+    std::uniform_int_distribution<unsigned> bits(1, 100);
+    for (int trial = 0; trial < 400; ++trial) {
+        const Rational A = (trial % 2 ? Rational(-1) : Rational(1)) * integer(bits(gen)) / integer(bits(gen));
+        const Rational B = integer(bits(gen)) / integer(bits(gen));
+        const Poly f = Poly::constant(r, A) * Poly::gen(r, 0) + Poly::constant(r, B) * Poly::gen(r, 1);
+        const CompiledMap map = CompiledMap::build({f}, {0, 1});
+        double out = 0;
+        const double at_x[2] = {1, 0}, at_y[2] = {0, 1};
+        map.eval(at_x, &out);
+        CHECK(out == A.to_double());
+        map.eval(at_y, &out);
+        CHECK(out == B.to_double());
+    }
+}
