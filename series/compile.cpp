@@ -3,6 +3,7 @@
 #include <flint/mpoly.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <numeric>
@@ -130,10 +131,23 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
     for (std::uint32_t id = 0; id < count; ++id) degree[id] = std::accumulate(table.exponents(id), table.exponents(id) + k, 0ul);
     std::vector<std::uint32_t> order(count);
     std::iota(order.begin(), order.end(), 0u);
-    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-        if (degree[a] != degree[b]) return degree[a] < degree[b];
-        return std::lexicographical_compare(table.exponents(a), table.exponents(a) + k, table.exponents(b), table.exponents(b) + k);
-    });
+    // the same order on one word per monomial (degree, then the exponents in fields) when they fit in it
+    const unsigned width = std::bit_width(std::max<unsigned long>(1, *std::max_element(degree.begin(), degree.end())));
+    if (width * (k + 1) <= 64) {
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
+        for (std::uint32_t id = 0; id < count; ++id) {
+            std::uint64_t key = degree[id];
+            for (std::size_t v = 0; v < k; ++v) key = key << width | table.exponents(id)[v];
+            keyed[id] = {key, id};
+        }
+        std::sort(keyed.begin(), keyed.end());
+        for (std::uint32_t m = 0; m < count; ++m) order[m] = keyed[m].second;
+    } else {
+        std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+            if (degree[a] != degree[b]) return degree[a] < degree[b];
+            return std::lexicographical_compare(table.exponents(a), table.exponents(a) + k, table.exponents(b), table.exponents(b) + k);
+        });
+    }
     std::vector<std::uint32_t> number(count);
     for (std::uint32_t m = 0; m < count; ++m) number[order[m]] = m;
     for (std::uint32_t m = 1; m < count; ++m) {
