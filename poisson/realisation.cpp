@@ -170,17 +170,19 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
         // [pi_ij(A_0 + ... + A_m)]_deg m: compose with alpha truncated after degree m
         std::vector<std::optional<Series>> images(M.ring()->size());
         for (std::size_t i = 0; i < n; ++i) images[M.x(i)] = alpha[i].truncated(m + 1);
+        // R is skew like pi: R_ji = -R_ij (swap a and b), R_ii = 0 (the terms a and b cancel), so i < j only
         std::vector<Poly> entries;
         for (std::size_t i = 0; i < n; ++i)
-            for (std::size_t j = 0; j < n; ++j) entries.push_back(pi(i, j));
+            for (std::size_t j = i + 1; j < n; ++j) entries.push_back(pi(i, j));
         const auto pi_of_alpha = compose(entries, images, m + 1);  // all entries share the image products
         std::vector<Poly> next(n, Poly(M.ring()));
-        for (std::size_t j = 0; j < n; ++j) {
-            for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t i = 0, entry = 0; i < n; ++i) {
+            for (std::size_t j = i + 1; j < n; ++j, ++entry) {
                 // R_ij = [pi_ij(A_0 + ... + A_m)]_deg m - sum_{a+b=m+1, 1<=a,b<=m} {A_a,i, A_b,j}_can
-                Poly R = pi_of_alpha[i * n + j][m];
+                Poly R = pi_of_alpha[entry][m];
                 for (std::size_t a = 1; a <= m; ++a) R -= canonical_bracket(M, grad[i][a - 1], grad[j][m - a]);
                 next[j] += M.p_gen(i) * R;
+                next[i] -= M.p_gen(j) * R;
             }
         }
         for (std::size_t j = 0; j < n; ++j) {

@@ -1,83 +1,163 @@
 #include "series/compile.hpp"
 
+#include <flint/mpoly.h>
+
 #include <algorithm>
+#include <bit>
 #include <cmath>
-#include <map>
+#include <cstdint>
+#include <numeric>
 #include <stdexcept>
 
 namespace pgi {
 
 namespace {
 
-using Exponent = std::vector<unsigned long>;  // one entry per input
-
-// Total degree first, so a monomial's parent (one degree less) is always numbered before it.
-struct DegreeOrder {
-    bool operator()(const Exponent& a, const Exponent& b) const {
-        unsigned long da = 0, db = 0;
-        for (auto e : a) da += e;
-        for (auto e : b) db += e;
-        return da != db ? da < db : a < b;
+// The distinct exponent vectors (one entry per input) seen so far, numbered in order of arrival: a flat
+// array of exponents and an open-addressing hash table of their numbers (a std::map of vectors cost
+// most of a large build in allocations and comparisons).
+class MonomialTable {
+public:
+    explicit MonomialTable(std::size_t k) : k_(k), slots_(1024, empty) {}
+    const unsigned long* exponents(std::uint32_t id) const { return exps_.data() + std::size_t(id) * k_; }
+    /// The number of e, and whether it is new.
+    std::pair<std::uint32_t, bool> insert(const unsigned long* e) {
+        if (2 * (count_ + 1) > slots_.size()) grow();
+        std::size_t s = hash(e) & (slots_.size() - 1);
+        for (; slots_[s] != empty; s = (s + 1) & (slots_.size() - 1))
+            if (std::equal(e, e + k_, exponents(slots_[s]))) return {slots_[s], false};
+        slots_[s] = static_cast<std::uint32_t>(count_++);
+        exps_.insert(exps_.end(), e, e + k_);
+        return {slots_[s], true};
     }
+    std::uint32_t at(const unsigned long* e) const {
+        for (std::size_t s = hash(e) & (slots_.size() - 1);; s = (s + 1) & (slots_.size() - 1))
+            if (std::equal(e, e + k_, exponents(slots_[s]))) return slots_[s];
+    }
+    std::size_t count() const { return count_; }
+
+private:
+    static constexpr std::uint32_t empty = UINT32_MAX;
+    std::size_t hash(const unsigned long* e) const {
+        std::uint64_t h = 0x9e3779b97f4a7c15ull;
+        for (std::size_t v = 0; v < k_; ++v) h = (h ^ e[v]) * 0xff51afd7ed558ccdull, h ^= h >> 32;
+        return static_cast<std::size_t>(h);
+    }
+    void grow() {
+        std::vector<std::uint32_t> old(2 * slots_.size(), empty);
+        old.swap(slots_);
+        for (std::uint32_t id : old) {
+            if (id == empty) continue;
+            std::size_t s = hash(exponents(id)) & (slots_.size() - 1);
+            while (slots_[s] != empty) s = (s + 1) & (slots_.size() - 1);
+            slots_[s] = id;
+        }
+    }
+    std::size_t k_, count_ = 0;
+    std::vector<unsigned long> exps_;
+    std::vector<std::uint32_t> slots_;
 };
+
+// The double nearest to content * z (correctly rounded, as Rational::to_double): directly when numerator
+// and denominator are exact doubles (IEEE division rounds correctly), through the exact rational otherwise.
+double term_value(const fmpq_t content, const fmpz_t z) {
+    constexpr slong exact = slong(1) << 53;
+    const fmpz* num = fmpq_numref(content);
+    const fmpz* den = fmpq_denref(content);
+    slong product;
+    if (fmpz_fits_si(num) && fmpz_fits_si(z) && fmpz_fits_si(den) && !__builtin_mul_overflow(fmpz_get_si(num), fmpz_get_si(z), &product) &&
+        product > -exact && product < exact && fmpz_get_si(den) < exact)
+        return static_cast<double>(product) / static_cast<double>(fmpz_get_si(den));
+    Rational q;
+    fmpq_mul_fmpz(q.get_mut(), content, z);
+    return q.to_double();
+}
 
 }  // namespace
 
 CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vector<std::size_t>& inputs) {
     CompiledMap c;
-    c.num_inputs_ = inputs.size();
+    const std::size_t k = inputs.size();
+    c.num_inputs_ = k;
     if (outputs.empty()) return c;
     const RingPtr& ring = outputs.front().ring();
     std::vector<long> slot(ring->size(), -1);  // ring variable -> input position
-    for (std::size_t i = 0; i < inputs.size(); ++i) slot.at(inputs[i]) = static_cast<long>(i);
+    for (std::size_t i = 0; i < k; ++i) slot.at(inputs[i]) = static_cast<long>(i);
 
     // Every monomial the outputs use, closed under "remove one unit of the first variable".
-    std::map<Exponent, std::uint32_t, DegreeOrder> index;
-    std::vector<std::vector<std::pair<Exponent, double>>> rows(outputs.size());
+    MonomialTable table(k);
+    std::vector<unsigned long> x(k, 0), y(k);
+    table.insert(x.data());  // the constant monomial
+    const mpoly_ctx_struct* minfo = ring->ctx()->zctx->minfo;
+    std::vector<ulong> e(static_cast<std::size_t>(minfo->nvars));
+    c.row_start_.push_back(0);
     for (std::size_t o = 0; o < outputs.size(); ++o) {
-        const Poly& f = outputs[o];
-        for (std::size_t t = 0; t < f.length(); ++t) {
-            auto e = f.term_exponents(t);
-            Exponent x(inputs.size(), 0);
-            for (std::size_t v = 0; v < e.size(); ++v) {
+        const fmpq_mpoly_struct* f = outputs[o].get();
+        const fmpz_mpoly_struct* z = f->zpoly;
+        const std::size_t words = mpoly_words_per_exp(z->bits, minfo);
+        for (slong t = 0; t < z->length; ++t) {
+            mpoly_get_monomial_ui(e.data(), z->exps + std::size_t(t) * words, z->bits, minfo);
+            std::fill(x.begin(), x.end(), 0);
+            for (std::size_t v = 0; v < ring->size(); ++v) {
                 if (e[v] == 0) continue;
                 if (slot[v] < 0)
                     throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " reads '" + ring->names()[v] +
                                                 "', which is not an input");
                 x[static_cast<std::size_t>(slot[v])] = e[v];
             }
-            const double coeff = f.term_coeff(t).to_double();
+            const double coeff = term_value(f->content, z->coeffs + t);
             // NOTE: never let a rational become an infinite double silently
             if (!std::isfinite(coeff))
-                throw std::invalid_argument("a coefficient of " + std::to_string(fmpz_sizeinbase(fmpq_numref(f.term_coeff(t).get()), 10)) +
+                throw std::invalid_argument("a coefficient of " +
+                                            std::to_string(fmpz_sizeinbase(fmpq_numref(outputs[o].term_coeff(std::size_t(t)).get()), 10)) +
                                             " digits in output " + std::to_string(o) + " is beyond the double range");
-            rows[o].emplace_back(x, coeff);
-            for (Exponent y = x; index.emplace(y, 0).second;) {
-                auto v = std::find_if(y.begin(), y.end(), [](unsigned long k) { return k > 0; });
-                if (v == y.end()) break;
-                --*v;
-            }
-        }
-    }
-    index.emplace(Exponent(inputs.size(), 0), 0);
-    std::uint32_t next = 0;
-    for (auto& [e, id] : index) {
-        id = next++;
-        if (id == 0) continue;  // the constant monomial
-        Exponent parent = e;
-        auto v = std::find_if(parent.begin(), parent.end(), [](unsigned long k) { return k > 0; });
-        --*v;
-        c.parent_.push_back(index.at(parent));
-        c.var_.push_back(static_cast<std::uint32_t>(v - parent.begin()));
-    }
-    c.row_start_.push_back(0);
-    for (const auto& row : rows) {
-        for (const auto& [e, coeff] : row) {
-            c.term_monomial_.push_back(index.at(e));
+            const auto [id, fresh] = table.insert(x.data());
+            c.term_monomial_.push_back(id);
             c.term_coeff_.push_back(coeff);
+            if (!fresh) continue;
+            y = x;
+            for (auto v = y.begin();;) {  // the parents, until one is known
+                v = std::find_if(v, y.end(), [](unsigned long d) { return d > 0; });
+                --*v;
+                if (!table.insert(y.data()).second) break;
+            }
         }
         c.row_start_.push_back(static_cast<std::uint32_t>(c.term_coeff_.size()));
     }
+
+    // Total degree first, so a monomial's parent (one degree less) is always numbered before it.
+    const std::size_t count = table.count();
+    std::vector<unsigned long> degree(count);
+    for (std::uint32_t id = 0; id < count; ++id) degree[id] = std::accumulate(table.exponents(id), table.exponents(id) + k, 0ul);
+    std::vector<std::uint32_t> order(count);
+    std::iota(order.begin(), order.end(), 0u);
+    // the same order on one word per monomial (degree, then the exponents in fields) when they fit in it
+    const unsigned width = std::bit_width(std::max<unsigned long>(1, *std::max_element(degree.begin(), degree.end())));
+    if (width * (k + 1) <= 64) {
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
+        for (std::uint32_t id = 0; id < count; ++id) {
+            std::uint64_t key = degree[id];
+            for (std::size_t v = 0; v < k; ++v) key = key << width | table.exponents(id)[v];
+            keyed[id] = {key, id};
+        }
+        std::sort(keyed.begin(), keyed.end());
+        for (std::uint32_t m = 0; m < count; ++m) order[m] = keyed[m].second;
+    } else {
+        std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+            if (degree[a] != degree[b]) return degree[a] < degree[b];
+            return std::lexicographical_compare(table.exponents(a), table.exponents(a) + k, table.exponents(b), table.exponents(b) + k);
+        });
+    }
+    std::vector<std::uint32_t> number(count);
+    for (std::uint32_t m = 0; m < count; ++m) number[order[m]] = m;
+    for (std::uint32_t m = 1; m < count; ++m) {
+        std::copy(table.exponents(order[m]), table.exponents(order[m]) + k, y.begin());
+        auto v = std::find_if(y.begin(), y.end(), [](unsigned long d) { return d > 0; });
+        --*v;
+        c.parent_.push_back(number[table.at(y.data())]);
+        c.var_.push_back(static_cast<std::uint32_t>(v - y.begin()));
+    }
+    for (auto& id : c.term_monomial_) id = number[id];
     c.mono_.assign(c.num_monomials(), 0.0);
     return c;
 }

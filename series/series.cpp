@@ -80,29 +80,60 @@ Series mul_trunc(const Series& a, const Series& b) {
 
 namespace {
 
-// Products prod_v images[v]^{e_v} over the substituted variables, memoised by exponent vector:
-// each new monomial costs one truncated product, from a monomial of one degree less.
+// Products prod_v images[v]^{e_v} over the substituted variables, memoised by exponent vector and computed
+// coefficient by coefficient, on demand: coefficient d of a product from a monomial of one degree less,
+// reading the images' coefficients through d only (so images may still be completed above d).
 class MonomialProducts {
 public:
-    MonomialProducts(const RingPtr& r, const std::vector<std::optional<Series>>& images, std::size_t N)
-        : images_(images), one_(Series::constant(Poly::constant(r, 1), N)) {}
+    MonomialProducts(const RingPtr& r, const std::vector<std::optional<Series>>& images) : ring_(r), images_(images) {}
 
-    const Series& operator()(const std::vector<unsigned long>& e) {
-        if (auto it = cache_.find(e); it != cache_.end()) return it->second;
+    // The coefficients 0..d of the product for e.
+    const std::vector<Poly>& through(const std::vector<unsigned long>& e, std::size_t d) {
+        auto [it, fresh] = cache_.try_emplace(e);
+        std::vector<Poly>& c = it->second;
         std::size_t v = 0;
         while (v < e.size() && e[v] == 0) ++v;
-        if (v == e.size()) return one_;
+        if (v == e.size()) {  // the constant 1
+            if (c.empty()) c.push_back(Poly::constant(ring_, 1));
+            while (c.size() <= d) c.emplace_back(ring_);
+            return c;
+        }
+        if (c.size() > d) return c;
         std::vector<unsigned long> lower = e;
         --lower[v];
-        Series product = mul_trunc((*this)(lower), *images_[v]);
-        return cache_.emplace(e, std::move(product)).first->second;
+        const std::vector<Poly>& low = through(lower, d);
+        const Series& image = *images_[v];
+        for (std::size_t k = c.size(); k <= d; ++k) {
+            Poly r(ring_);
+            for (std::size_t i = 0; i <= k; ++i)
+                if (!low[i].is_zero() && !image[k - i].is_zero()) r += low[i] * image[k - i];
+            c.push_back(std::move(r));
+        }
+        return c;
     }
 
 private:
+    RingPtr ring_;
     const std::vector<std::optional<Series>>& images_;
-    Series one_;
-    std::map<std::vector<unsigned long>, Series> cache_;
+    std::map<std::vector<unsigned long>, std::vector<Poly>> cache_;
 };
+
+// f = sum_e c_e(kept variables) * prod_{v substituted} v^{e_v}: the terms grouped by e.
+std::map<std::vector<unsigned long>, Poly> substitution_groups(const Poly& f, const std::vector<std::optional<Series>>& images) {
+    const RingPtr& ring = f.ring();
+    std::map<std::vector<unsigned long>, Poly> groups;
+    for (std::size_t t = 0; t < f.length(); ++t) {
+        auto e = f.term_exponents(t);
+        Poly kept = Poly::constant(ring, f.term_coeff(t));
+        for (std::size_t v = 0; v < ring->size(); ++v) {
+            if (images[v]) continue;
+            if (e[v] > 0) kept = kept * pow(Poly::gen(ring, v), e[v]);
+            e[v] = 0;
+        }
+        groups.try_emplace(std::move(e), ring).first->second += kept;
+    }
+    return groups;
+}
 
 void check_images(std::size_t nvars, const std::vector<std::optional<Series>>& images, std::size_t N) {
     if (images.size() != nvars) throw std::invalid_argument("pgi::compose: need one (optional) image per variable");
@@ -118,26 +149,15 @@ std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::
     const RingPtr& ring = fs.front().ring();
     const std::size_t nvars = ring->size();
     check_images(nvars, images, N);
-    MonomialProducts products(ring, images, N);
+    MonomialProducts products(ring, images);
     for (const Poly& f : fs) {
-        // f = sum_e c_e(kept variables) * prod_{v substituted} v^{e_v}: group the terms by e first.
-        std::map<std::vector<unsigned long>, Poly> groups;
-        for (std::size_t t = 0; t < f.length(); ++t) {
-            auto e = f.term_exponents(t);
-            Poly kept = Poly::constant(ring, f.term_coeff(t));
-            for (std::size_t v = 0; v < nvars; ++v) {
-                if (images[v]) continue;
-                if (e[v] > 0) kept = kept * pow(Poly::gen(ring, v), e[v]);
-                e[v] = 0;
-            }
-            groups.try_emplace(std::move(e), ring).first->second += kept;
-        }
         Series result(ring, N);
-        for (const auto& [e, kept] : groups) {
-            const Series& product = products(e);
-            for (std::size_t m = 0; m < N; ++m)
-                if (!product[m].is_zero()) result[m] += kept * product[m];
-        }
+        if (N > 0)
+            for (const auto& [e, kept] : substitution_groups(f, images)) {
+                const auto& product = products.through(e, N - 1);
+                for (std::size_t m = 0; m < N; ++m)
+                    if (!product[m].is_zero()) result[m] += kept * product[m];
+            }
         out.push_back(std::move(result));
     }
     return out;
@@ -171,19 +191,35 @@ std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const st
     if (u.size() != vars.size()) throw std::invalid_argument("pgi::inverse_near_identity: one displacement per variable");
     if (u.empty()) return {};
     const RingPtr& ring = u.front().ring();
+    for (const auto& ui : u)
+        if (ui.order() != N || (N > 0 && !ui[0].is_zero()))
+            throw std::invalid_argument("pgi::inverse_near_identity: every displacement must be O(e) and of order N");
+    // v = -u(id + v) order by order: coefficient s of u_m(id + v) (m >= 1) reads the images' coefficients
+    // through s - m < s only, which are final, so each product coefficient is computed once (the sweeps
+    // v <- -u(id + v) recomputed every lower order at every sweep, ~N times the work).
+    std::vector<std::optional<Series>> images(ring->size());
+    for (std::size_t i = 0; i < vars.size(); ++i) images[vars[i]] = Series::constant(Poly::gen(ring, vars[i]), N);
+    std::vector<std::vector<std::map<std::vector<unsigned long>, Poly>>> groups(u.size());  // [i][m]: u_i's e^m part
+    for (std::size_t i = 0; i < u.size(); ++i)
+        for (std::size_t m = 0; m < N; ++m) groups[i].push_back(substitution_groups(u[i][m], images));
+    MonomialProducts products(ring, images);
     std::vector<Series> v(u.size(), Series(ring, std::min<std::size_t>(N, 1)));
-    for (std::size_t sweep = 1; sweep < N; ++sweep) {
-        // v <- -u(id + v). v is exact through e^(sweep-1) and u = O(e), so this sweep is exact through
-        // e^sweep: it needs order sweep + 1 only (computing every sweep to order N cost ~N times more).
-        const std::size_t M = sweep + 1;
-        std::vector<std::optional<Series>> images(ring->size());
-        for (std::size_t i = 0; i < vars.size(); ++i) {
-            Series image = Series::constant(Poly::gen(ring, vars[i]), M);
-            for (std::size_t m = 0; m < v[i].order(); ++m) image[m] += v[i][m];
-            images[vars[i]] = std::move(image);
+    for (std::size_t s = 1; s < N; ++s) {
+        std::vector<Poly> next(u.size(), Poly(ring));
+        for (std::size_t i = 0; i < u.size(); ++i) {
+            for (std::size_t m = 1; m <= s; ++m)
+                for (const auto& [e, kept] : groups[i][m]) {
+                    const Poly& product = products.through(e, s - m)[s - m];
+                    if (!product.is_zero()) next[i] -= kept * product;
+                }
         }
-        v = compose(u, images, M);
-        for (auto& s : v) s *= Rational(-1);
+        for (std::size_t i = 0; i < u.size(); ++i) {
+            (*images[vars[i]])[s] = next[i];
+            Series grown(ring, s + 1);
+            for (std::size_t d = 0; d < s; ++d) grown[d] = std::move(v[i][d]);
+            grown[s] = std::move(next[i]);
+            v[i] = std::move(grown);
+        }
         if (enough && enough(v)) break;
     }
     return v;

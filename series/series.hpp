@@ -52,9 +52,10 @@ std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::
 /// sum_m e^m f_m(images) + O(e^N): a series whose coefficients are themselves composed (images of order N).
 std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std::optional<Series>>& images, std::size_t N);
 /// v with (id + u) o (id + v) = id + O(e^N), for u = O(e) given on the listed variables (u[i] displaces
-/// variable vars[i]; all of order N). Each of the N - 1 sweeps v <- -u(id + v) gains one order. If
+/// variable vars[i]; all of order N), order by order (v = -u(id + v): each order reads only lower ones). If
 /// enough is given, it sees v after each sweep (v exact to its order, s + 1 after sweep s) and may end
-/// the computation early by returning true: the result is then of that lower order.
+/// the computation early by returning true: the result is then of that lower order. Throws
+/// std::invalid_argument when a u[i] is not O(e) or not of order N.
 std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars, std::size_t N,
                                           const std::function<bool(const std::vector<Series>&)>& enough = {});
 

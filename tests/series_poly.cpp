@@ -279,3 +279,48 @@ TEST_CASE("poly: the reader agrees with FLINT's own parser on random expressions
         CHECK(Poly::parse(r, text) == theirs);
     }
 }
+
+TEST_CASE("compile: every coefficient is the correctly rounded double of its exact rational, at any size") {
+    // f = A x + B y shares one content between A and B; at (1, 0) and (0, 1) the map returns each coefficient
+    // as compiled. Numerators and denominators of 1 to 100 bits cover both sides of 2^53.
+    auto r = xyz();
+    std::mt19937_64 gen(16);
+    const auto integer = [&](unsigned bits) {
+        Rational z(0);
+        for (unsigned b = 0; b < bits; b += 20)
+            z = z * Rational(1L << std::min(20u, bits - b)) + Rational(static_cast<long>(gen() >> (64 - std::min(20u, bits - b))));
+        return z + Rational(1);
+    };
+    std::uniform_int_distribution<unsigned> bits(1, 100);
+    for (int trial = 0; trial < 400; ++trial) {
+        const Rational A = (trial % 2 ? Rational(-1) : Rational(1)) * integer(bits(gen)) / integer(bits(gen));
+        const Rational B = integer(bits(gen)) / integer(bits(gen));
+        const Poly f = Poly::constant(r, A) * Poly::gen(r, 0) + Poly::constant(r, B) * Poly::gen(r, 1);
+        const CompiledMap map = CompiledMap::build({f}, {0, 1});
+        double out = 0;
+        const double at_x[2] = {1, 0}, at_y[2] = {0, 1};
+        map.eval(at_x, &out);
+        CHECK(out == A.to_double());
+        map.eval(at_y, &out);
+        CHECK(out == B.to_double());
+    }
+}
+
+TEST_CASE("compile: many inputs and high degrees (monomials ordered without the packed key) evaluate exactly") {
+    // 10 inputs and degree 70 do not fit one word per monomial; powers of two keep every value exact
+    std::vector<std::string> names;
+    for (int v = 0; v < 10; ++v) names.push_back("x" + std::to_string(v));
+    auto r = make_ring(names);
+    // each output's terms of near magnitudes, so its sum is exact in any order
+    const std::vector<Poly> fs{Poly::parse(r, "x0^70"), Poly::parse(r, "3*x1*x2 - x9^2*x0 + 1/4*x3^5*x4^6*x5 + 7"),
+                               Poly::parse(r, "x9^3 - x8*x7*x6"), Poly::parse(r, "x0^69*x1")};
+    std::vector<std::size_t> inputs(10);
+    for (std::size_t v = 0; v < 10; ++v) inputs[v] = 9 - v;  // reversed: the input order is not the ring's
+    const CompiledMap map = CompiledMap::build(fs, inputs);
+    const std::vector<double> point{0.5, -2, 4, 0.25, -0.5, 2, 8, -1, 0.125, 1};  // ring order
+    std::vector<double> in(10), out(fs.size());
+    for (std::size_t v = 0; v < 10; ++v) in[v] = point[inputs[v]];
+    map.eval(in.data(), out.data());
+    for (std::size_t o = 0; o < fs.size(); ++o) CHECK(out[o] == evaluate(fs[o], point));
+    CHECK(out[0] == std::ldexp(1.0, -70));
+}

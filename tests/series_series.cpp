@@ -50,3 +50,25 @@ TEST_CASE("series: mixing truncation orders is refused") {
     CHECK_THROWS_AS(Series(r, 2) + Series(r, 3), std::invalid_argument);
     CHECK_THROWS_AS(Series(r, 2).truncated(3), std::invalid_argument);
 }
+
+TEST_CASE("series: inverse_near_identity inverts id + u to its order, stops where told, refuses u not O(e)") {
+    auto r = make_ring({"x", "y"});
+    const std::size_t N = 6;
+    std::vector<Series> u(2, Series(r, N));
+    const char* ux[] = {"0", "x*y + 1/2", "x^2 - y", "y^3", "2*x*y^2", "x - 1/7*y^2"};
+    const char* uy[] = {"0", "y^2", "3*x", "x*y^2 - 1", "y^4", "x^2*y"};
+    for (std::size_t m = 0; m < N; ++m) u[0][m] = Poly::parse(r, ux[m]), u[1][m] = Poly::parse(r, uy[m]);
+    const auto v = inverse_near_identity(u, {0, 1}, N);
+    REQUIRE(v.size() == 2);
+    // (id + u) o (id + v) = id + O(e^N): u(id + v) + v = 0 through e^(N-1)
+    std::vector<std::optional<Series>> images(2);
+    for (std::size_t i = 0; i < 2; ++i) images[i] = Series::constant(Poly::gen(r, i), N) + v[i];
+    const auto uv = compose(u, images, N);
+    for (std::size_t i = 0; i < 2; ++i) CHECK(uv[i] + v[i] == Series(r, N));
+    CHECK_FALSE(v[0][N - 1].is_zero());
+    // told to stop after order 3, the result is the same series truncated there
+    const auto w = inverse_near_identity(u, {0, 1}, N, [](const std::vector<Series>& s) { return s.front().order() == 4; });
+    for (std::size_t i = 0; i < 2; ++i) CHECK(w[i] == v[i].truncated(4));
+    u[1][0] = Poly::parse(r, "x");
+    CHECK_THROWS_AS(inverse_near_identity(u, {0, 1}, N), std::invalid_argument);
+}
