@@ -8,15 +8,7 @@
 
 #include <cstddef>
 
-extern "C" void* __libc_malloc(std::size_t);
-namespace {
-long allocations = 0;
-bool counting = false;
-}  // namespace
-extern "C" void* malloc(std::size_t n) {
-    if (counting) ++allocations;
-    return __libc_malloc(n);
-}
+#include "tests/alloc/count_malloc.hpp"
 
 namespace {
 long allocations_of(const pgi::Scheme& scheme, const pgi::RowMatrix& X0, double t_end, std::size_t threads) {

@@ -7,16 +7,7 @@
 
 #include <cstddef>
 
-extern "C" void* __libc_malloc(std::size_t);
-namespace {
-long allocations = 0;
-bool counting = false;
-}  // namespace
-// glibc's malloc, counted while `counting` is set (Eigen and FLINT allocate through it, as does operator new).
-extern "C" void* malloc(std::size_t n) {
-    if (counting) ++allocations;
-    return __libc_malloc(n);
-}
+#include "tests/alloc/count_malloc.hpp"
 
 TEST_CASE("newton_step: no allocation in the hot loop, for every realisation form") {
     for (const std::string name : {"rigid_body", "lotka_volterra", "nambu", "henon_heiles", "volterra_chain"}) {
