@@ -126,14 +126,14 @@ void emit(const Options& o, const nlohmann::json& report, const std::function<st
 
 // What can be refused before any work: output paths, a --csv without a run, the step count.
 void check_before_work(const std::string& name, const Options& o, const pgi::Scene& scene) {
-    const bool runs = name == "integrate" || name == "run" || name == "report";
+    const bool runs = name == "integrate" || name == "run" || name == "report" || name == "section";
     if (!o.csv.empty()) {
         if (name == "run" && !(scene.x0 && scene.t_end))
             throw pgi::SceneError(scene.file, "--csv", "the scene has no run to write (give [run] x0 and t_end, or --x0 and --t-end)");
         pgi::check_output_path(o.csv, {scene.file});
     }
     if (!o.out.empty()) pgi::check_output_path(o.out, {scene.file});
-    if (runs && scene.t_end && (name == "integrate" || scene.x0)) pgi::step_count(scene, o.integrate.max_steps);
+    if (runs && scene.t_end && (name == "integrate" || name == "section" || scene.x0)) pgi::step_count(scene, o.integrate.max_steps);
 }
 
 int run_command(const std::string& name, Options o) {
@@ -184,6 +184,7 @@ int run_command(const std::string& name, Options o) {
     if (name == "section") {
         pgi::SectionOptions so = o.section;
         if (!o.csv.empty()) so.csv = o.csv;
+        so.max_steps = o.integrate.max_steps;
         emit(o, pgi::section_report(scene, so), pgi::section_text);
     }
     if (name == "integrate") emit(o, pgi::integrate_report(scene, io), pgi::integrate_text);
@@ -268,8 +269,9 @@ int main(int argc, char** argv) {
     modified->add_option("--upto", o.upto, "last power of dt, 0..64 (default 4)");
     modified->add_option("--splitting", o.splitting, "lie-trotter | strang | yoshida: the splitting method's for [splitting] H = A + B")
         ->check(CLI::IsMember({"lie-trotter", "strang", "yoshida"}));
-    for (auto* cmd : {integrate, run}) {  // report's run keeps the default step budget
+    for (auto* cmd : {integrate, run, section})  // report's run keeps the default step budget
         cmd->add_option("--max-steps", o.max_steps, "refuse a run of more steps than this, before any work (default 1e8)");
+    for (auto* cmd : {integrate, run}) {
         cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
         cmd->add_option("--every", o.every, "one CSV row every M steps");
         cmd->add_option("--plot", o.plot, "draw the trajectory and the invariants' errors (SVG and PNG, by gnuplot) into this directory");

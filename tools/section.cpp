@@ -24,13 +24,9 @@ json section_report(const Scene& scene, const SectionOptions& options) {
     if (options.csv) file.emplace(*options.csv);
     const auto start = std::chrono::steady_clock::now();
     Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
-    StepOptions opt;
-    opt.k = scene.order;
-    opt.dt = scene.dt;
-    opt.realisation = scene.realisation;
-    NewtonStepper stepper = NewtonStepper::build(scene.pi, scene.H, opt, x);
+    const std::size_t N = step_count(scene, options.max_steps);  // refused above the step budget, before any work
+    NewtonStepper stepper = scene.scheme->stepper(scene.dt, x);
     EventDetector detector(std::move(events), DenseOutput::build(scene.pi, scene.H, stepper.order()), options.samples);
-    const auto N = static_cast<std::size_t>(std::ceil(*scene.t_end / scene.dt - 1e-9));
     json crossings = json::array();
     const EventRun run = integrate_with_events(stepper, detector, x, N, [&](const Crossing& c) {
         crossings.push_back({{"t", c.t}, {"x", std::vector<double>(c.x.data(), c.x.data() + c.x.size())}});

@@ -1,5 +1,6 @@
 #pragma once
 // pgi section: the crossings of an event polynomial along a scene's run (a Poincare section).
+#include "tools/commands.hpp"
 #include "tools/scene.hpp"
 
 #include <nlohmann/json.hpp>
@@ -16,6 +17,7 @@ struct SectionOptions {
     std::optional<std::size_t> max_crossings;   // stop after this many
     std::size_t samples = 1;                    // sign tests per step (1: the ends only)
     std::optional<std::filesystem::path> csv;   // t and the coordinates of every crossing
+    std::size_t max_steps = default_max_steps;  // --max-steps: the run's step budget
 };
 
 /// {"event", "direction", "crossings": [{"t", "x"}], "count", "steps", "t", "order", "method_order",
