@@ -83,7 +83,10 @@ nlohmann::json modified_report(const Scene& scene, std::size_t m);
 
 /// H_0..H_m of the splitting method for the scene's [splitting] H = A + B (magnus/splitting), with a run of
 /// the splitting checking its order of conservation when the flows of A and B are polynomial.
-nlohmann::json splitting_report(const Scene& scene, SplittingMethod method, std::size_t m);
+/// Each polynomial of "modified" is written by entry (default: its text), so a report can keep its own form
+/// (text and LaTeX) without parsing the text back.
+nlohmann::json splitting_report(const Scene& scene, SplittingMethod method, std::size_t m,
+                                const std::function<nlohmann::json(const Poly&)>& entry = {});
 std::string splitting_text(const nlohmann::json& report);
 
 /// The whole story of a scene: structure and checks, realisation, S_1..S_k, the modified Hamiltonian

@@ -83,10 +83,8 @@ json report_data(const Scene& scene, std::size_t m) {
     if (scene.splitting_A) {
         r["splitting"] = json::array();
         for (auto method : {SplittingMethod::lie_trotter, SplittingMethod::strang, SplittingMethod::yoshida}) {
-            json s = splitting_report(scene, method, m);
+            json s = splitting_report(scene, method, m, [](const Poly& P) { return poly_entry(P); });
             s["A"] = poly_entry(*scene.splitting_A);
-            for (auto& Hj : s["modified"])
-                for (auto& P : Hj) P = poly_entry(M.parse(P.get<std::string>()));
             r["splitting"].push_back(s);
         }
     }

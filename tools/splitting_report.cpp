@@ -73,7 +73,7 @@ std::size_t expected_order(SplittingMethod method, std::size_t m) {
 
 }  // namespace
 
-json splitting_report(const Scene& scene, SplittingMethod method, std::size_t m) {
+json splitting_report(const Scene& scene, SplittingMethod method, std::size_t m, const std::function<json(const Poly&)>& entry) {
     if (!scene.splitting_A) throw SceneError(scene.file, "splitting.A", "missing: give [splitting] A = \"part of H\" (B = H - A)");
     const Poly& A = *scene.splitting_A;
     const Poly B = scene.H - A;
@@ -81,7 +81,7 @@ json splitting_report(const Scene& scene, SplittingMethod method, std::size_t m)
     json terms = json::array();
     for (const auto& Hj : Ht.H) {
         json c = json::array();
-        for (const auto& P : Hj) c.push_back(P.to_string());
+        for (const auto& P : Hj) c.push_back(entry ? entry(P) : json(P.to_string()));
         terms.push_back(c);
     }
     json r{{"coordinates", scene.phase_space().coordinates()}, {"splitting", to_string(method)},
