@@ -143,6 +143,7 @@ TEST_CASE("issue 11.4: a huge power in a scene is refused at once with exit 4, n
                              "power 1000 of a 6-term polynomial could reach 8459043543951 terms, above the limit of 20000000") !=
                       std::string::npos,
                   r.out);
+    CHECK_MESSAGE(r.out.find(big.path()) == r.out.rfind(big.path()), r.out);  // the file named once
     TempScene deep("deep", power_scene(std::string(100000, '-') + "x1"));
     Shell d = shell(pgi() + " check " + deep.path());
     CHECK_MESSAGE(d.exit_code == 2, d.out);

@@ -158,7 +158,7 @@ private:
         try {
             return parse_polynomial(M, key, text);
         } catch (const ResourceLimitError& e) {  // a budget refusal stays one (exit 4), naming the key
-            throw ParseBudgetError(file_.string() + ": " + e.what());
+            throw ParseBudgetError(e.what());  // the key is in the message, pgi prefixes the file
         } catch (const InputError& e) {
             fail(e.key(), e.problem());
         }
@@ -309,7 +309,7 @@ private:
             try {
                 scene.magnus_h = scene.phase_space().parse_in_time(*h);
             } catch (const ResourceLimitError& e) {
-                throw ParseBudgetError(file_.string() + ": magnus.h: " + e.what());
+                throw ParseBudgetError(std::string("magnus.h: ") + e.what());
             } catch (const std::exception& e) {
                 fail("magnus.h", e.what());
             }
