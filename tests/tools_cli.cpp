@@ -380,6 +380,11 @@ TEST_CASE("issue 11.1: the step count is computed in checked arithmetic and refu
     Run budget = pgi_run({"integrate", rb, "--t-end", "1", "--max-steps", "9"});
     CHECK(budget.exit_code == 4);
     CHECK_MESSAGE(budget.err.find("needs 10 steps, above the step budget of 9") != std::string::npos, budget.err);
+    // report runs the scene's trajectory too: the same budget, refused before anything is written
+    Run report = pgi_run({"report", rb, "--t-end", "1", "--max-steps", "9"});
+    CHECK(report.exit_code == 4);
+    CHECK(report.out.empty());
+    CHECK_MESSAGE(report.err.find("needs 10 steps, above the step budget of 9") != std::string::npos, report.err);
     Run ok = pgi_run({"integrate", rb, "--t-end", "1", "--max-steps", "10", "--json"});
     REQUIRE(ok.exit_code == 0);
     CHECK(nlohmann::json::parse(ok.out)["steps"] == 10);
