@@ -33,10 +33,10 @@ std::string slurp(const fs::path& p) {
     return s.str();
 }
 
-// Runs the pgi binary with the arguments (single-quoted for the shell).
-Run pgi_run(const std::vector<std::string>& args) {
+// Runs the pgi binary with the arguments (single-quoted for the shell), after the shell assignments env.
+Run pgi_run(const std::vector<std::string>& args, const std::string& env = "") {
     fs::path err = fs::temp_directory_path() / ("pgi_test_stderr_" + std::to_string(::getpid()));
-    std::string cmd = std::string("'") + PGI_BINARY + "'";
+    std::string cmd = env + " '" + PGI_BINARY + "'";
     for (const auto& a : args) cmd += " '" + a + "'";
     cmd += " 2>'" + err.string() + "'";
     Run r{};
@@ -571,4 +571,20 @@ TEST_CASE("issue 11.8: names with control characters are refused; what can be ch
     CHECK(text.find("\\mathrm{x1\\_a}") != std::string::npos);
     const int rc = shell("cd '" + dir.path.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error r.tex > r.log 2>&1");
     CHECK_MESSAGE(rc == 0, slurp(dir.path / "r.log"));
+}
+
+TEST_CASE("--plot: gnuplot failing after the run is an output failure (exit 6), nothing left behind") {
+    // (the figures themselves are tested in tools_report.cpp)
+    const std::string rb = test::scene_path("rigid_body");
+    const fs::path dir = fs::temp_directory_path() / ("pgi_test_plot_" + std::to_string(::getpid()));
+    fs::create_directories(dir / "bin");
+    // a gnuplot that fails: the run has finished, its figures cannot be written
+    const fs::path fake = dir / "bin" / "gnuplot";
+    std::ofstream(fake) << "#!/bin/sh\necho 'simulated failure' >&2\nexit 1\n";
+    fs::permissions(fake, fs::perms::owner_all);
+    Run failed = pgi_run({"integrate", rb, "--t-end", "1", "--plot", dir.string()}, "PATH='" + (dir / "bin").string() + "':\"$PATH\"");
+    CHECK(failed.exit_code == 6);
+    CHECK_MESSAGE(failed.err.find("--plot: gnuplot failed") != std::string::npos, failed.err);
+    for (const auto& e : fs::directory_iterator(dir)) CHECK_MESSAGE(e.path().filename() == "bin", e.path());
+    fs::remove_all(dir);
 }
