@@ -27,11 +27,13 @@ _FIELDS = ("x", "energy_error", "casimir_error", "status", "steps", "failed_step
 _cache_lock = threading.Lock()
 
 
-def _worker_scheme(description):
-    """The worker's Scheme for this description, built on first use and kept on the worker."""
+def _worker_scheme(description, dt):
+    """The worker's Scheme for this description and dt, built on first use and kept on the worker. One per dt:
+    a Scheme's step built for a larger dt serves smaller ones, equal to their own build only to round-off,
+    so a worker's scheme sees the dts of one run only, as the local run's does."""
     from distributed import get_worker
     worker = get_worker()
-    key = repr(description)
+    key = (repr(description), dt)
     with _cache_lock:
         cache = worker.__dict__.setdefault("_pgi_schemes", {})
         if key not in cache:
@@ -40,7 +42,7 @@ def _worker_scheme(description):
 
 
 def _run_chunk(description, X0, dt, t_end, x_typical, threads):
-    r = _worker_scheme(description).integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads, x_typical=x_typical)
+    r = _worker_scheme(description, dt).integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads, x_typical=x_typical)
     return {f: getattr(r, f) for f in _FIELDS}
 
 

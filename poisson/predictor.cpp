@@ -1,0 +1,112 @@
+#include "poisson/predictor.hpp"
+
+#include "poisson/bisection.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <optional>
+
+namespace pgi {
+
+namespace {
+
+// Newton iterations from a start of relative error e: each squares the error, and the step stops after
+// the first correction below tol (the next would be ~tol^2).
+int expected_iterations(double e, double tol) {
+    int it = 1;
+    for (; e > tol && it < 8; ++it) e *= e;
+    return it;
+}
+
+// The predictor order P minimising (terms of the predictor) + (expected iterations) x (one iteration's
+// cost), the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
+// Fed the base point's series order by order (base_point_series' `enough`); stops at the first order
+// expecting one iteration, or once the next orders cannot win or cost more exact work than they save.
+// Deterministic: the choice depends on the scene only.
+class PredictorChoice {
+public:
+    static constexpr double cheap_order_terms = 500;
+    PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale, std::size_t limit)
+        : opt_(opt), iteration_cost_(iteration_cost), point_(std::move(point)), scale_(scale), limit_(limit) {}
+    bool operator()(const std::vector<Series>& v) {
+        const std::size_t s = v.front().order() - 1;  // exact through dt^s: scores the order P = s - 1
+        double e = 0, terms = 0, top = 0;
+        for (const auto& vl : v) {
+            e = std::max(e, std::abs(std::pow(opt_.dt, double(s)) * evaluate(vl[s], point_)) / scale_);
+            for (std::size_t m = 1; m < s; ++m) terms += static_cast<double>(vl[m].length());
+            top += static_cast<double>(vl[s].length());
+        }
+        const int iterations = expected_iterations(e, opt_.newton_tol);
+        const double cost = terms + iterations * iteration_cost_;
+        if (!best_ || cost < best_cost_) best_ = s - 1, best_cost_ = cost;
+        // Every order costs at least one iteration: the next (terms + top) wins only below best - one
+        // iteration. An order computed from more than cheap_order_terms new terms costs several times the
+        // last in exact work (seconds from ~2000 terms in 6 variables: e(3)* k = 4 spent 26 s on orders 6-7
+        // to save one iteration in two), more than a run saves: the choice stays among the cheap orders.
+        // A first neglected term that does not shrink means the series diverges at this dt.
+        const bool hopeless = terms + top >= best_cost_ - iteration_cost_;
+        const bool diverging = e_ > 0 && e >= e_;
+        const bool stop = iterations == 1 || s >= limit_ + 1 || hopeless || top > cheap_order_terms || diverging;
+        e_ = e;
+        return stop;
+    }
+    std::size_t order() const { return best_.value_or(0); }
+
+private:
+    const StepOptions& opt_;
+    double iteration_cost_;
+    std::vector<double> point_;
+    double scale_;
+    std::size_t limit_;
+    std::optional<std::size_t> best_;
+    double best_cost_ = 0;
+    double e_ = 0;  // of the order before
+};
+
+// (x, p = 0): the point the exact series are evaluated at (they read no p).
+std::vector<double> point_at(const Eigen::VectorXd& x) {
+    std::vector<double> point(x.data(), x.data() + x.size());
+    point.resize(2 * std::size_t(x.size()), 0.0);
+    return point;
+}
+
+}  // namespace
+
+std::size_t predictor_limit(const StepOptions& opt) {
+    return opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 8) + 1;
+}
+
+double newton_iteration_cost(std::size_t evaluation_cost, std::size_t n) {
+    const double N = static_cast<double>(n);
+    return static_cast<double>(evaluation_cost) + N * N * N / 3 + 2 * N * N + 150;
+}
+
+Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u) {
+    Predictor p;
+    p.order_ = u.size();
+    p.map_ = DtSeriesMap::build(u, M.coordinate_vars());
+    return p;
+}
+
+Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
+                            double iteration_cost, const Eigen::VectorXd& x_typical) {
+    const std::size_t P = std::min(predictor_limit(opt), probe.degree);
+    if (opt.predictor_order) return build(M, base_point_series(M, probe, S, P));
+    const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
+    PredictorChoice choice(opt, iteration_cost, point_at(x_typical), scale, P - 1);
+    auto u = base_point_series(M, probe, S, P, std::ref(choice));
+    u.resize(std::min(u.size(), choice.order()), std::vector<Poly>{});
+    return build(M, u);
+}
+
+void Predictor::eval(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& xb) const {
+    if (order_ == 0) {
+        xb = x;
+        return;
+    }
+    map_.eval(x.data(), dt, xb.data());
+    xb += x;
+}
+
+}  // namespace pgi
