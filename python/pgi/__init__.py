@@ -100,6 +100,17 @@ def _event(i, e):
     return g, int(direction), bool(terminal)
 
 
+def _states(X0):
+    """X0 as a numpy array: given as one, or converted from nested lists (a ragged or non-numeric list is an
+    InputError naming X0; shape and dtype are checked by the C++ side)."""
+    if isinstance(X0, _np.ndarray):
+        return X0
+    try:
+        return _np.array(X0, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise InputError(f"X0: must be an (m, n) array of numbers: {e}") from None
+
+
 def _sympy(texts, coordinates):
     import sympy  # optional: only these conversions need it
     symbols = {c: sympy.Symbol(c) for c in coordinates}
@@ -209,8 +220,7 @@ class Scheme:
         chunk (trajectories per task). The step is built once, at x_typical (default: the finite row of largest
         norm). A row that is not finite or a step that fails ends that trajectory with its status; nothing is
         raised for it. Raises ValueError (before any work) for X0 of the wrong shape or dtype."""
-        if not isinstance(X0, _np.ndarray):
-            X0 = _np.array(X0, dtype=float)
+        X0 = _states(X0)
         for name, v in (("threads", threads), ("chunk", chunk)):
             if v is not None and (not isinstance(v, (int, _np.integer)) or v < 1):
                 raise InputError(f"{name}: must be a positive integer, got {v!r}")
@@ -219,7 +229,7 @@ class Scheme:
 
     def typical_state(self, X0):
         """The row integrate_ensemble builds its step at by default: the finite row of largest norm (None if none)."""
-        return self._core._typical_state(X0 if isinstance(X0, _np.ndarray) else _np.array(X0, dtype=float))
+        return self._core._typical_state(_states(X0))
 
     def __repr__(self):
         c = self._core

@@ -18,7 +18,7 @@ import uuid
 
 import numpy as _np
 
-from . import EnsembleResult, InputError, _rebuild
+from . import EnsembleResult, InputError, _rebuild, _states
 
 __all__ = ["integrate_ensemble", "sweep"]
 
@@ -48,8 +48,7 @@ class _Job:
     """One ensemble's chunks, submitted; collect() gathers them in order."""
 
     def __init__(self, client, scheme, X0, dt, t_end, chunks, threads, retries):
-        if not isinstance(X0, _np.ndarray):
-            X0 = _np.array(X0, dtype=float)
+        X0 = _states(X0)
         # every check of the local run (shape, dtype, dt, t_end), on no rows: refused here, before any work
         empty = scheme.integrate_ensemble(X0[:0], dt=dt, t_end=t_end, threads=1)
         if chunks is not None and (not isinstance(chunks, (int, _np.integer)) or chunks < 1):
