@@ -18,7 +18,7 @@ import uuid
 
 import numpy as _np
 
-from . import EnsembleResult, InputError, _rebuild
+from . import EnsembleResult, InputError, _rebuild, _states
 
 __all__ = ["integrate_ensemble", "sweep"]
 
@@ -50,8 +50,7 @@ class _Job:
     """One ensemble's chunks, submitted; collect() gathers them in order."""
 
     def __init__(self, client, scheme, X0, dt, t_end, chunks, threads, retries):
-        if not isinstance(X0, _np.ndarray):
-            X0 = _np.array(X0, dtype=float)
+        X0 = _states(X0)
         # every check of the local run (shape, dtype, dt, t_end), on no rows: refused here, before any work
         empty = scheme.integrate_ensemble(X0[:0], dt=dt, t_end=t_end, threads=1)
         if chunks is not None and (not isinstance(chunks, (int, _np.integer)) or chunks < 1):
@@ -84,10 +83,11 @@ class _Job:
 def integrate_ensemble(client, scheme, X0, dt=None, t_end=None, chunks=None, threads=1, retries=2):
     """scheme.integrate_ensemble(X0, dt, t_end) on the client's cluster: chunks of `chunks` rows (default:
     about four chunks per worker), each run with `threads` threads on its worker, gathered in order; returns
-    a pgi.EnsembleResult with the local run's numbers bit for bit. A chunk whose task raises is retried
-    `retries` times (Dask's own retries; a worker that dies has its tasks rescheduled by the scheduler); a
-    chunk that still fails raises RuntimeError naming the chunk and its rows. Bad X0, dt or t_end raise
-    ValueError before anything is submitted."""
+    a pgi.EnsembleResult with the local run's numbers bit for bit. A chunk whose task raises is rerun
+    `retries` times (Dask's own Client.submit(retries=)); a chunk whose worker dies is rerun elsewhere by the
+    scheduler, up to its distributed.scheduler.allowed-failures deaths (default 3; retries does not count
+    deaths). A chunk that still fails raises RuntimeError naming the chunk and its rows. Bad X0, dt or t_end
+    raise ValueError before anything is submitted."""
     return _Job(client, scheme, X0, dt, t_end, chunks, threads, retries).collect()
 
 
