@@ -18,11 +18,24 @@ DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, cons
     }
     if (!stacked.empty()) m.map_ = CompiledMap::build(stacked, inputs);
     m.stacked_.assign(stacked.size(), 0.0);
+    m.factors_.assign(m.powers_.size(), 0.0);
+    if (!m.powers_.empty()) m.set_factors(1.0);
     return m;
 }
 
+void DtSeriesMap::set_factors(double dt) const {
+    const auto power = [dt](std::size_t e) {
+        double f = 1;
+        for (std::size_t i = 0; i < e; ++i) f *= dt;
+        return f;
+    };
+    for (std::size_t b = 0; b + 1 < powers_.size(); ++b) factors_[b] = power(powers_[b + 1] - powers_[b]);
+    factors_.back() = power(powers_.front());
+    factors_dt_ = dt;
+}
+
 // Horner from the highest power down: acc = f_top; acc = acc dt^(j - j') + f_j' for the next lower j'; and
-// a last factor dt^(lowest j).
+// a last factor dt^(lowest j). The factors are computed once per dt.
 void DtSeriesMap::eval(const double* in, double dt, double* out) const {
     const std::size_t w = width_;
     if (powers_.empty()) {
@@ -30,20 +43,17 @@ void DtSeriesMap::eval(const double* in, double dt, double* out) const {
         return;
     }
     map_.eval(in, stacked_.data());
-    const auto power = [dt](std::size_t e) {
-        double f = 1;
-        for (std::size_t i = 0; i < e; ++i) f *= dt;
-        return f;
-    };
+    if (!(dt == factors_dt_)) set_factors(dt);
     std::size_t b = powers_.size() - 1;
-    std::copy(stacked_.begin() + std::ptrdiff_t(b * w), stacked_.begin() + std::ptrdiff_t((b + 1) * w), out);
+    const double* top = stacked_.data() + b * w;
+    std::copy(top, top + w, out);
     while (b > 0) {
-        const double f = power(powers_[b] - powers_[b - 1]);
+        const double f = factors_[b - 1];
         --b;
         const double* block = stacked_.data() + b * w;
         for (std::size_t o = 0; o < w; ++o) out[o] = out[o] * f + block[o];
     }
-    const double f = power(powers_.front());
+    const double f = factors_.back();
     for (std::size_t o = 0; o < w; ++o) out[o] *= f;
 }
 

@@ -30,6 +30,9 @@ private:
     std::vector<std::size_t> powers_;   // the j of the non-zero blocks, ascending (block b of map_ is f_powers_[b])
     std::size_t width_ = 0;
     mutable std::vector<double> stacked_;
+    mutable std::vector<double> factors_;   // dt^(powers_[b+1] - powers_[b]), then dt^(powers_[0]), for factors_dt_
+    mutable double factors_dt_ = 0;
+    void set_factors(double dt) const;
 };
 
 }  // namespace pgi

@@ -24,26 +24,9 @@ namespace {
 
 constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
 
-// dx = J^{-1} r by Eigen's partial-pivoting LU; at the common small sizes on fixed-size matrices,
-// which live on the stack and unroll, otherwise by the stepper's preallocated dynamic LU.
-template <int N>
-void solve_fixed(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, Eigen::VectorXd& dx) {
-    const Eigen::PartialPivLU<Eigen::Matrix<double, N, N>> lu{Eigen::Matrix<double, N, N>(J)};
-    dx = lu.solve(Eigen::Matrix<double, N, 1>(r));
-}
-
-void solve(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, Eigen::VectorXd& dx, Eigen::PartialPivLU<Eigen::MatrixXd>& lu) {
-    switch (J.rows()) {
-        case 2: return solve_fixed<2>(J, r, dx);
-        case 3: return solve_fixed<3>(J, r, dx);
-        case 4: return solve_fixed<4>(J, r, dx);
-        case 6: return solve_fixed<6>(J, r, dx);
-        default: lu.compute(J); dx.noalias() = lu.solve(r);
-    }
-}
-
-// For each j: grad S_j and Hess S_j (column-major); grad S_j alone; the sizes of grad S_j's terms at |x|
-// (with dt > 0, sum_j dt^j of these bounds the sizes of grad S_dt's terms).
+// For each j: grad S_j and the upper triangle of Hess S_j (column by column: (0,0), (0,1), (1,1), (0,2), ...;
+// the Hessian is symmetric, so n(n+1)/2 of its n^2 entries are compiled); grad S_j alone; the sizes of grad
+// S_j's terms at |x| (with dt > 0, sum_j dt^j of these bounds the sizes of grad S_dt's terms).
 std::array<DtSeriesMap, 3> gradient_maps(const PhaseSpace& M, const std::vector<Poly>& S) {
     const std::size_t n = M.dim();
     std::vector<std::vector<Poly>> with_hessian, gradient, sizes;
@@ -52,7 +35,7 @@ std::array<DtSeriesMap, 3> gradient_maps(const PhaseSpace& M, const std::vector<
         for (std::size_t l = 0; l < n; ++l) g.push_back(derivative(Sj, M.x(l)));
         std::vector<Poly> gh(g), size;
         for (std::size_t c = 0; c < n; ++c)
-            for (std::size_t r = 0; r < n; ++r) gh.push_back(derivative(g[c], M.x(r)));
+            for (std::size_t r = 0; r <= c; ++r) gh.push_back(derivative(g[c], M.x(r)));
         for (const auto& gl : g) size.push_back(absolute_coefficients(gl));
         with_hessian.push_back(std::move(gh));
         gradient.push_back(std::move(g));
@@ -126,18 +109,20 @@ void NewtonStepper::size_scratch(std::size_t n) {
     v_ = RealisationValues(n);
     check_ = RealisationCheck(n);
     for (auto* v : {&xb_, &xb_good_, &p_, &r_, &dx_, &gsize_, &tol_}) v->setZero(N);
-    gh_.setZero(N + N * N);
+    gh_.setZero(N + N * (N + 1) / 2);
     hess_.setZero(N, N);
     J_.setZero(N, N);
     D_.setZero(N, N);
-    lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(N);
+    algebra_ = DenseAlgebra(n);
 }
 
 void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
     const auto n = xb.size();
     gradient_.eval(xb.data(), step_dt_, gh_.data());
     p_ = gh_.head(n);
-    hess_ = Eigen::Map<const Eigen::MatrixXd>(gh_.data() + n, n, n);
+    const double* h = gh_.data() + n;
+    for (Eigen::Index c = 0; c < n; ++c)
+        for (Eigen::Index r = 0; r <= c; ++r) hess_(r, c) = hess_(c, r) = *h++;
     realisation_.eval(xb, p_, v_);
 }
 
@@ -148,8 +133,7 @@ const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
 
 const Eigen::MatrixXd& NewtonStepper::jacobian_at(const Eigen::VectorXd& xb) {
     evaluate_at(xb);
-    J_ = v_.alpha_x;
-    J_.noalias() += v_.alpha_p * hess_;
+    algebra_.jacobian(v_.alpha_x, v_.alpha_p, hess_, J_);
     return J_;
 }
 
@@ -166,7 +150,7 @@ constexpr double residual_kappa = 64;
 // system), is added to the tolerance only if the test fails without it (the stricter test passing suffices).
 bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction) {
     if (small_correction) {
-        r_.noalias() = hess_ * dx_;
+        algebra_.product(hess_, dx_, r_);
         p_ -= r_;
     } else {
         gradient_only_.eval(xb_.data(), step_dt_, p_.data());
@@ -201,15 +185,17 @@ bool NewtonStepper::within_tolerance() {
 // acceptance test; a failed test goes on iterating. The increment is delta at the accepted base point.
 StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
     double previous = std::numeric_limits<double>::infinity(), previous_residual = previous, good_residual = previous, lambda = 1;
+    const double x_norm = x.lpNorm<Eigen::Infinity>();
     for (int it = 1; it <= opt_.newton_max_iter; ++it) {
         // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
         jacobian_at(xb_);
         r_ = v_.alpha - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
-        // Far from the solution (large steps) a full correction may overshoot: back along it, halving,
-        // while the residual grows above sqrt(u) |x| (below, growth is round-off noise).
-        const double noise = std::sqrt(unit_roundoff) * std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>());
-        if (!(residual_ <= good_residual) && !(residual_ <= noise) && lambda > 1.0 / 64) {
+        // Far from the solution (large steps) a full correction may overshoot: back along it, halving (down
+        // to 2^-20 of it: stopping at 1/64 took points whose residual had grown 20-fold, from which sl(2)*
+        // at dt = 1/2 wandered off), while the residual grows above sqrt(u) |x| (below, growth is round-off noise).
+        const double noise = std::sqrt(unit_roundoff) * std::max(x_norm, xb_.lpNorm<Eigen::Infinity>());
+        if (!(residual_ <= good_residual) && !(residual_ <= noise) && lambda > 0x1p-20) {
             lambda /= 2;
             xb_ = xb_good_ - lambda * dx_;
             continue;
@@ -217,18 +203,18 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
         if (!std::isfinite(residual_) || !v_.delta.allFinite()) return StepStatus::non_finite;
         good_residual = residual_, lambda = 1;
         xb_good_ = xb_;
-        solve(J_, r_, dx_, lu_);
+        algebra_.solve(J_, r_, dx_);
         xb_ -= dx_;
         iterations_ = it;
         correction_ = dx_.lpNorm<Eigen::Infinity>();
         if (!std::isfinite(correction_)) return StepStatus::non_finite;
-        const double scale = std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>());
+        const double scale = std::max(x_norm, xb_.lpNorm<Eigen::Infinity>());
         // small, or neither it nor the residual halving any more: Newton has reached its evaluation's round-off
         const bool small = correction_ <= opt_.newton_tol * scale;
         const bool settled = small || (correction_ > previous / 2 && residual_ > previous_residual / 2);
         previous = correction_, previous_residual = residual_;
         if (!settled || !accept_check(x, small)) continue;
-        if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>())))
+        if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x_norm, xb_.lpNorm<Eigen::Infinity>())))
             return StepStatus::ill_conditioned;
         increment = check_.delta;
         if (!increment.allFinite()) return StepStatus::non_finite;
