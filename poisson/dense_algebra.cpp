@@ -34,7 +34,14 @@ Eigen::Map<Vec<N>> view(Eigen::VectorXd& v) { return {v.data(), v.rows()}; }
 
 }  // namespace
 
-DenseAlgebra::DenseAlgebra(std::size_t n) : n_(static_cast<Eigen::Index>(n)), lu_(n_) {}
+DenseAlgebra::DenseAlgebra(std::size_t n) : n_(static_cast<Eigen::Index>(n)) {
+    with_dimension(n_, [&](auto N) {
+        if constexpr (N == Eigen::Dynamic)
+            lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(n_);
+        else
+            lu_ = LU<N>();
+    });
+}
 
 void DenseAlgebra::jacobian(const Eigen::MatrixXd& ax, const Eigen::MatrixXd& ap, const Eigen::MatrixXd& H, Eigen::MatrixXd& J) const {
     with_dimension(n_, [&](auto N) {
@@ -47,11 +54,24 @@ void DenseAlgebra::jacobian(const Eigen::MatrixXd& ax, const Eigen::MatrixXd& ap
 void DenseAlgebra::solve(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, Eigen::VectorXd& dx) {
     with_dimension(n_, [&](auto N) {
         if constexpr (N == Eigen::Dynamic) {
-            lu_.compute(J);
-            dx.noalias() = lu_.solve(r);
+            auto& lu = std::get<Eigen::PartialPivLU<Eigen::MatrixXd>>(lu_);
+            lu.compute(J);
+            dx.noalias() = lu.solve(r);
         } else {
-            const Eigen::PartialPivLU<Mat<N>> lu{Mat<N>(view<N>(J))};
+            auto& lu = std::get<LU<N>>(lu_);
+            lu.compute(Mat<N>(view<N>(J)));
             const Vec<N> d = lu.solve(Vec<N>(view<N>(r)));
+            view<N>(dx) = d;
+        }
+    });
+}
+
+void DenseAlgebra::solve_again(const Eigen::VectorXd& r, Eigen::VectorXd& dx) const {
+    with_dimension(n_, [&](auto N) {
+        if constexpr (N == Eigen::Dynamic) {
+            dx.noalias() = std::get<Eigen::PartialPivLU<Eigen::MatrixXd>>(lu_).solve(r);
+        } else {
+            const Vec<N> d = std::get<LU<N>>(lu_).solve(Vec<N>(view<N>(r)));
             view<N>(dx) = d;
         }
     });

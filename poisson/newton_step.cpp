@@ -77,6 +77,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     Realisation probe = realisation(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt));
     StepRealisation r = step_realisation(pi, opt, probe, realisation, x_typical, p0);
     s.realisation_ = std::move(r.evaluator);
+    s.simplified_newton_ = r.simplified_newton;
     s.info_ = {std::move(r.method), r.degree, r.exact, r.truncation_estimate, 0};
 
     // the predictor, xb = x + sum_m dt^m u_m, its order chosen by cost at opt.dt
@@ -137,6 +138,9 @@ const Eigen::MatrixXd& NewtonStepper::jacobian_at(const Eigen::VectorXd& xb) {
     return J_;
 }
 
+// Simplified Newton takes over once a full correction is below this fraction of |x|.
+constexpr double simplified_from = 1e-4;
+
 // kappa of the residual's tolerance kappa u (|x| + sizes of the terms summed): evaluating a sum of terms
 // of total size T costs a few roundings of T per level of the evaluation (monomials of degree d carry
 // ~d u each, Horner and matrix products ~n u), and r = alpha - x one more: 64 covers degrees and
@@ -181,12 +185,40 @@ bool NewtonStepper::within_tolerance() {
     return ratio_ <= 1;
 }
 
+// The accepted step's status: ill-conditioned when the tolerance itself exceeds sqrt(u) |x|, else the
+// increment (delta at the accepted base point) and the truncation's verdict.
+StepStatus NewtonStepper::finish(double x_norm, Eigen::VectorXd& increment) {
+    if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x_norm, xb_.lpNorm<Eigen::Infinity>()))) return StepStatus::ill_conditioned;
+    increment = check_.delta;
+    if (!increment.allFinite()) return StepStatus::non_finite;
+    return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
+}
+
 // Newton from the predicted xb_: corrections until one is small (or stalls at round-off), then the
-// acceptance test; a failed test goes on iterating. The increment is delta at the accepted base point.
+// acceptance test; a failed test goes on iterating. Near the solution (a correction below 1e-4 |x|) the
+// next iterations are simplified Newton: the residual alone at the new base point (grad S_dt and alpha, the
+// acceptance test's own evaluation, no Hessian, no derivatives of alpha) and the last Jacobian's LU, which
+// contracts like Newton there (the error e0 e1 after e1: the Jacobian is off by O(e0)); a correction that
+// does not halve brings the full Newton iteration back. The increment is delta at the accepted base point.
 StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
     double previous = std::numeric_limits<double>::infinity(), previous_residual = previous, good_residual = previous, lambda = 1;
     const double x_norm = x.lpNorm<Eigen::Infinity>();
+    bool simplified = false;
     for (int it = 1; it <= opt_.newton_max_iter; ++it) {
+        if (simplified) {
+            // r = alpha(xb, grad S_dt(xb)) - x, evaluated by the acceptance test itself
+            if (accept_check(x, false)) return finish(x_norm, increment);
+            if (!std::isfinite(residual_)) return StepStatus::non_finite;
+            algebra_.solve_again(r_, dx_);
+            xb_ -= dx_;
+            iterations_ = it;
+            const double correction = dx_.lpNorm<Eigen::Infinity>();
+            if (!std::isfinite(correction)) return StepStatus::non_finite;
+            simplified = correction <= correction_ / 2;  // else the next iteration refreshes the Jacobian
+            correction_ = correction;
+            previous = correction_, previous_residual = residual_;
+            continue;
+        }
         // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
         jacobian_at(xb_);
         r_ = v_.alpha - x;
@@ -213,12 +245,8 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
         const bool small = correction_ <= opt_.newton_tol * scale;
         const bool settled = small || (correction_ > previous / 2 && residual_ > previous_residual / 2);
         previous = correction_, previous_residual = residual_;
-        if (!settled || !accept_check(x, small)) continue;
-        if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x_norm, xb_.lpNorm<Eigen::Infinity>())))
-            return StepStatus::ill_conditioned;
-        increment = check_.delta;
-        if (!increment.allFinite()) return StepStatus::non_finite;
-        return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
+        if (settled && accept_check(x, small)) return finish(x_norm, increment);
+        simplified = simplified_newton_ && !small && correction_ <= simplified_from * scale;
     }
     return StepStatus::newton_not_converged;
 }

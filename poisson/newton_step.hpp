@@ -78,6 +78,7 @@ public:
 
 private:
     StepStatus newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment);
+    StepStatus finish(double x_norm, Eigen::VectorXd& increment);
     const Eigen::MatrixXd& jacobian_at(const Eigen::VectorXd& xb);  // at step_dt_
     void evaluate_at(const Eigen::VectorXd& xb);
     bool accept_check(const Eigen::VectorXd& x, bool small_correction);
@@ -90,6 +91,7 @@ private:
     StepOptions opt_;
     StepInfo info_;
     RealisationEvaluator realisation_;
+    bool simplified_newton_ = true;       // StepRealisation::simplified_newton
     DtSeriesMap gradient_;                // (x, dt) -> grad S_dt (n), Hess S_dt's upper triangle (n(n+1)/2, by columns)
     Predictor predictor_;                 // (x, dt) -> xb, the base point's series in dt
     DtSeriesMap gradient_only_;           // (x, dt) -> grad S_dt
