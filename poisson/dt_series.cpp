@@ -5,7 +5,7 @@
 
 namespace pgi {
 
-DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs) {
+DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs, double planned_dt) {
     DtSeriesMap m;
     m.width_ = terms.empty() ? 0 : terms.front().size();
     std::vector<Poly> stacked;
@@ -17,6 +17,17 @@ DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, cons
         stacked.insert(stacked.end(), f.begin(), f.end());
     }
     if (!stacked.empty()) m.map_ = CompiledMap::build(stacked, inputs);
+    if (planned_dt != 0 && !stacked.empty()) {
+        const Rational dt = Rational::from_double(planned_dt);  // exactly the double
+        std::vector<Poly> sums;
+        for (std::size_t o = 0; o < m.width_; ++o) {
+            std::vector<Poly> c;
+            for (const auto& f : terms) c.push_back(f[o]);
+            sums.push_back(sum_powers(c, dt, 1));
+        }
+        m.planned_ = CompiledMap::build(sums, inputs);
+        m.planned_dt_ = planned_dt;
+    }
     m.stacked_.assign(stacked.size(), 0.0);
     m.factors_.assign(m.powers_.size(), 0.0);
     if (!m.powers_.empty()) m.set_factors(1.0);
@@ -40,6 +51,10 @@ void DtSeriesMap::eval(const double* in, double dt, double* out) const {
     const std::size_t w = width_;
     if (powers_.empty()) {
         std::fill(out, out + w, 0.0);
+        return;
+    }
+    if (planned_dt_ != 0 && dt == planned_dt_) {
+        planned_.eval(in, out);
         return;
     }
     map_.eval(in, stacked_.data());

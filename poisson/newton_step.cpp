@@ -27,7 +27,7 @@ constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
 // For each j: grad S_j and the upper triangle of Hess S_j (column by column: (0,0), (0,1), (1,1), (0,2), ...;
 // the Hessian is symmetric, so n(n+1)/2 of its n^2 entries are compiled); grad S_j alone; the sizes of grad
 // S_j's terms at |x| (with dt > 0, sum_j dt^j of these bounds the sizes of grad S_dt's terms).
-std::array<DtSeriesMap, 3> gradient_maps(const PhaseSpace& M, const std::vector<Poly>& S) {
+std::array<DtSeriesMap, 3> gradient_maps(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt) {
     const std::size_t n = M.dim();
     std::vector<std::vector<Poly>> with_hessian, gradient, sizes;
     for (const auto& Sj : S) {
@@ -42,7 +42,8 @@ std::array<DtSeriesMap, 3> gradient_maps(const PhaseSpace& M, const std::vector<
         sizes.push_back(std::move(size));
     }
     const auto vars = M.coordinate_vars();
-    return {DtSeriesMap::build(with_hessian, vars), DtSeriesMap::build(gradient, vars), DtSeriesMap::build(sizes, vars)};
+    return {DtSeriesMap::build(with_hessian, vars, planned_dt), DtSeriesMap::build(gradient, vars, planned_dt),
+            DtSeriesMap::build(sizes, vars, planned_dt)};
 }
 
 void check_build_arguments(const PhaseSpace& M, const std::vector<Poly>* S, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
@@ -66,7 +67,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.k_ = opt.k;
     s.dt_ = s.step_dt_ = opt.dt;
     s.opt_ = opt;
-    auto maps = gradient_maps(M, S);
+    auto maps = gradient_maps(M, S, opt.dt);
     s.gradient_ = std::move(maps[0]);
     s.gradient_only_ = std::move(maps[1]);
     s.gradient_size_ = std::move(maps[2]);
@@ -81,7 +82,9 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.info_ = {std::move(r.method), r.degree, r.exact, r.truncation_estimate, 0};
 
     // the predictor, xb = x + sum_m dt^m u_m, its order chosen by cost at opt.dt
-    const double cost = newton_iteration_cost(s.gradient_.cost() + s.realisation_.cost(), n);
+    // (the acceptance test's evaluation of alpha costs about a third of eval's, which adds the derivatives)
+    const NewtonCost cost = newton_cost(s.gradient_.planned_cost() + s.realisation_.cost(), s.gradient_only_.planned_cost() + s.realisation_.cost() / 3, n,
+                                        s.simplified_newton_);
     s.predictor_ = Predictor::choose(M, probe, S, opt, cost, x_typical);
     s.info_.predictor_order = s.predictor_.order();
     s.size_scratch(n);
