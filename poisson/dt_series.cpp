@@ -5,7 +5,7 @@
 
 namespace pgi {
 
-DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs) {
+DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs, double planned_dt) {
     DtSeriesMap m;
     m.width_ = terms.empty() ? 0 : terms.front().size();
     std::vector<Poly> stacked;
@@ -17,33 +17,58 @@ DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, cons
         stacked.insert(stacked.end(), f.begin(), f.end());
     }
     if (!stacked.empty()) m.map_ = CompiledMap::build(stacked, inputs);
+    if (planned_dt != 0 && !stacked.empty()) {
+        const Rational dt = Rational::from_double(planned_dt);  // exactly the double
+        std::vector<Poly> sums;
+        for (std::size_t o = 0; o < m.width_; ++o) {
+            std::vector<Poly> c;
+            for (const auto& f : terms) c.push_back(f[o]);
+            sums.push_back(sum_powers(c, dt, 1));
+        }
+        m.planned_ = CompiledMap::build(sums, inputs);
+        m.planned_dt_ = planned_dt;
+    }
     m.stacked_.assign(stacked.size(), 0.0);
+    m.factors_.assign(m.powers_.size(), 0.0);
+    if (!m.powers_.empty()) m.set_factors(1.0);
     return m;
 }
 
+void DtSeriesMap::set_factors(double dt) const {
+    const auto power = [dt](std::size_t e) {
+        double f = 1;
+        for (std::size_t i = 0; i < e; ++i) f *= dt;
+        return f;
+    };
+    for (std::size_t b = 0; b + 1 < powers_.size(); ++b) factors_[b] = power(powers_[b + 1] - powers_[b]);
+    factors_.back() = power(powers_.front());
+    factors_dt_ = dt;
+}
+
 // Horner from the highest power down: acc = f_top; acc = acc dt^(j - j') + f_j' for the next lower j'; and
-// a last factor dt^(lowest j).
+// a last factor dt^(lowest j). The factors are computed once per dt.
 void DtSeriesMap::eval(const double* in, double dt, double* out) const {
     const std::size_t w = width_;
     if (powers_.empty()) {
         std::fill(out, out + w, 0.0);
         return;
     }
+    if (planned_dt_ != 0 && dt == planned_dt_) {
+        planned_.eval(in, out);
+        return;
+    }
     map_.eval(in, stacked_.data());
-    const auto power = [dt](std::size_t e) {
-        double f = 1;
-        for (std::size_t i = 0; i < e; ++i) f *= dt;
-        return f;
-    };
+    if (!(dt == factors_dt_)) set_factors(dt);
     std::size_t b = powers_.size() - 1;
-    std::copy(stacked_.begin() + std::ptrdiff_t(b * w), stacked_.begin() + std::ptrdiff_t((b + 1) * w), out);
+    const double* top = stacked_.data() + b * w;
+    std::copy(top, top + w, out);
     while (b > 0) {
-        const double f = power(powers_[b] - powers_[b - 1]);
+        const double f = factors_[b - 1];
         --b;
         const double* block = stacked_.data() + b * w;
         for (std::size_t o = 0; o < w; ++o) out[o] = out[o] * f + block[o];
     }
-    const double f = power(powers_.front());
+    const double f = factors_.back();
     for (std::size_t o = 0; o < w; ++o) out[o] *= f;
 }
 

@@ -24,27 +24,10 @@ namespace {
 
 constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
 
-// dx = J^{-1} r by Eigen's partial-pivoting LU; at the common small sizes on fixed-size matrices,
-// which live on the stack and unroll, otherwise by the stepper's preallocated dynamic LU.
-template <int N>
-void solve_fixed(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, Eigen::VectorXd& dx) {
-    const Eigen::PartialPivLU<Eigen::Matrix<double, N, N>> lu{Eigen::Matrix<double, N, N>(J)};
-    dx = lu.solve(Eigen::Matrix<double, N, 1>(r));
-}
-
-void solve(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, Eigen::VectorXd& dx, Eigen::PartialPivLU<Eigen::MatrixXd>& lu) {
-    switch (J.rows()) {
-        case 2: return solve_fixed<2>(J, r, dx);
-        case 3: return solve_fixed<3>(J, r, dx);
-        case 4: return solve_fixed<4>(J, r, dx);
-        case 6: return solve_fixed<6>(J, r, dx);
-        default: lu.compute(J); dx.noalias() = lu.solve(r);
-    }
-}
-
-// For each j: grad S_j and Hess S_j (column-major); grad S_j alone; the sizes of grad S_j's terms at |x|
-// (with dt > 0, sum_j dt^j of these bounds the sizes of grad S_dt's terms).
-std::array<DtSeriesMap, 3> gradient_maps(const PhaseSpace& M, const std::vector<Poly>& S) {
+// For each j: grad S_j and the upper triangle of Hess S_j (column by column: (0,0), (0,1), (1,1), (0,2), ...;
+// the Hessian is symmetric, so n(n+1)/2 of its n^2 entries are compiled); grad S_j alone; the sizes of grad
+// S_j's terms at |x| (with dt > 0, sum_j dt^j of these bounds the sizes of grad S_dt's terms).
+std::array<DtSeriesMap, 3> gradient_maps(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt) {
     const std::size_t n = M.dim();
     std::vector<std::vector<Poly>> with_hessian, gradient, sizes;
     for (const auto& Sj : S) {
@@ -52,14 +35,15 @@ std::array<DtSeriesMap, 3> gradient_maps(const PhaseSpace& M, const std::vector<
         for (std::size_t l = 0; l < n; ++l) g.push_back(derivative(Sj, M.x(l)));
         std::vector<Poly> gh(g), size;
         for (std::size_t c = 0; c < n; ++c)
-            for (std::size_t r = 0; r < n; ++r) gh.push_back(derivative(g[c], M.x(r)));
+            for (std::size_t r = 0; r <= c; ++r) gh.push_back(derivative(g[c], M.x(r)));
         for (const auto& gl : g) size.push_back(absolute_coefficients(gl));
         with_hessian.push_back(std::move(gh));
         gradient.push_back(std::move(g));
         sizes.push_back(std::move(size));
     }
     const auto vars = M.coordinate_vars();
-    return {DtSeriesMap::build(with_hessian, vars), DtSeriesMap::build(gradient, vars), DtSeriesMap::build(sizes, vars)};
+    return {DtSeriesMap::build(with_hessian, vars, planned_dt), DtSeriesMap::build(gradient, vars, planned_dt),
+            DtSeriesMap::build(sizes, vars, planned_dt)};
 }
 
 void check_build_arguments(const PhaseSpace& M, const std::vector<Poly>* S, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
@@ -83,7 +67,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.k_ = opt.k;
     s.dt_ = s.step_dt_ = opt.dt;
     s.opt_ = opt;
-    auto maps = gradient_maps(M, S);
+    auto maps = gradient_maps(M, S, opt.dt);
     s.gradient_ = std::move(maps[0]);
     s.gradient_only_ = std::move(maps[1]);
     s.gradient_size_ = std::move(maps[2]);
@@ -94,10 +78,13 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     Realisation probe = realisation(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt));
     StepRealisation r = step_realisation(pi, opt, probe, realisation, x_typical, p0);
     s.realisation_ = std::move(r.evaluator);
+    s.simplified_newton_ = r.simplified_newton;
     s.info_ = {std::move(r.method), r.degree, r.exact, r.truncation_estimate, 0};
 
     // the predictor, xb = x + sum_m dt^m u_m, its order chosen by cost at opt.dt
-    const double cost = newton_iteration_cost(s.gradient_.cost() + s.realisation_.cost(), n);
+    // (the acceptance test's evaluation of alpha costs about a third of eval's, which adds the derivatives)
+    const NewtonCost cost = newton_cost(s.gradient_.planned_cost() + s.realisation_.cost(), s.gradient_only_.planned_cost() + s.realisation_.cost() / 3, n,
+                                        s.simplified_newton_);
     s.predictor_ = Predictor::choose(M, probe, S, opt, cost, x_typical);
     s.info_.predictor_order = s.predictor_.order();
     s.size_scratch(n);
@@ -126,18 +113,20 @@ void NewtonStepper::size_scratch(std::size_t n) {
     v_ = RealisationValues(n);
     check_ = RealisationCheck(n);
     for (auto* v : {&xb_, &xb_good_, &p_, &r_, &dx_, &gsize_, &tol_}) v->setZero(N);
-    gh_.setZero(N + N * N);
+    gh_.setZero(N + N * (N + 1) / 2);
     hess_.setZero(N, N);
     J_.setZero(N, N);
     D_.setZero(N, N);
-    lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(N);
+    algebra_ = DenseAlgebra(n);
 }
 
 void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
     const auto n = xb.size();
     gradient_.eval(xb.data(), step_dt_, gh_.data());
     p_ = gh_.head(n);
-    hess_ = Eigen::Map<const Eigen::MatrixXd>(gh_.data() + n, n, n);
+    const double* h = gh_.data() + n;
+    for (Eigen::Index c = 0; c < n; ++c)
+        for (Eigen::Index r = 0; r <= c; ++r) hess_(r, c) = hess_(c, r) = *h++;
     realisation_.eval(xb, p_, v_);
 }
 
@@ -148,10 +137,12 @@ const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
 
 const Eigen::MatrixXd& NewtonStepper::jacobian_at(const Eigen::VectorXd& xb) {
     evaluate_at(xb);
-    J_ = v_.alpha_x;
-    J_.noalias() += v_.alpha_p * hess_;
+    algebra_.jacobian(v_.alpha_x, v_.alpha_p, hess_, J_);
     return J_;
 }
+
+// Simplified Newton takes over once a full correction is below this fraction of |x|.
+constexpr double simplified_from = 1e-4;
 
 // kappa of the residual's tolerance kappa u (|x| + sizes of the terms summed): evaluating a sum of terms
 // of total size T costs a few roundings of T per level of the evaluation (monomials of degree d carry
@@ -166,7 +157,7 @@ constexpr double residual_kappa = 64;
 // system), is added to the tolerance only if the test fails without it (the stricter test passing suffices).
 bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction) {
     if (small_correction) {
-        r_.noalias() = hess_ * dx_;
+        algebra_.product(hess_, dx_, r_);
         p_ -= r_;
     } else {
         gradient_only_.eval(xb_.data(), step_dt_, p_.data());
@@ -197,19 +188,49 @@ bool NewtonStepper::within_tolerance() {
     return ratio_ <= 1;
 }
 
+// The accepted step's status: ill-conditioned when the tolerance itself exceeds sqrt(u) |x|, else the
+// increment (delta at the accepted base point) and the truncation's verdict.
+StepStatus NewtonStepper::finish(double x_norm, Eigen::VectorXd& increment) {
+    if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x_norm, xb_.lpNorm<Eigen::Infinity>()))) return StepStatus::ill_conditioned;
+    increment = check_.delta;
+    if (!increment.allFinite()) return StepStatus::non_finite;
+    return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
+}
+
 // Newton from the predicted xb_: corrections until one is small (or stalls at round-off), then the
-// acceptance test; a failed test goes on iterating. The increment is delta at the accepted base point.
+// acceptance test; a failed test goes on iterating. Near the solution (a correction below 1e-4 |x|) the
+// next iterations are simplified Newton: the residual alone at the new base point (grad S_dt and alpha, the
+// acceptance test's own evaluation, no Hessian, no derivatives of alpha) and the last Jacobian's LU, which
+// contracts like Newton there (the error e0 e1 after e1: the Jacobian is off by O(e0)); a correction that
+// does not halve brings the full Newton iteration back. The increment is delta at the accepted base point.
 StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
     double previous = std::numeric_limits<double>::infinity(), previous_residual = previous, good_residual = previous, lambda = 1;
+    const double x_norm = x.lpNorm<Eigen::Infinity>();
+    bool simplified = false;
     for (int it = 1; it <= opt_.newton_max_iter; ++it) {
+        if (simplified) {
+            // r = alpha(xb, grad S_dt(xb)) - x, evaluated by the acceptance test itself
+            if (accept_check(x, false)) return finish(x_norm, increment);
+            if (!std::isfinite(residual_)) return StepStatus::non_finite;
+            algebra_.solve_again(r_, dx_);
+            xb_ -= dx_;
+            iterations_ = it;
+            const double correction = dx_.lpNorm<Eigen::Infinity>();
+            if (!std::isfinite(correction)) return StepStatus::non_finite;
+            simplified = correction <= correction_ / 2;  // else the next iteration refreshes the Jacobian
+            correction_ = correction;
+            previous = correction_, previous_residual = residual_;
+            continue;
+        }
         // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
         jacobian_at(xb_);
         r_ = v_.alpha - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
-        // Far from the solution (large steps) a full correction may overshoot: back along it, halving,
-        // while the residual grows above sqrt(u) |x| (below, growth is round-off noise).
-        const double noise = std::sqrt(unit_roundoff) * std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>());
-        if (!(residual_ <= good_residual) && !(residual_ <= noise) && lambda > 1.0 / 64) {
+        // Far from the solution (large steps) a full correction may overshoot: back along it, halving (down
+        // to 2^-20 of it: stopping at 1/64 took points whose residual had grown 20-fold, from which sl(2)*
+        // at dt = 1/2 wandered off), while the residual grows above sqrt(u) |x| (below, growth is round-off noise).
+        const double noise = std::sqrt(unit_roundoff) * std::max(x_norm, xb_.lpNorm<Eigen::Infinity>());
+        if (!(residual_ <= good_residual) && !(residual_ <= noise) && lambda > 0x1p-20) {
             lambda /= 2;
             xb_ = xb_good_ - lambda * dx_;
             continue;
@@ -217,22 +238,18 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
         if (!std::isfinite(residual_) || !v_.delta.allFinite()) return StepStatus::non_finite;
         good_residual = residual_, lambda = 1;
         xb_good_ = xb_;
-        solve(J_, r_, dx_, lu_);
+        algebra_.solve(J_, r_, dx_);
         xb_ -= dx_;
         iterations_ = it;
         correction_ = dx_.lpNorm<Eigen::Infinity>();
         if (!std::isfinite(correction_)) return StepStatus::non_finite;
-        const double scale = std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>());
+        const double scale = std::max(x_norm, xb_.lpNorm<Eigen::Infinity>());
         // small, or neither it nor the residual halving any more: Newton has reached its evaluation's round-off
         const bool small = correction_ <= opt_.newton_tol * scale;
         const bool settled = small || (correction_ > previous / 2 && residual_ > previous_residual / 2);
         previous = correction_, previous_residual = residual_;
-        if (!settled || !accept_check(x, small)) continue;
-        if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>())))
-            return StepStatus::ill_conditioned;
-        increment = check_.delta;
-        if (!increment.allFinite()) return StepStatus::non_finite;
-        return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
+        if (settled && accept_check(x, small)) return finish(x_norm, increment);
+        simplified = simplified_newton_ && !small && correction_ <= simplified_from * scale;
     }
     return StepStatus::newton_not_converged;
 }

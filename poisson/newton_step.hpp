@@ -3,6 +3,7 @@
 // for xb, then x_new = beta(xb, grad S_dt(xb)), written as x_new = x + (beta - alpha)(xb, grad S_dt(xb)).
 // Its build has three named pieces: the realisation's truncation degree (poisson/truncation_degree), the
 // predictor (poisson/predictor), and here Newton with the acceptance test. dt is a run-time argument.
+#include "poisson/dense_algebra.hpp"
 #include "poisson/hamilton_jacobi.hpp"
 #include "poisson/predictor.hpp"
 #include "poisson/step_options.hpp"
@@ -77,6 +78,7 @@ public:
 
 private:
     StepStatus newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment);
+    StepStatus finish(double x_norm, Eigen::VectorXd& increment);
     const Eigen::MatrixXd& jacobian_at(const Eigen::VectorXd& xb);  // at step_dt_
     void evaluate_at(const Eigen::VectorXd& xb);
     bool accept_check(const Eigen::VectorXd& x, bool small_correction);
@@ -89,7 +91,8 @@ private:
     StepOptions opt_;
     StepInfo info_;
     RealisationEvaluator realisation_;
-    DtSeriesMap gradient_;                // (x, dt) -> grad S_dt (n), Hess S_dt (n x n, column-major)
+    bool simplified_newton_ = true;       // StepRealisation::simplified_newton
+    DtSeriesMap gradient_;                // (x, dt) -> grad S_dt (n), Hess S_dt's upper triangle (n(n+1)/2, by columns)
     Predictor predictor_;                 // (x, dt) -> xb, the base point's series in dt
     DtSeriesMap gradient_only_;           // (x, dt) -> grad S_dt
     DtSeriesMap gradient_size_;           // (|x|, dt) -> the sizes of grad S_dt's terms
@@ -98,7 +101,7 @@ private:
     RealisationValues v_;
     Eigen::VectorXd xb_, xb_good_, p_, r_, dx_, gh_;
     Eigen::MatrixXd hess_, J_, D_;
-    Eigen::PartialPivLU<Eigen::MatrixXd> lu_;
+    DenseAlgebra algebra_;
     int iterations_ = 0;
     double residual_ = 0, correction_ = 0, tolerance_ = 0, ratio_ = 0, truncation_ = 0;
 };

@@ -19,16 +19,15 @@ int expected_iterations(double e, double tol) {
     return it;
 }
 
-// The predictor order P minimising (terms of the predictor) + (expected iterations) x (one iteration's
-// cost), the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
+// The predictor order P minimising (terms of the predictor) + the cost of the expected iterations, the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
 // Fed the base point's series order by order (base_point_series' `enough`); stops at the first order
 // expecting one iteration, or once the next orders cannot win or cost more exact work than they save.
 // Deterministic: the choice depends on the scene only.
 class PredictorChoice {
 public:
     static constexpr double cheap_order_terms = 500;
-    PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale, std::size_t limit)
-        : opt_(opt), iteration_cost_(iteration_cost), point_(std::move(point)), scale_(scale), limit_(limit) {}
+    PredictorChoice(const StepOptions& opt, const NewtonCost& cost, std::vector<double> point, double scale, std::size_t limit)
+        : opt_(opt), cost_(cost), point_(std::move(point)), scale_(scale), limit_(limit) {}
     bool operator()(const std::vector<Series>& v) {
         const std::size_t s = v.front().order() - 1;  // exact through dt^s: scores the order P = s - 1
         double e = 0, terms = 0, top = 0;
@@ -38,14 +37,14 @@ public:
             top += static_cast<double>(vl[s].length());
         }
         const int iterations = expected_iterations(e, opt_.newton_tol);
-        const double cost = terms + iterations * iteration_cost_;
+        const double cost = terms + cost_.first + (iterations - 1) * cost_.later;
         if (!best_ || cost < best_cost_) best_ = s - 1, best_cost_ = cost;
         // Every order costs at least one iteration: the next (terms + top) wins only below best - one
         // iteration. An order computed from more than cheap_order_terms new terms costs several times the
         // last in exact work (seconds from ~2000 terms in 6 variables: e(3)* k = 4 spent 26 s on orders 6-7
         // to save one iteration in two), more than a run saves: the choice stays among the cheap orders.
         // A first neglected term that does not shrink means the series diverges at this dt.
-        const bool hopeless = terms + top >= best_cost_ - iteration_cost_;
+        const bool hopeless = terms + top >= best_cost_ - cost_.first;
         const bool diverging = e_ > 0 && e >= e_;
         const bool stop = iterations == 1 || s >= limit_ + 1 || hopeless || top > cheap_order_terms || diverging;
         e_ = e;
@@ -55,7 +54,7 @@ public:
 
 private:
     const StepOptions& opt_;
-    double iteration_cost_;
+    NewtonCost cost_;
     std::vector<double> point_;
     double scale_;
     std::size_t limit_;
@@ -77,27 +76,28 @@ std::size_t predictor_limit(const StepOptions& opt) {
     return opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 8) + 1;
 }
 
-double newton_iteration_cost(std::size_t evaluation_cost, std::size_t n) {
+NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, std::size_t n, bool simplified) {
     const double N = static_cast<double>(n);
-    return static_cast<double>(evaluation_cost) + N * N * N / 3 + 2 * N * N + 150;
+    const double first = static_cast<double>(system_cost) + N * N * N / 3 + 2 * N * N + 150;
+    return {first, simplified ? static_cast<double>(residual_cost) + 2 * N * N + 150 : first};
 }
 
-Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u) {
+Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u, double planned_dt) {
     Predictor p;
     p.order_ = u.size();
-    p.map_ = DtSeriesMap::build(u, M.coordinate_vars());
+    p.map_ = DtSeriesMap::build(u, M.coordinate_vars(), planned_dt);
     return p;
 }
 
 Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
-                            double iteration_cost, const Eigen::VectorXd& x_typical) {
+                            const NewtonCost& cost, const Eigen::VectorXd& x_typical) {
     const std::size_t P = std::min(predictor_limit(opt), probe.degree);
-    if (opt.predictor_order) return build(M, base_point_series(M, probe, S, P));
+    if (opt.predictor_order) return build(M, base_point_series(M, probe, S, P), opt.dt);
     const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
-    PredictorChoice choice(opt, iteration_cost, point_at(x_typical), scale, P - 1);
+    PredictorChoice choice(opt, cost, point_at(x_typical), scale, P - 1);
     auto u = base_point_series(M, probe, S, P, std::ref(choice));
     u.resize(std::min(u.size(), choice.order()), std::vector<Poly>{});
-    return build(M, u);
+    return build(M, u, opt.dt);
 }
 
 void Predictor::eval(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& xb) const {

@@ -12,22 +12,27 @@ namespace pgi {
 /// choice scores order P from the series through dt^(P+1), its first neglected term).
 std::size_t predictor_limit(const StepOptions& opt);
 
-/// One Newton iteration's cost in multiply-adds, roughly: one evaluation of the Newton system (grad and
-/// Hess of S_dt, the realisation with its derivatives: evaluation_cost), the LU solve, and a fixed 150 for
-/// what is not arithmetic (calls, pivoting, the update), which measured F+J times on the bundled scenes put
-/// at 100-200 predictor terms' worth.
-double newton_iteration_cost(std::size_t evaluation_cost, std::size_t n);
+/// What Newton costs in multiply-adds, roughly, for the predictor's cost model: its first iteration (one
+/// evaluation of the Newton system: grad and Hess of S_dt, the realisation with its derivatives; the LU
+/// solve; and a fixed 150 for what is not arithmetic (calls, pivoting, the update), which measured F+J
+/// times on the bundled scenes put at 100-200 predictor terms' worth), and each later one (simplified
+/// Newton: the residual alone and a solve with the kept factors; the first's cost where it is not used).
+struct NewtonCost {
+    double first = 0, later = 0;
+};
+NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, std::size_t n, bool simplified);
 
 class Predictor {
 public:
     Predictor() = default;
-    /// u[m - 1] = u_m, one polynomial per coordinate (P = u.size(); P = 0 predicts xb = x).
-    static Predictor build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u);
+    /// u[m - 1] = u_m, one polynomial per coordinate (P = u.size(); P = 0 predicts xb = x); planned_dt as
+    /// for DtSeriesMap.
+    static Predictor build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u, double planned_dt = 0);
     /// The series of the base point of the truncated realisation probe and S_1..S_k, to the order asked
     /// (opt.predictor_order) or else to the order P <= min(predictor_limit - 1, probe.degree - 1) minimising
-    /// the predictor's terms plus the Newton iterations it leaves at (x_typical, opt.dt) times iteration_cost.
+    /// the predictor's terms plus the Newton iterations it leaves at (x_typical, opt.dt) at their cost.
     static Predictor choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
-                            double iteration_cost, const Eigen::VectorXd& x_typical);
+                            const NewtonCost& cost, const Eigen::VectorXd& x_typical);
 
     std::size_t order() const { return order_; }
     /// xb = x + sum_m dt^m u_m(x). Allocates nothing.

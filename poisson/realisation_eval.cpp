@@ -342,14 +342,19 @@ void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eige
 namespace {
 
 // h(s) = sum_{j>=1} b_2j (-s)^(j-1) = (1 - (t/2) cot(t/2)) / s with s = t^2, and dh/ds: by the series
-// (b = b_2, b_4, ...) for s <= 4, where it converges like (s / 4 pi^2)^j, in closed form beyond.
+// (b = b_2, b_4, ...) for s <= 4, where its terms fall like (s / 4 pi^2)^j (by 10x or more a term), summed
+// until the next terms of h and dh are below 2^-56 of the sums (the tail past them is smaller still); in
+// closed form beyond.
 std::pair<double, double> rotation_coefficient(double s, const std::vector<double>& b) {
     if (s <= 4.0) {
-        double h = 0, dh = 0, power = 1;  // power = (-s)^(j-1)
-        for (std::size_t j = 0; j < b.size(); ++j) {
-            h += b[j] * power;
-            if (j + 1 < b.size()) dh += -static_cast<double>(j + 1) * b[j + 1] * power;  // d/ds (-s)^j = -j (-s)^(j-1)
+        constexpr double negligible = 0x1p-56;
+        double h = b[0], dh = 0, power = 1;  // power = (-s)^(j-1) for the term j + 1
+        for (std::size_t j = 1; j < b.size(); ++j) {
+            const double dterm = -static_cast<double>(j) * b[j] * power;  // d/ds (-s)^j = -j (-s)^(j-1)
             power *= -s;
+            const double term = b[j] * power;
+            h += term, dh += dterm;
+            if (std::abs(term) <= negligible * std::abs(h) && std::abs(dterm) <= negligible * std::abs(dh)) break;
         }
         return {h, dh};
     }
@@ -364,7 +369,8 @@ std::pair<double, double> rotation_coefficient(double s, const std::vector<doubl
 // L(p) skew 3 x 3, so L^3 = -s L with s = |L|_F^2 / 2, and g(L) = I - L/2 + h(s) L^2 exactly (docs/math.md 3,
 // g(z) = z / (e^z - 1) = 1 - z/2 + sum_j b_2j z^2j; its even part at z = i t is (t/2) cot(t/2)).
 void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
-    const Eigen::Matrix3d L = p[0] * C_[0] + p[1] * C_[1] + p[2] * C_[2];
+    const auto C_j = [this](std::size_t j) { return Eigen::Map<const Eigen::Matrix3d>(C_[j].data()); };
+    const Eigen::Matrix3d L = p[0] * C_j(0) + p[1] * C_j(1) + p[2] * C_j(2);
     const double s = 0.5 * L.squaredNorm();
     const auto [h, dh] = rotation_coefficient(s, b_);
     const Eigen::Vector3d X = x, Lx = L * X, L2x = L * Lx;
@@ -372,7 +378,7 @@ void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::
     v.alpha = X - 0.5 * Lx + h * L2x;
     v.alpha_x = Eigen::Matrix3d::Identity() - 0.5 * L + h * L2;
     for (Eigen::Index j = 0; j < 3; ++j) {
-        const Eigen::Matrix3d C = C_[static_cast<std::size_t>(j)];
+        const auto C = C_j(static_cast<std::size_t>(j));
         const Eigen::Vector3d Cx = C * X;
         const double ds = (L.array() * C.array()).sum();  // d s / d p_j
         v.alpha_p.col(j) = -0.5 * Cx + h * (C * Lx + L * Cx) + dh * ds * L2x;

@@ -120,7 +120,7 @@ StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& 
         // |L| may grow along the orbit and during Newton: a margin of 1.5 before scaling and squaring takes over
         const double norm = RealisationEvaluator::lie_poisson(pi, 0).operator_norm_at(p0);
         const std::size_t D = RealisationEvaluator::series_degree_for(1.5 * norm, std::max<std::size_t>(D_min, 2), opt.max_degree);
-        return {RealisationEvaluator::lie_poisson(pi, D), probe.method + " (series, scaling and squaring beyond)", D, true, 0.0};
+        return {RealisationEvaluator::lie_poisson(pi, D), probe.method + " (series, scaling and squaring beyond)", D, true, 0.0, false};
     }
     StepRealisation r;
     const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());

@@ -27,6 +27,11 @@ struct StepRealisation {
     std::size_t degree = 0;               // D (0 for the log-canonical closed form)
     bool exact = false;                   // a closed form: no truncation
     double truncation_estimate = 0;       // the largest neglected |A_m| / |x| at the typical state
+    /// Whether the acceptance test's alpha (RealisationEvaluator::check) is computed by the same formula as
+    /// Newton's (eval), so that simplified Newton on it converges to Newton's root: every form but the
+    /// general Lie-Poisson one, whose check sums g(L) x otherwise than eval does (differing by ~1e-13 |x|
+    /// past the series' radius).
+    bool simplified_newton = true;
 };
 
 /// A closed form where there is one (log-canonical; so(3)*-type; any other Lie-Poisson structure by its

@@ -1,7 +1,7 @@
 // Speed of the compiled step: ns per step for k = 1..6 on a scene at its default dt, the mean Newton
 // iterations, and two ratios measured in the same run: step time over one evaluation of the Newton
 // system (F and J), and step time over one evaluation of the vector field pi grad H compiled the same way.
-// Prints one JSON object per line. Usage: pgi_bench_step SCENE [K_MAX] [STEPS] [PREDICTOR_ORDER]
+// Prints one JSON object per line. Usage: pgi_bench_step SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER]
 #include "poisson/integrate.hpp"
 #include "tools/scene.hpp"
 
@@ -32,18 +32,21 @@ double median_ns(F&& fn, std::size_t calls) {
 
 int main(int argc, char** argv) {
     if (argc < 2) {
-        std::cerr << "usage: pgi_bench_step SCENE [K_MAX] [STEPS]\n";
+        std::cerr << "usage: pgi_bench_step SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER]\n";
         return 2;
     }
     const pgi::Scene s = pgi::load_scene(argv[1]);
-    const std::size_t k_max = argc > 2 ? std::stoul(argv[2]) : 6, steps = argc > 3 ? std::stoul(argv[3]) : 20000;
+    const std::string ks = argc > 2 ? argv[2] : "6";
+    const auto colon = ks.find(':');
+    const std::size_t k_min = colon == std::string::npos ? 1 : std::stoul(ks.substr(0, colon));
+    const std::size_t k_max = std::stoul(colon == std::string::npos ? ks : ks.substr(colon + 1)), steps = argc > 3 ? std::stoul(argv[3]) : 20000;
     const std::size_t predictor = argc > 4 ? std::stoul(argv[4]) : 0;
     const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
     const auto field = pgi::CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), s.phase_space().coordinate_vars());
     Eigen::VectorXd f(x0.size()), y = x0;
     double sink = 0;
     const double field_ns = median_ns([&](std::size_t i) { y[0] = x0[0] + 1e-12 * double(i & 7); field.eval(y.data(), f.data()); sink += f[0]; }, 200000);
-    for (std::size_t k = 1; k <= k_max; ++k) {
+    for (std::size_t k = k_min; k <= k_max; ++k) {
         pgi::StepOptions opt;
         opt.k = k;
         opt.dt = s.dt;
