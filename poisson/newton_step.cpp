@@ -105,9 +105,8 @@ std::size_t choose_degree(const PoissonStructure& pi, const StepOptions& opt, st
 // One Newton iteration's cost in multiply-adds, roughly: grad and Hess of S_dt, the realisation with its
 // derivatives, the LU solve, and a fixed 150 for what is not arithmetic (calls, pivoting, the update),
 // which measured F+J times on the bundled scenes put at 100-200 predictor terms' worth.
-double iteration_cost(const CompiledMap& gradient, const RealisationEvaluator& r, std::size_t n) {
-    const double N = static_cast<double>(n);
-    return static_cast<double>(gradient.num_terms() + gradient.num_monomials() + r.cost()) + N * N * N / 3 + 2 * N * N + 150;
+double iteration_cost(const CompiledMap& gradient, const RealisationEvaluator& r, const NewtonMatrix& J) {
+    return static_cast<double>(gradient.num_terms() + gradient.num_monomials() + r.cost(J.solver() == NewtonSolver::sparse)) + J.cost() + 150;
 }
 
 // Newton iterations from a start of relative error e: each squares the error, and the step stops after
@@ -126,8 +125,11 @@ int expected_iterations(double e, double tol) {
 class PredictorChoice {
 public:
     static constexpr double cheap_order_terms = 500;
-    PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale, std::size_t limit)
-        : opt_(opt), iteration_cost_(iteration_cost), point_(std::move(point)), scale_(scale), limit_(limit) {}
+    /// cap_stops: whether an order above cheap_order_terms stops the choice (not while scoring the orders
+    /// computed anyway, through the first pass's limit).
+    PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale, std::size_t limit,
+                    bool cap_stops = true)
+        : opt_(opt), iteration_cost_(iteration_cost), point_(std::move(point)), scale_(scale), limit_(limit), cap_stops_(cap_stops) {}
     bool operator()(const std::vector<Series>& v) {
         const std::size_t s = v.front().order() - 1;  // exact through dt^s: scores the order P = s - 1
         double e = 0, terms = 0, top = 0;
@@ -146,11 +148,17 @@ public:
         // A first neglected term that does not shrink means the series diverges at this dt.
         const bool hopeless = terms + top >= best_cost_ - iteration_cost_;
         const bool diverging = e_ > 0 && e >= e_;
-        const bool stop = iterations == 1 || s >= limit_ + 1 || hopeless || top > cheap_order_terms || diverging;
+        const bool capped = top > cheap_order_terms;
+        capped_ = capped_ || capped;
+        const bool decided = iterations == 1 || hopeless || (capped && cap_stops_) || diverging;
+        at_limit_ = !decided && s >= limit_ + 1;
         e_ = e;
-        return stop;
+        return decided || s >= limit_ + 1;
     }
     std::size_t order() const { return best_.value_or(0); }
+    /// Whether the choice stopped only because its limit was reached (a higher limit could choose otherwise)
+    /// with every order seen within the cap.
+    bool at_limit() const { return at_limit_ && !capped_; }
 
 private:
     const StepOptions& opt_;
@@ -161,6 +169,8 @@ private:
     std::optional<std::size_t> best_;
     double best_cost_ = 0;
     double e_ = 0;  // of the order before
+    bool cap_stops_;
+    bool at_limit_ = false, capped_ = false;
 };
 
 // dx = J^{-1} r by Eigen's partial-pivoting LU; at the common small sizes on fixed-size matrices,
@@ -222,19 +232,6 @@ RealisationEvaluator make_evaluator(const PoissonStructure& pi, const StepOption
     return RealisationEvaluator::polynomial(pi, truncated(probe, info.degree), neglected_parts(probe, info.degree));
 }
 
-// grad S_dt and its Hessian (column-major) at x; grad S_dt alone; the sizes of grad S_dt's terms at |x|.
-std::array<CompiledMap, 3> gradient_maps(const PhaseSpace& M, const Poly& S_dt) {
-    const std::size_t n = M.dim();
-    std::vector<Poly> g, sizes;
-    for (std::size_t l = 0; l < n; ++l) g.push_back(derivative(S_dt, M.x(l)));
-    for (const auto& gl : g) sizes.push_back(absolute_coefficients(gl));
-    std::vector<Poly> grad(g);
-    for (std::size_t c = 0; c < n; ++c)
-        for (std::size_t r = 0; r < n; ++r) g.push_back(derivative(g[c], M.x(r)));
-    return {CompiledMap::build(g, M.coordinate_vars()), CompiledMap::build(grad, M.coordinate_vars()),
-            CompiledMap::build(sizes, M.coordinate_vars())};
-}
-
 }  // namespace
 
 NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
@@ -259,7 +256,11 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     const std::size_t D_min = std::max<std::size_t>(realisation_degree_for_order(opt.k), 1);
     const std::size_t P_wanted = opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 8) + 1;
     const std::size_t radial_start = std::max(D_min + 2, opt.predictor_order);  // two measured degrees to fit
-    Realisation probe = build_realisation(pi, opt.realisation, radial ? radial_start : std::max(D_min, P_wanted) + 2);
+    // a closed form is built through the degree the predictor's first pass reads (below), deeper only if it goes on:
+    // at large n every degree holds O(n) terms
+    const auto closed_degree = [&](std::size_t P) { return std::max(D_min, P) + 2; };
+    const std::size_t P_first_wanted = opt.predictor_order ? P_wanted : std::min<std::size_t>(P_wanted, 3);
+    Realisation probe = build_realisation(pi, opt.realisation, radial ? radial_start : closed_degree(P_first_wanted));
     auto S = hamilton_jacobi_terms(M, probe, H, opt.k);
     Poly S_dt = sum_powers(S, dt, 1);  // S_dt = sum_j dt^j S_j, exactly in the double dt
 
@@ -270,16 +271,27 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
         p0[static_cast<Eigen::Index>(l)] = evaluate(derivative(S_dt, M.x(l)), phase_point(x_typical, zero));
     const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
     s.realisation_ = make_evaluator(pi, opt, D_min, probe, phase_point(x_typical, p0), p0, scale, s.info_);
-    auto maps = gradient_maps(M, S_dt);
-    s.gradient_ = std::move(maps[0]);
-    s.gradient_only_ = std::move(maps[1]);
-    s.gradient_size_ = std::move(maps[2]);
+    s.gradient_ = compile_gradient(M, S_dt);
+    s.matrix_ = NewtonMatrix(s.realisation_.pattern_x(), s.realisation_.pattern_p(), s.gradient_.hessian, opt.solver);
+    s.sparse_ = s.matrix_.solver() == NewtonSolver::sparse;
+    s.info_.solver = s.matrix_.solver();
 
     // xb = x + sum_m dt^m u_m, from the exact series of the base point, to the order chosen.
-    const std::size_t P = std::min(P_wanted, probe.degree);
-    PredictorChoice choice(opt, iteration_cost(s.gradient_, s.realisation_, n), phase_point(x_typical, zero), scale, P - 1);
-    auto u = opt.predictor_order ? base_point_series(M, probe, S, P) : base_point_series(M, probe, S, P, std::ref(choice));
-    s.info_.predictor_order = opt.predictor_order ? P : choice.order();
+    const std::size_t P = radial ? std::min(P_wanted, probe.degree) : P_wanted;
+    const double cost = iteration_cost(s.gradient_.with_hessian, s.realisation_, s.matrix_);
+    // The displacement's exact series is computed to the limit's order before the choice sees it, and at large n
+    // (the lattices) each order holds O(n) terms: the choice first scores P = 0..2 (all of them: they are computed
+    // anyway) and goes on to P only when the limit alone stopped it and no order passed the cap.
+    const std::size_t P_first = std::min<std::size_t>(P, 3);
+    std::optional<PredictorChoice> choice;
+    choice.emplace(opt, cost, phase_point(x_typical, zero), scale, P_first - 1, false);
+    auto u = opt.predictor_order ? base_point_series(M, probe, S, P) : base_point_series(M, probe, S, P_first, std::ref(*choice));
+    if (!opt.predictor_order && choice->at_limit() && P_first < P) {
+        if (probe.degree < P) probe = build_realisation(pi, opt.realisation, closed_degree(P));
+        choice.emplace(opt, cost, phase_point(x_typical, zero), scale, P - 1);
+        u = base_point_series(M, probe, S, P, std::ref(*choice));
+    }
+    s.info_.predictor_order = opt.predictor_order ? P : choice->order();
     std::vector<Poly> xb;
     for (std::size_t l = 0; l < n; ++l) {
         std::vector<Poly> c;
@@ -293,10 +305,14 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
 
 void NewtonStepper::size_scratch(std::size_t n) {
     const auto N = static_cast<Eigen::Index>(n);
-    v_ = RealisationValues(n);
     check_ = RealisationCheck(n);
     for (auto* v : {&xb_, &xb_good_, &p_, &r_, &dx_, &gsize_, &tol_}) v->setZero(N);
-    gh_.setZero(N + N * N);
+    gh_.setZero(N + static_cast<Eigen::Index>(gradient_.hessian.nonzeros()));
+    if (sparse_) {  // nothing n x n: the values live on the patterns
+        sparse_values_ = realisation_.sparse_values();
+        return;
+    }
+    v_ = RealisationValues(n);
     hess_.setZero(N, N);
     J_.setZero(N, N);
     D_.setZero(N, N);
@@ -305,16 +321,30 @@ void NewtonStepper::size_scratch(std::size_t n) {
 
 void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
     const auto n = xb.size();
-    gradient_.eval(xb.data(), gh_.data());
+    gradient_.with_hessian.eval(xb.data(), gh_.data());
     p_ = gh_.head(n);
-    hess_ = Eigen::Map<const Eigen::MatrixXd>(gh_.data() + n, n, n);
+    if (sparse_) {
+        realisation_.eval(xb, p_, sparse_values_);
+        return;
+    }
+    gradient_.hessian.scatter(gh_.data() + n, hess_);
     realisation_.eval(xb, p_, v_);
+}
+
+// J = alpha_x + alpha_p Hess S_dt at the point evaluate_at saw.
+void NewtonStepper::assemble() {
+    if (sparse_) {
+        matrix_.assemble(sparse_values_.alpha_x.data(), sparse_values_.alpha_p.data(), gh_.data() + p_.size());
+        return;
+    }
+    J_ = v_.alpha_x;
+    J_.noalias() += v_.alpha_p * hess_;
 }
 
 const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
     evaluate_at(xb);
-    J_ = v_.alpha_x;
-    J_.noalias() += v_.alpha_p * hess_;
+    assemble();
+    if (sparse_) J_ = matrix_.dense();
     return J_;
 }
 
@@ -331,10 +361,13 @@ constexpr double residual_kappa = 64;
 // system), is added to the tolerance only if the test fails without it (the stricter test passing suffices).
 bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction) {
     if (small_correction) {
-        r_.noalias() = hess_ * dx_;
+        if (sparse_)
+            gradient_.hessian.multiply(gh_.data() + p_.size(), dx_, r_);
+        else
+            r_.noalias() = hess_ * dx_;
         p_ -= r_;
     } else {
-        gradient_only_.eval(xb_.data(), p_.data());
+        gradient_.gradient.eval(xb_.data(), p_.data());
     }
     realisation_.check(xb_, p_, check_);
     r_ = check_.alpha - x;
@@ -342,10 +375,8 @@ bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction
     tol_ = residual_kappa * unit_roundoff * (x.cwiseAbs() + check_.size);
     if (!within_tolerance()) {
         r_ = xb_.cwiseAbs();
-        gradient_size_.eval(r_.data(), gsize_.data());
-        const auto n = x.size();
-        for (Eigen::Index i = 0; i < n; ++i)
-            for (Eigen::Index l = 0; l < n; ++l) tol_[i] += residual_kappa * unit_roundoff * std::abs(v_.alpha_p(i, l)) * gsize_[l];
+        gradient_.gradient_size.eval(r_.data(), gsize_.data());
+        add_propagated_sizes();
         r_ = check_.alpha - x;
         within_tolerance();
     }
@@ -353,6 +384,22 @@ bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction
     const double size = std::max({x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min()});
     truncation_ = check_.neglected / size;
     return ratio_ <= 1;
+}
+
+// tol_i += kappa u sum_l |alpha_p(i, l)| gsize_l: the round-off of grad S_dt's terms carried into alpha_i, over
+// alpha_p's pattern on the sparse path.
+void NewtonStepper::add_propagated_sizes() {
+    const double c = residual_kappa * unit_roundoff;
+    if (sparse_) {
+        const SparsePattern& P = realisation_.pattern_p();
+        for (std::size_t l = 0; l < P.cols; ++l)
+            for (int k = P.outer[l]; k < P.outer[l + 1]; ++k)
+                tol_[P.inner[std::size_t(k)]] += c * std::abs(sparse_values_.alpha_p[std::size_t(k)]) * gsize_[Eigen::Index(l)];
+        return;
+    }
+    const auto n = tol_.size();
+    for (Eigen::Index i = 0; i < n; ++i)
+        for (Eigen::Index l = 0; l < n; ++l) tol_[i] += c * std::abs(v_.alpha_p(i, l)) * gsize_[l];
 }
 
 // ratio_ = max_i |r_i| / tol_i; whether it is at most 1.
@@ -368,8 +415,9 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
     double previous = std::numeric_limits<double>::infinity(), previous_residual = previous, good_residual = previous, lambda = 1;
     for (int it = 1; it <= opt_.newton_max_iter; ++it) {
         // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
-        newton_system(xb_);
-        r_ = v_.alpha - x;
+        evaluate_at(xb_);
+        assemble();
+        r_ = evaluated_alpha() - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
         // Far from the solution (large steps) a full correction may overshoot: back along it, halving,
         // while the residual grows above sqrt(u) |x| (below, growth is round-off noise).
@@ -379,10 +427,14 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
             xb_ = xb_good_ - lambda * dx_;
             continue;
         }
-        if (!std::isfinite(residual_) || !v_.delta.allFinite()) return StepStatus::non_finite;
+        if (!std::isfinite(residual_) || !evaluated_delta().allFinite()) return StepStatus::non_finite;
         good_residual = residual_, lambda = 1;
         xb_good_ = xb_;
-        solve(J_, r_, dx_, lu_);
+        if (sparse_) {
+            if (!matrix_.solve(r_, dx_)) return StepStatus::non_finite;  // J singular
+        } else {
+            solve(J_, r_, dx_, lu_);
+        }
         xb_ -= dx_;
         iterations_ = it;
         correction_ = dx_.lpNorm<Eigen::Infinity>();
@@ -419,13 +471,18 @@ StepStatus NewtonStepper::step(const Eigen::VectorXd& x, Eigen::VectorXd& increm
 
 double NewtonStepper::residual_at_solution(const Eigen::VectorXd& x) {
     evaluate_at(xb_);
-    return (v_.alpha - x).lpNorm<Eigen::Infinity>();
+    return (evaluated_alpha() - x).lpNorm<Eigen::Infinity>();
 }
 
 Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
     Eigen::VectorXd inc(x.size());
     if (step(x, inc) != StepStatus::ok) throw std::runtime_error("NewtonStepper::tangent_map: the step failed");
     newton_system(xb_);
+    if (sparse_) {  // the dense blocks from the patterns: a tangent map is dense anyway
+        v_ = RealisationValues(dim());
+        realisation_.eval(xb_, p_, v_);
+        gradient_.hessian.scatter(gh_.data() + p_.size(), hess_);
+    }
     D_ = v_.delta_x;
     D_.noalias() += v_.delta_p * hess_;
     // x = alpha(xb(x)) gives dxb/dx = J^{-1}; x_new = beta(xb) = alpha + delta, so Dphi = (J + D) J^{-1}

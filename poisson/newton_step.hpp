@@ -2,7 +2,9 @@
 // NewtonStepper: the paper's Poisson integrator of order k (docs/math.md 6): solve alpha(xb, grad S_dt(xb)) = x
 // for xb, then x_new = beta(xb, grad S_dt(xb)), written as x_new = x + (beta - alpha)(xb, grad S_dt(xb)).
 #include "poisson/hamilton_jacobi.hpp"
+#include "poisson/newton_matrix.hpp"
 #include "poisson/realisation_eval.hpp"
+#include "poisson/sparse_hessian.hpp"
 
 #include <Eigen/Dense>
 
@@ -29,6 +31,7 @@ struct StepOptions {
     double newton_tol = 1e-9;             // try the acceptance test once |dx| <= tol max(|x|, |xb|): the next correction is ~|dx|^2
     double truncation_bound = 1e-12;      // a truncated realisation's neglected terms at the solution, relative to |x|
     std::size_t predictor_order = 0;      // P of the base point's series; 0 chooses it by cost, up to max(k + 1, 6)
+    NewtonSolverChoice solver = NewtonSolverChoice::automatic;  // the Newton matrix dense or sparse (NewtonMatrix::choose)
 };
 
 /// How the step was built: the realisation's method and degree, and the size of the neglected
@@ -39,6 +42,7 @@ struct StepInfo {
     bool exact_realisation = false;
     double truncation_estimate = 0;       // max_{m > D} |A_m(x, grad S_dt(x))|_inf / |x|_inf at the typical state (probed degrees)
     std::size_t predictor_order = 0;      // the base point is predicted by its exact series in dt to this order
+    NewtonSolver solver = NewtonSolver::dense;  // sparse: J, the Hessian and the realisation's derivatives on their patterns
 };
 
 class NewtonStepper {
@@ -82,17 +86,22 @@ private:
     void evaluate_at(const Eigen::VectorXd& xb);
     bool accept_check(const Eigen::VectorXd& x, bool small_correction);
     bool within_tolerance();
+    void add_propagated_sizes();
     void size_scratch(std::size_t n);
+    void assemble();
+    const Eigen::VectorXd& evaluated_alpha() const { return sparse_ ? sparse_values_.alpha : v_.alpha; }
+    const Eigen::VectorXd& evaluated_delta() const { return sparse_ ? sparse_values_.delta : v_.delta; }
 
     std::size_t k_ = 1;
     double dt_ = 0;
     StepOptions opt_;
     StepInfo info_;
     RealisationEvaluator realisation_;
-    CompiledMap gradient_;                // x -> grad S_dt (n), Hess S_dt (n x n, column-major)
+    CompiledGradient gradient_;           // x -> grad S_dt (n), Hess S_dt on its pattern; grad S_dt alone; its terms' sizes
     CompiledMap predictor_;               // x -> xb, the base point's series in dt
-    CompiledMap gradient_only_;           // x -> grad S_dt
-    CompiledMap gradient_size_;           // |x| -> the sizes of grad S_dt's terms
+    NewtonMatrix matrix_;                 // the sparse path's J (unused on the dense path)
+    bool sparse_ = false;
+    SparseRealisationValues sparse_values_;
     RealisationCheck check_;
     Eigen::VectorXd gsize_, tol_;
     RealisationValues v_;

@@ -79,6 +79,12 @@ const std::vector<std::size_t>& PoissonStructure::entry_vars(std::size_t i, std:
     return it != rows_[i].end() && it->j == j ? it->vars : none;
 }
 
+std::vector<std::size_t> PoissonStructure::row_support(std::size_t i) const {
+    std::vector<std::size_t> js;
+    for (const auto& e : rows_[i]) js.push_back(e.j);
+    return js;
+}
+
 Rational PoissonStructure::log_canonical_coefficient(std::size_t i, std::size_t j) const {
     if (class_ != StructureClass::log_canonical)
         throw std::logic_error("pgi::PoissonStructure: log_canonical_coefficient on a " + to_string(class_) + " structure");

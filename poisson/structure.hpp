@@ -39,6 +39,9 @@ public:
     /// For a log-canonical structure, a_ij with pi_ij = a_ij x_i x_j.
     Rational log_canonical_coefficient(std::size_t i, std::size_t j) const;
 
+    /// The j with pi_ij != 0, increasing (pi_ji != 0 too, by skew-symmetry): the structure's pattern.
+    std::vector<std::size_t> row_support(std::size_t i) const;
+
     /// {f, g} = grad f^T pi grad g.
     Poly bracket(const Poly& f, const Poly& g) const;
     /// The Hamiltonian vector field pi grad H.
