@@ -11,6 +11,7 @@
 #include "poisson/structure.hpp"
 #include "scheme/ensemble.hpp"
 #include "scheme/input.hpp"
+#include "scheme/run_loop.hpp"
 #include "scheme/scheme.hpp"
 #include "scheme/trajectory.hpp"
 #include "series/compile.hpp"

@@ -7,12 +7,12 @@
 
 namespace pgi {
 
-EventSet EventSet::build(const PhaseSpace& M, std::vector<EventSpec> specs) {
+EventSet EventSet::build(const PhaseSpace& M, std::vector<EventSpec> specs, const EventNaming& naming) {
     EventSet s;
     s.dim_ = M.dim();
     std::vector<Poly> g, grad;
     for (std::size_t i = 0; i < specs.size(); ++i) {
-        const std::string name = "event " + std::to_string(i + 1);
+        const std::string name = naming(i);
         if (specs[i].direction < -1 || specs[i].direction > 1)
             throw std::invalid_argument(name + ": direction " + std::to_string(specs[i].direction) +
                                         " is not -1, 0 or 1");

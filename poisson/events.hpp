@@ -15,14 +15,22 @@ struct EventSpec {
     bool terminal = false;        // the integration stops at its first crossing
 };
 
+/// How errors name event i: prefix, i + first, suffix ("event 2" on the command line, "events[1]" in Python).
+struct EventNaming {
+    std::string prefix = "event ";
+    std::size_t first = 1;
+    std::string suffix;
+    std::string operator()(std::size_t i) const { return prefix + std::to_string(i + first) + suffix; }
+};
+
 /// The event functions compiled with their gradients.
 class EventSet {
 public:
     EventSet() = default;
-    /// Throws ParseError "event I: malformed polynomial ..." (I from 1) for a polynomial the parser
-    /// refuses (unknown variable, syntax, ...), std::invalid_argument for a constant g or a direction
-    /// other than -1, 0, 1.
-    static EventSet build(const PhaseSpace& M, std::vector<EventSpec> specs);
+    /// Throws ParseError "event I: malformed polynomial ..." (I from 1, or as naming says) for a polynomial
+    /// the parser refuses (unknown variable, syntax, ...: the parser's message gives the position),
+    /// std::invalid_argument for a constant g or a direction other than -1, 0, 1.
+    static EventSet build(const PhaseSpace& M, std::vector<EventSpec> specs, const EventNaming& naming = {});
 
     std::size_t size() const { return specs_.size(); }
     std::size_t dim() const { return dim_; }
@@ -80,6 +88,19 @@ struct EventRun {
     double t = 0;                     // where the run ended (the stopping crossing's t when stopped)
 };
 
+/// The event work of step n (x_previous -> x_n, of size dt) inside a run's observer: its crossings passed
+/// to on_crossing(const Crossing&) in time order (and counted); the first that stops the run (on_crossing
+/// returned true, or its event is terminal) is returned, nullptr when none does.
+template <class OnCrossing>
+const Crossing* report_crossings(EventDetector& detector, const Eigen::VectorXd& x_previous, const Eigen::VectorXd& x_n,
+                                 double dt, std::size_t n, std::size_t& count, OnCrossing&& on_crossing) {
+    for (const Crossing& c : detector.advance(x_previous, x_n, double(n - 1) * dt, dt, n)) {
+        ++count;
+        if (on_crossing(c) || detector.events().spec(c.event).terminal) return &c;
+    }
+    return nullptr;
+}
+
 /// Integrates N steps from x (in place; at the end, x is the final state or the stopping crossing's
 /// state), calling on_crossing(const Crossing&) for every crossing in time order; it returns true to
 /// stop the run there, as a terminal event does.
@@ -92,14 +113,11 @@ EventRun integrate_with_events(NewtonStepper& stepper, EventDetector& detector, 
     const double dt = stepper.dt();
     run.integration = integrate_steps(stepper, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& xn) {
         if (n == 0) return false;
-        for (const Crossing& c : detector.advance(previous, xn, double(n - 1) * dt, dt, n)) {
-            ++run.crossings;
-            if (on_crossing(c) || detector.events().spec(c.event).terminal) {
-                run.stopped = true;
-                run.t = c.t;
-                stop_state = c.x;
-                return true;
-            }
+        if (const Crossing* c = report_crossings(detector, previous, xn, dt, n, run.crossings, on_crossing)) {
+            run.stopped = true;
+            run.t = c->t;
+            stop_state = c->x;
+            return true;
         }
         previous = xn;
         run.t = t;

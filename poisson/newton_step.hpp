@@ -1,10 +1,14 @@
 #pragma once
 // NewtonStepper: the paper's Poisson integrator of order k (docs/math.md 6): solve alpha(xb, grad S_dt(xb)) = x
 // for xb, then x_new = beta(xb, grad S_dt(xb)), written as x_new = x + (beta - alpha)(xb, grad S_dt(xb)).
+// Its build has three named pieces: the realisation's truncation degree (poisson/truncation_degree), the
+// predictor (poisson/predictor), and here Newton with the acceptance test. dt is a run-time argument.
 #include "poisson/hamilton_jacobi.hpp"
 #include "poisson/newton_matrix.hpp"
-#include "poisson/realisation_eval.hpp"
+#include "poisson/predictor.hpp"
 #include "poisson/sparse_hessian.hpp"
+#include "poisson/step_options.hpp"
+#include "poisson/truncation_degree.hpp"
 
 #include <Eigen/Dense>
 
@@ -22,43 +26,31 @@ namespace pgi {
 enum class StepStatus { ok, newton_not_converged, non_finite, truncation_above_bound, ill_conditioned };
 std::string to_string(StepStatus s);
 
-struct StepOptions {
-    std::size_t k = 2;                    // Hamilton-Jacobi order
-    double dt = 0.1;
-    RealisationChoice realisation = RealisationChoice::automatic;
-    std::size_t max_degree = 24;          // cap on the p-degree D of a truncated realisation
-    int newton_max_iter = 100;            // evaluations, backtracking included (large steps may need 30-70)
-    double newton_tol = 1e-9;             // try the acceptance test once |dx| <= tol max(|x|, |xb|): the next correction is ~|dx|^2
-    double truncation_bound = 1e-12;      // a truncated realisation's neglected terms at the solution, relative to |x|
-    std::size_t predictor_order = 0;      // P of the base point's series; 0 chooses it by cost, up to max(k + 1, 6)
-    NewtonSolverChoice solver = NewtonSolverChoice::automatic;  // the Newton matrix dense or sparse (NewtonMatrix::choose)
-};
-
-/// How the step was built: the realisation's method and degree, and the size of the neglected
-/// terms at the typical state (zero for exact closed forms).
-struct StepInfo {
-    std::string method;
-    std::size_t degree = 0;               // D (0 for the log-canonical closed form, which has no truncation)
-    bool exact_realisation = false;
-    double truncation_estimate = 0;       // max_{m > D} |A_m(x, grad S_dt(x))|_inf / |x|_inf at the typical state (probed degrees)
-    std::size_t predictor_order = 0;      // the base point is predicted by its exact series in dt to this order
-    NewtonSolver solver = NewtonSolver::dense;  // sparse: J, the Hessian and the realisation's derivatives on their patterns
-};
-
 class NewtonStepper {
 public:
-    /// Slow, exact: S_1..S_k, the realisation to the degree dt needs (chosen so the truncated terms
-    /// are below round-off at x_typical), the series of the base point, all compiled to double.
-    /// Requires pi to satisfy Jacobi. Throws std::invalid_argument on k < 1, dt <= 0 or a bad x_typical.
+    /// Slow, exact: the realisation to the degree dt needs (chosen so the truncated terms are below
+    /// round-off at x_typical), asked of realisation (which returns alpha and beta through a p-degree: the
+    /// Scheme binds it to its own, built once), the series of the base point, grad S_j and Hess S_j and the
+    /// predictor's u_m compiled to double, dt a run-time argument. S = S_1..S_k (opt.k of them). opt.dt is
+    /// the largest dt the caller plans: the degree and the predictor's order are chosen for it (a larger dt
+    /// at run time is guarded by the acceptance test). Requires pi to satisfy Jacobi. Throws
+    /// std::invalid_argument on k < 1, S of another length, dt <= 0 or a bad x_typical.
+    static NewtonStepper build(const PoissonStructure& pi, const std::vector<Poly>& S, const RealisationSource& realisation,
+                               const StepOptions& opt, const Eigen::VectorXd& x_typical);
+    /// The same from H: the realisation and S_1..S_k computed here (poisson-level callers and tests).
     static NewtonStepper build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
                                const Eigen::VectorXd& x_typical);
 
-    /// Fast: increment = phi_dt(x) - x. Allocates nothing, throws nothing.
-    [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, Eigen::VectorXd& increment);
+    /// Fast: increment = phi_dt(x) - x. Allocates nothing (on the dense path; SparseLU's factorisation allocates
+    /// on the sparse one), throws nothing. dt is any positive step (a
+    /// non-finite one returns non_finite); the realisation degree and predictor were chosen for built_dt().
+    [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment);
+    /// The same at dt().
+    [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, Eigen::VectorXd& increment) { return step(x, dt_, increment); }
     /// Dphi_dt(x) by implicit differentiation: I + (delta_x + delta_p Hess S) J^{-1} at the solution.
     Eigen::MatrixXd tangent_map(const Eigen::VectorXd& x);
 
-    /// One evaluation of the Newton system at xb: F = alpha(xb, grad S_dt(xb)) and its Jacobian J.
+    /// One evaluation of the Newton system at xb, at dt(): F = alpha(xb, grad S_dt(xb)) and its Jacobian J.
     /// What one Newton iteration costs before the LU solve (the benchmarks' unit of work).
     const Eigen::MatrixXd& newton_system(const Eigen::VectorXd& xb);
 
@@ -77,29 +69,36 @@ public:
     /// The base point xb the last step ended with (solving alpha(xb, grad S_dt(xb)) = x after an ok step).
     const Eigen::VectorXd& base_point() const { return xb_; }
     std::size_t order() const { return 2 * ((k_ + 1) / 2); }  // odeint's Stepper::order()
+    /// The step of step(x, increment) and tangent_map: built_dt() unless set_dt changed it.
     double dt() const { return dt_; }
+    /// Throws std::invalid_argument unless dt is positive and finite.
+    void set_dt(double dt);
+    /// The dt the build chose the realisation degree and the predictor for (StepOptions::dt).
+    double built_dt() const { return opt_.dt; }
     std::size_t dim() const { return static_cast<std::size_t>(xb_.size()); }
     const StepInfo& info() const { return info_; }
 
 private:
     StepStatus newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment);
+    const Eigen::MatrixXd& jacobian_at(const Eigen::VectorXd& xb);  // at step_dt_
     void evaluate_at(const Eigen::VectorXd& xb);
     bool accept_check(const Eigen::VectorXd& x, bool small_correction);
     bool within_tolerance();
     void add_propagated_sizes();
     void size_scratch(std::size_t n);
-    void assemble();
+    void assemble();  // J at the point evaluate_at saw
     const Eigen::VectorXd& evaluated_alpha() const { return sparse_ ? sparse_values_.alpha : v_.alpha; }
     const Eigen::VectorXd& evaluated_delta() const { return sparse_ ? sparse_values_.delta : v_.delta; }
 
     std::size_t k_ = 1;
-    double dt_ = 0;
+    double dt_ = 0;                       // the default step
+    double step_dt_ = 0;                  // the step being taken
     StepOptions opt_;
     StepInfo info_;
     RealisationEvaluator realisation_;
-    CompiledGradient gradient_;           // x -> grad S_dt (n), Hess S_dt on its pattern; grad S_dt alone; its terms' sizes
-    CompiledMap predictor_;               // x -> xb, the base point's series in dt
-    NewtonMatrix matrix_;                 // the sparse path's J (unused on the dense path)
+    CompiledGradient gradient_;           // (x, dt) -> grad S_dt (n), Hess S_dt on its pattern; grad S_dt alone; its terms' sizes
+    Predictor predictor_;                 // (x, dt) -> xb, the base point's series in dt
+    NewtonMatrix matrix_;                 // the sparse path's J (its pattern and SparseLU)
     bool sparse_ = false;
     SparseRealisationValues sparse_values_;
     RealisationCheck check_;

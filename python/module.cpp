@@ -15,6 +15,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <tuple>
 
 namespace py = pybind11;
 using namespace pybind11::literals;
@@ -170,18 +171,51 @@ double run_length(const PyScheme& s, std::optional<double> t_end_in) {
     return *t_end;
 }
 
+// The events as pgi/__init__.py normalises them: (g, direction, terminal). A bad one is an InputError
+// naming it as Python does ("events[1]: malformed polynomial 'q + w': unknown variable 'w' at position 4").
+pgi::TrajectoryEvents trajectory_events(const std::vector<std::tuple<std::string, int, bool>>& events, std::size_t samples) {
+    if (samples < 1) throw pgi::InputError("event_samples", "must be at least 1");
+    pgi::TrajectoryEvents e;
+    for (const auto& [g, direction, terminal] : events) e.specs.push_back({g, direction, terminal});
+    e.samples = samples;
+    e.naming = {"events[", 0, "]"};
+    return e;
+}
+
+py::dict crossings(const pgi::Trajectory& tr) {
+    const auto k = static_cast<py::ssize_t>(tr.crossings.size()), n = static_cast<py::ssize_t>(tr.dim);
+    py::array_t<std::size_t> index(k), step(k);
+    py::array_t<double> t(k), x({k, n});
+    for (py::ssize_t i = 0; i < k; ++i) {
+        const pgi::Crossing& c = tr.crossings[std::size_t(i)];
+        index.mutable_at(i) = c.event;
+        step.mutable_at(i) = c.step;
+        t.mutable_at(i) = c.t;
+        std::copy(c.x.data(), c.x.data() + n, x.mutable_data(i, 0));
+    }
+    return py::dict("event_index"_a = index, "event_t"_a = t, "event_x"_a = x, "event_step"_a = step);
+}
+
 py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::optional<double> dt_in,
-                   std::optional<double> t_end_in, std::size_t every, std::optional<Eigen::VectorXd> x_typical) {
+                   std::optional<double> t_end_in, std::size_t every, std::optional<Eigen::VectorXd> x_typical,
+                   const std::vector<std::tuple<std::string, int, bool>>& events, std::size_t event_samples) {
     if (!x0_in && !s.x0) throw pgi::InputError("x0", "missing: give x0 (the scheme has none)");
     const Eigen::VectorXd x0 = s.state(x0_in ? *x0_in : *s.x0, "x0");
     const double dt = s.step_size(dt_in);
     const double t_end = run_length(s, t_end_in);
     if (every < 1) throw pgi::InputError("every", "must be at least 1");
     if (x_typical) s.state(*x_typical, "x_typical");
+    const pgi::TrajectoryEvents watched = trajectory_events(events, event_samples);
     pgi::Trajectory tr;
-    {
+    try {
         py::gil_scoped_release release;  // the exact phase (first call) and the run are C++ only
-        tr = pgi::integrate(*s.scheme, x0, dt, t_end, every, x_typical);
+        tr = pgi::integrate(*s.scheme, x0, dt, t_end, every, x_typical, watched);
+    } catch (const pgi::ParseError& e) {  // a bad event (the other arguments were checked above)
+        throw pgi::InputError("", e.what());
+    } catch (const pgi::InputError&) {
+        throw;
+    } catch (const std::invalid_argument& e) {
+        throw pgi::InputError("", e.what());
     }
     const auto rows = static_cast<py::ssize_t>(tr.t.size()), n = static_cast<py::ssize_t>(tr.dim);
     const auto C = static_cast<py::ssize_t>(tr.casimir_error_max.size());
@@ -192,7 +226,9 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
                "energy_error"_a = py::array_t<double>(rows, tr.energy_error.data()), "casimir_error"_a = cas,
                "energy_error_max"_a = tr.energy_error_max, "casimir_error_max"_a = tr.casimir_error_max,
                "steps"_a = tr.steps, "dt"_a = dt, "newton_iterations_mean"_a = tr.newton_iterations_mean,
-               "newton_iterations_max"_a = tr.newton_iterations_max, "status"_a = pgi::to_string(tr.status));
+               "newton_iterations_max"_a = tr.newton_iterations_max,
+               "status"_a = tr.terminal_event ? std::string("terminal_event") : pgi::to_string(tr.status));
+    r.attr("update")(crossings(tr));  // empty without events
     if (tr.status != pgi::StepStatus::ok) {
         r["failed_step"] = tr.failed_step;
         r["failed_t"] = tr.failed_t;
@@ -312,7 +348,7 @@ PYBIND11_MODULE(_pgi, m) {
              }, "degree"_a)
         .def("_step", &step, "x"_a, "dt"_a = py::none())
         .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
-             "x_typical"_a = py::none())
+             "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{}, "event_samples"_a = 1)
         .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),
              "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none())
         .def("_typical_state", [](const PyScheme& s, const py::object& X0) {

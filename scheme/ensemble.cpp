@@ -1,8 +1,7 @@
 #include "scheme/ensemble.hpp"
 
-#include "poisson/integrate.hpp"
 #include "scheme/input.hpp"
-#include "scheme/trajectory.hpp"
+#include "scheme/run_loop.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -43,18 +42,15 @@ std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& 
 namespace {
 
 // What one worker owns: its copy of the compiled step (reset from the prototype before each trajectory, so
-// a trajectory starts from the state a single run's fresh stepper has), of the invariants, and scratch.
+// a trajectory starts from the state a single run's fresh stepper has), of the run loop (its compiled
+// invariants and scratch), and the state.
 struct Worker {
-    const Scheme* scheme;  // for the scale of each invariant at the trajectory's x0
     const NewtonStepper* prototype;
     NewtonStepper stepper;
-    CompiledMap invariants;
-    std::vector<double> values, initial, worst, scale;
+    RunLoop loop;
     Eigen::VectorXd x;
 
-    Worker(const Scheme& s, const NewtonStepper& p, const CompiledMap& inv)
-        : scheme(&s), prototype(&p), stepper(p), invariants(inv), values(inv.num_outputs()), initial(values), worst(values),
-          x(Eigen::Index(p.dim())) {}
+    Worker(const NewtonStepper& p, const RunLoop& l) : prototype(&p), stepper(p), loop(l), x(Eigen::Index(p.dim())) {}
 };
 
 TrajectoryStatus status_of(StepStatus s) {
@@ -63,8 +59,6 @@ TrajectoryStatus status_of(StepStatus s) {
                                                  : TrajectoryStatus::ok;
 }
 
-// One trajectory, the loop of pgi::integrate (scheme/trajectory.cpp) without its recording: the same
-// stepper, the same Kahan sum, the same relative errors at every step.
 // A row that is not finite: kept as it is, no step taken, its errors NaN.
 void end_non_finite_start(const Eigen::Ref<const RowMatrix>& X0, Eigen::Index i, EnsembleResult& r) {
     const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -74,32 +68,24 @@ void end_non_finite_start(const Eigen::Ref<const RowMatrix>& X0, Eigen::Index i,
     r.casimir_error.row(i).setConstant(nan);
 }
 
+// One trajectory: the run loop of pgi::integrate (scheme/run_loop.hpp) with an observer that keeps nothing
+// (the loop leaves x at the last state observed).
 void run_one(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, double dt, Eigen::Index i, EnsembleResult& r) {
     if (!X0.row(i).allFinite()) return end_non_finite_start(X0, i, r);
     EnsembleMember& m = r.members[std::size_t(i)];
-    auto out = r.x.row(i);
     w.stepper = *w.prototype;
     w.x = X0.row(i).transpose();
-    w.scale = invariant_scales(*w.scheme, std::span<const double>(w.x.data(), std::size_t(w.x.size())));
-    std::fill(w.worst.begin(), w.worst.end(), 0.0);
-    int iterations_max = 0;
-    const auto summary = integrate_steps(w.stepper, w.x, N, [&](std::size_t step, double, const Eigen::VectorXd& y) {
-        w.invariants.eval(y.data(), w.values.data());
-        if (step == 0) w.initial = w.values;
-        for (std::size_t k = 0; k < w.values.size(); ++k) w.worst[k] = std::max(w.worst[k], relative_error(w.values[k], w.initial[k], w.scale[k]));
-        iterations_max = std::max(iterations_max, step ? w.stepper.last_iterations() : 0);
-        out = y.transpose();  // the last state reached, kept if a later step fails
-        return false;
-    });
-    m.status = status_of(summary.status);
-    m.steps = summary.steps;
-    m.newton_iterations_mean = summary.mean_iterations;
-    m.newton_iterations_max = iterations_max;
-    r.energy_error(i) = w.worst[0];
-    for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c) r.casimir_error(i, c) = w.worst[std::size_t(1 + c)];
-    if (summary.status != StepStatus::ok) {
-        m.failed_step = summary.steps + 1;
-        m.failed_t = double(summary.steps) * dt;
+    const RunEnd end = w.loop.run(w.stepper, w.x, N, [](const RunPoint&) { return false; });
+    r.x.row(i) = w.x.transpose();
+    m.status = status_of(end.status);
+    m.steps = end.steps;
+    m.newton_iterations_mean = end.mean_iterations;
+    m.newton_iterations_max = end.max_iterations;
+    r.energy_error(i) = w.loop.error_max()[0];
+    for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c) r.casimir_error(i, c) = w.loop.error_max()[std::size_t(1 + c)];
+    if (!end.ok()) {
+        m.failed_step = end.started ? end.steps + 1 : 0;
+        m.failed_t = double(end.steps) * dt;
         m.residual = w.stepper.last_residual();
     }
 }
@@ -145,10 +131,10 @@ EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const R
     }
     r.x_typical = *typical;
     const NewtonStepper prototype = scheme.stepper(dt, *typical);
-    const CompiledMap invariants = scheme.invariants();
+    const RunLoop loop(scheme);
     const std::size_t N = steps_to_reach(t_end, dt);
     const std::size_t chunk = options.chunk ? options.chunk : std::max<std::size_t>(1, std::size_t(m) / (8 * r.threads));
-    tbb::enumerable_thread_specific<Worker> workers([&] { return Worker(scheme, prototype, invariants); });
+    tbb::enumerable_thread_specific<Worker> workers([&] { return Worker(prototype, loop); });
     std::optional<tbb::global_control> allow;  // more workers than cores when asked (TBB's limit is the cores)
     if (r.threads > std::size_t(tbb::info::default_concurrency()))
         allow.emplace(tbb::global_control::max_allowed_parallelism, r.threads);

@@ -1,7 +1,7 @@
 #pragma once
 // Ensembles: m initial states of one Scheme integrated on every core. A pool of threads (oneTBB, an arena
 // of `threads` workers over chunks of trajectories) runs each trajectory through the same loop as
-// pgi::integrate (integrate_steps, Kahan-summed, the invariants watched at every step), with one compiled
+// pgi::integrate (scheme/run_loop: Kahan-summed, the invariants watched at every step), with one compiled
 // step built for the whole ensemble and copied into each worker (with its own scratch). So a trajectory's
 // numbers are those of its single run pgi::integrate(scheme, x0, dt, t_end, every, x_typical), bit for bit,
 // whatever the thread count and the chunking. A row that is not finite, or a step that fails, ends that

@@ -4,6 +4,7 @@
 #include "poisson/hamilton_jacobi.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <mutex>
 
 namespace pgi {
@@ -13,6 +14,23 @@ bool SchemeChecks::ok() const {
     return std::none_of(casimirs.begin(), casimirs.end(), [](const auto& c) { return c.has_value(); });
 }
 
+namespace {
+
+// A compiled step and what it serves: dt up to the one it was built for, typical states up to twice its own.
+struct StepperEntry {
+    StepOptions options;
+    double scale;                                   // |x_typical|_inf of the build
+    NewtonStepper stepper;
+    std::uint64_t used;
+    bool serves(const StepOptions& o, double x_scale) const {
+        return o.dt <= options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order && o.solver == options.solver &&
+               o.max_degree == options.max_degree && o.newton_max_iter == options.newton_max_iter &&
+               o.newton_tol == options.newton_tol && o.truncation_bound == options.truncation_bound;
+    }
+};
+
+}  // namespace
+
 // What has been computed so far. One recursive mutex: artefacts call each other (the checks ask for
 // the realisation, the modified Hamiltonian for S).
 struct Scheme::Cache {
@@ -21,7 +39,8 @@ struct Scheme::Cache {
     std::optional<Realisation> deepest;             // the realisation at the deepest p-degree asked so far
     std::optional<std::vector<Poly>> terms;         // S_1..S_k
     std::vector<Poly> modified;                     // H_0..H_m for the largest m asked so far
-    std::map<std::pair<double, std::vector<double>>, NewtonStepper> steppers;
+    std::vector<StepperEntry> steppers;             // at most stepper_cache_size
+    std::uint64_t clock = 0;                        // the last use of each entry, for eviction
     SchemeStats stats;
 };
 
@@ -116,10 +135,19 @@ Realisation Scheme::realisation(std::size_t D) const {
     return realisation_locked(D);
 }
 
+// A closed form is cheap to build deep: it is built at once to the degree the step's probe reads (its
+// predictor's series), so the checks, S and the step share one build.
 Realisation Scheme::realisation_locked(std::size_t D) const {
     auto& deepest = cache_->deepest;
     if (!deepest || deepest->degree < D) {
-        deepest = build_realisation(pi_, choice_, D);
+        std::size_t build = D;
+        if (realisation_form() != RealisationForm::radial) {
+            StepOptions opt;
+            opt.k = k_;
+            opt.realisation = choice_;
+            build = std::max(D, probe_degree(realisation_form(), opt, pi_.dim()));
+        }
+        deepest = build_realisation(pi_, choice_, build);
         ++cache_->stats.realisation_builds;
     }
     return deepest->degree == D ? *deepest : truncated(*deepest, D);
@@ -154,23 +182,44 @@ std::vector<Poly> Scheme::modified_hamiltonian(std::size_t m) const {
 }
 
 NewtonStepper Scheme::stepper(double dt, const Eigen::VectorXd& x_typical) const {
+    StepOptions opt;
+    opt.k = k_;
+    opt.dt = dt;
+    opt.realisation = choice_;
+    return stepper(opt, x_typical);
+}
+
+NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_typical) const {
+    if (opt.k != k_) throw InputError("order", "the step's order " + std::to_string(opt.k) + " is not the scheme's " + std::to_string(k_));
+    if (opt.realisation != choice_) throw InputError("realisation", "the step's realisation choice is not the scheme's");
+    if (!(opt.dt > 0) || !std::isfinite(opt.dt)) throw std::invalid_argument("Scheme::stepper: dt must be positive and finite");
+    const double scale = x_typical.size() ? x_typical.lpNorm<Eigen::Infinity>() : 0.0;
     std::lock_guard lock(cache_->mutex);
-    auto key = std::make_pair(dt, std::vector<double>(x_typical.data(), x_typical.data() + x_typical.size()));
-    auto it = cache_->steppers.find(key);
-    if (it == cache_->steppers.end()) {
-        StepOptions opt;
-        opt.k = k_;
-        opt.dt = dt;
-        opt.realisation = choice_;
-        it = cache_->steppers.emplace(std::move(key), NewtonStepper::build(pi_, H_, opt, x_typical)).first;
+    auto& cache = cache_->steppers;
+    // the build for the smallest dt that serves this one
+    auto best = cache.end();
+    for (auto it = cache.begin(); it != cache.end(); ++it)
+        if (it->serves(opt, scale) && (best == cache.end() || it->options.dt < best->options.dt)) best = it;
+    if (best == cache.end()) {
+        NewtonStepper built = NewtonStepper::build(
+            pi_, terms_locked(), [this](std::size_t D) { return realisation_locked(D); }, opt, x_typical);
         ++cache_->stats.stepper_builds;
+        if (cache.size() >= stepper_cache_size)
+            cache.erase(std::min_element(cache.begin(), cache.end(), [](const auto& a, const auto& b) { return a.used < b.used; }));
+        cache.push_back({opt, scale, std::move(built), 0});
+        best = cache.end() - 1;
     }
-    return it->second;
+    best->used = ++cache_->clock;
+    NewtonStepper copy = best->stepper;
+    copy.set_dt(opt.dt);
+    return copy;
 }
 
 SchemeStats Scheme::stats() const {
     std::lock_guard lock(cache_->mutex);
-    return cache_->stats;
+    SchemeStats s = cache_->stats;
+    s.steppers_kept = cache_->steppers.size();
+    return s;
 }
 
 CompiledMap Scheme::invariants(const std::vector<Poly>& extra) const {

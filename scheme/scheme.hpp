@@ -9,7 +9,6 @@
 
 #include <Eigen/Dense>
 
-#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -48,6 +47,7 @@ struct SchemeChecks {
 /// How many times each artefact was computed: what the tests read to show that nothing is computed twice.
 struct SchemeStats {
     std::size_t realisation_builds = 0, terms_builds = 0, modified_builds = 0, stepper_builds = 0;
+    std::size_t steppers_kept = 0;  // compiled steps in the cache now (at most Scheme::stepper_cache_size)
 };
 
 class Scheme {
@@ -94,10 +94,17 @@ public:
     /// H_0..H_m of the modified Hamiltonian (docs/math.md section 7), H_0 = H. Kept and returned as a
     /// prefix when less is asked later; extended (recomputed to the new m) when more is.
     std::vector<Poly> modified_hamiltonian(std::size_t m) const;
-    /// The compiled step for this dt, its degree and predictor chosen at the typical state x_typical
-    /// (NewtonStepper::build); built once per (dt, x_typical) and returned as a copy of its own (a
-    /// stepper holds scratch, so each caller steps its own). Requires pi to satisfy Jacobi.
+    /// The compiled step for steps up to dt, its realisation degree and predictor chosen at dt and the
+    /// typical state x_typical (NewtonStepper::build, from this scheme's realisation and S_1..S_k), returned
+    /// as a copy of its own (a stepper holds scratch, so each caller steps its own) whose dt() is dt. dt is a
+    /// run-time argument of the compiled step: a build serves every dt up to the one it was built for and
+    /// every typical state up to twice its own in norm; only a larger dt or state builds again. At most
+    /// stepper_cache_size builds are kept (the least recently used is dropped). Requires pi to satisfy Jacobi.
     NewtonStepper stepper(double dt, const Eigen::VectorXd& x_typical) const;
+    /// The same with the step's tuning (predictor_order, max_degree, Newton's and the truncation's bounds)
+    /// from opt; opt.k and opt.realisation are the scheme's (InputError if they differ), opt.dt is dt.
+    NewtonStepper stepper(const StepOptions& opt, const Eigen::VectorXd& x_typical) const;
+    static constexpr std::size_t stepper_cache_size = 8;
     /// H, the Casimirs, then extra, compiled over the coordinates: what a run watches.
     CompiledMap invariants(const std::vector<Poly>& extra = {}) const;
     SchemeStats stats() const;

@@ -1,6 +1,6 @@
 #include "scheme/trajectory.hpp"
 
-#include "poisson/integrate.hpp"
+#include "scheme/run_loop.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -45,7 +45,7 @@ std::string step_failure_message(const NewtonStepper& s, std::size_t step, StepS
 }
 
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every,
-                     const std::optional<Eigen::VectorXd>& x_typical) {
+                     const std::optional<Eigen::VectorXd>& x_typical, const TrajectoryEvents& events) {
     const std::size_t n = scheme.phase_space().dim();
     if (every == 0) throw std::invalid_argument("every must be at least 1");
     if (!(t_end >= 0) || !std::isfinite(t_end)) throw std::invalid_argument("t_end must be finite and not negative");
@@ -54,37 +54,43 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
         throw std::invalid_argument("x0 must have " + std::to_string(n) + " finite values");
     if (x_typical && (x_typical->size() != x0.size() || !x_typical->allFinite()))
         throw std::invalid_argument("x_typical must have " + std::to_string(n) + " finite values");
+    std::optional<EventSet> event_set;
+    if (!events.specs.empty()) event_set = EventSet::build(scheme.phase_space(), events.specs, events.naming);
     NewtonStepper stepper = scheme.stepper(dt, x_typical ? *x_typical : x0);
+    std::optional<EventDetector> detector;
+    if (event_set)
+        detector.emplace(std::move(*event_set), DenseOutput::build(scheme.structure(), scheme.hamiltonian(), stepper.order()),
+                         events.samples);
     const std::size_t N = steps_to_reach(t_end, dt), C = scheme.casimirs().size();
-    CompiledMap inv = scheme.invariants();
-    std::vector<double> values(inv.num_outputs()), initial(inv.num_outputs()), worst(inv.num_outputs(), 0.0);
-    const std::vector<double> scale = invariant_scales(scheme, std::span<const double>(x0.data(), n));
+    RunLoop loop(scheme);
     Trajectory r;
     r.dim = n;
     Eigen::VectorXd x = x0;
-    auto summary = integrate_steps(stepper, x, N, [&](std::size_t step, double t, const Eigen::VectorXd& y) {
-        inv.eval(y.data(), values.data());
-        if (step == 0) initial = values;
-        for (std::size_t i = 0; i < values.size(); ++i) worst[i] = std::max(worst[i], relative_error(values[i], initial[i], scale[i]));
-        r.newton_iterations_max = std::max(r.newton_iterations_max, step ? stepper.last_iterations() : 0);
-        if (step % every == 0 || step == N) {
-            r.t.push_back(t);
-            r.x.insert(r.x.end(), y.data(), y.data() + y.size());
-            r.energy_error.push_back(relative_error(values[0], initial[0], scale[0]));
-            for (std::size_t c = 0; c < C; ++c) r.casimir_error.push_back(relative_error(values[1 + c], initial[1 + c], scale[1 + c]));
-        }
+    auto record = [&](const RunPoint& p) {
+        if (p.step % every != 0 && !p.final) return false;
+        r.t.push_back(p.t);
+        r.x.insert(r.x.end(), p.x.data(), p.x.data() + p.x.size());
+        r.energy_error.push_back(loop.error(0));
+        for (std::size_t c = 0; c < C; ++c) r.casimir_error.push_back(loop.error(1 + c));
         return false;
-    });
-    r.steps = summary.steps;
-    r.status = summary.status;
-    r.newton_iterations_mean = summary.mean_iterations;
-    r.energy_error_max = worst[0];
-    r.casimir_error_max.assign(worst.begin() + 1, worst.begin() + 1 + long(C));
-    if (summary.status != StepStatus::ok) {
-        r.failed_step = summary.steps + 1;
-        r.failed_t = double(summary.steps) * dt;
+    };
+    auto keep = [&](const Crossing& c) {
+        r.crossings.push_back(c);
+        return false;
+    };
+    const RunEnd end = loop.run(stepper, x, N, record, detector ? &*detector : nullptr, keep);
+    r.steps = end.steps;
+    r.status = end.status;
+    r.terminal_event = end.terminal_event;
+    r.newton_iterations_mean = end.mean_iterations;
+    r.newton_iterations_max = end.max_iterations;
+    r.energy_error_max = loop.error_max()[0];
+    r.casimir_error_max.assign(loop.error_max().begin() + 1, loop.error_max().begin() + 1 + long(C));
+    if (!end.ok()) {
+        r.failed_step = end.started ? end.steps + 1 : 0;
+        r.failed_t = double(end.steps) * dt;
         r.failed_residual = stepper.last_residual();
-        r.message = step_failure_message(stepper, r.failed_step, summary.status);
+        r.message = loop.failure_message(stepper, end);
     }
     return r;
 }

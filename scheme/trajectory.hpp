@@ -1,7 +1,8 @@
 #pragma once
 // A run of a Scheme's step from x0 to t_end, observed: the trajectory every few steps, the drift of H and
-// of the Casimirs, the Newton statistics. What the Python module's integrate() returns; the command line's
-// run (tools/run.cpp) measures with the same pieces (steps_to_reach, relative_error, Scheme::invariants).
+// of the Casimirs, the Newton statistics, the crossings of events. What the Python module's integrate()
+// returns; it runs the loop the command line's run and the ensembles run (scheme/run_loop.hpp).
+#include "poisson/events.hpp"
 #include "scheme/scheme.hpp"
 
 #include <optional>
@@ -42,14 +43,26 @@ struct Trajectory {
     std::size_t failed_step = 0;
     double failed_t = 0, failed_residual = 0;
     std::string message;
+    std::vector<Crossing> crossings;   // with events: every crossing, in time order
+    bool terminal_event = false;       // a terminal event ended the run: its crossing is the last row
+};
+
+/// Events watched along a run: g_i(x) = 0 crossed in event i's direction, located on the dense output
+/// (poisson/events.hpp); samples > 1 also tests samples - 1 interior points of each step.
+struct TrajectoryEvents {
+    std::vector<EventSpec> specs;
+    std::size_t samples = 1;
+    EventNaming naming;   // how errors name an event ("event 1", or Python's "events[0]")
 };
 
 /// Integrates with scheme.stepper(dt, x_typical) (default: x_typical = x0) from x0 over steps_to_reach(t_end, dt) steps, Kahan-summed
-/// (integrate_steps), recording every `every`-th state and the last. Stops at the first failed step
-/// (status, failed_step, message say why; the trajectory holds what came before). Throws
-/// std::invalid_argument on every = 0, t_end < 0, dt <= 0 or x0 of the wrong length or not finite.
-/// A given x_typical (finite, of x0's length) makes the run the one an ensemble built at x_typical makes.
+/// (integrate_steps), recording every `every`-th state and the last. Stops at the first failed step, or
+/// non-finite state or invariant (status, failed_step, message say why; the trajectory holds what came
+/// before). Throws std::invalid_argument on every = 0, t_end < 0, dt <= 0 or x0 of the wrong length or not
+/// finite, and (before any work) what EventSet::build throws for a bad event. A given x_typical (finite, of
+/// x0's length) makes the run the one an ensemble built at x_typical makes. With events, each crossing is
+/// kept and a terminal one ends the run: its state at its t is the last row (terminal_event).
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1,
-                     const std::optional<Eigen::VectorXd>& x_typical = std::nullopt);
+                     const std::optional<Eigen::VectorXd>& x_typical = std::nullopt, const TrajectoryEvents& events = {});
 
 }  // namespace pgi

@@ -188,6 +188,72 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
 
 void CompiledMap::eval(const double* in, double* out) const { eval_with(in, out, mono_.data()); }
 
+// W points ("lanes") at once: input v of lane w at in[v in_stride + w], output o at out[o out_stride + w],
+// monomial k at mono[k W + w]. eval_with's operations, in its order, once per lane (the four partial sums
+// and their final pairing included), so each lane gets exactly eval()'s bits; the loops over the lanes are
+// the inner ones, of a fixed length, which the compiler vectorises.
+template <std::size_t W>
+void CompiledMap::eval_lanes(const double* __restrict in, std::size_t in_stride, double* __restrict out, std::size_t out_stride,
+                             double* __restrict mono) const {
+    for (std::size_t w = 0; w < W; ++w) mono[w] = 1.0;
+    const std::size_t M = parent_.size();
+    for (std::size_t k = 0; k < M; ++k) {
+        const double* parent = mono + std::size_t(parent_[k]) * W;
+        const double* v = in + std::size_t(var_[k]) * in_stride;
+        double product[W];  // read both rows before writing: no aliasing to fear, so the lanes vectorise
+        for (std::size_t w = 0; w < W; ++w) product[w] = parent[w] * v[w];
+        std::copy(product, product + W, mono + (k + 1) * W);
+    }
+    const double* c = term_coeff_.data();
+    const std::uint32_t* tm = term_monomial_.data();
+    for (std::size_t o = 0; o < num_outputs(); ++o) {
+        double s0[W] = {}, s1[W] = {}, s2[W] = {}, s3[W] = {};
+        std::uint32_t t = row_start_[o];
+        const std::uint32_t end = row_start_[o + 1];
+        for (; t + 4 <= end; t += 4) {
+            const double *a = mono + tm[t] * W, *b = mono + tm[t + 1] * W, *d = mono + tm[t + 2] * W, *e = mono + tm[t + 3] * W;
+            for (std::size_t w = 0; w < W; ++w) {
+                s0[w] += c[t] * a[w];
+                s1[w] += c[t + 1] * b[w];
+                s2[w] += c[t + 2] * d[w];
+                s3[w] += c[t + 3] * e[w];
+            }
+        }
+        for (; t < end; ++t) {
+            const double* a = mono + tm[t] * W;
+            for (std::size_t w = 0; w < W; ++w) s0[w] += c[t] * a[w];
+        }
+        for (std::size_t w = 0; w < W; ++w) out[o * out_stride + w] = (s0[w] + s1[w]) + (s2[w] + s3[w]);
+    }
+}
+
+void CompiledMap::eval_batch(const double* in, double* out, std::size_t m, std::vector<double>& scratch) const {
+    // Blocks of W lanes: the monomials of one block (W num_monomials() doubles) stay in cache whatever m is.
+    constexpr std::size_t W = batch_lanes;
+    const std::size_t M = num_monomials(), k = num_inputs_, O = num_outputs();
+    if (scratch.size() < (M + k + O) * W) scratch.resize((M + k + O) * W);
+    double* mono = scratch.data();
+    std::size_t j = 0;
+    for (; j + W <= m; j += W) eval_lanes<W>(in + j, m, out + j, m, mono);
+    const std::size_t rest = m - j;
+    if (rest == 0) return;
+    double *tin = mono + M * W, *tout = tin + k * W;
+    if (2 * rest < W) {  // a few points left: one at a time costs less than a padded block (eval's own code)
+        for (; j < m; ++j) {
+            for (std::size_t v = 0; v < k; ++v) tin[v] = in[v * m + j];
+            eval_with(tin, tout, mono);
+            for (std::size_t o = 0; o < O; ++o) out[o * m + j] = tout[o];
+        }
+        return;
+    }
+    // the last, partial block: its lanes padded with copies of its last point, only the real ones written
+    for (std::size_t v = 0; v < k; ++v)
+        for (std::size_t w = 0; w < W; ++w) tin[v * W + w] = in[v * m + j + std::min(w, rest - 1)];
+    eval_lanes<W>(tin, W, tout, W, mono);
+    for (std::size_t o = 0; o < O; ++o)
+        for (std::size_t w = 0; w < rest; ++w) out[o * m + j + w] = tout[o * W + w];
+}
+
 void CompiledMap::eval(const long double* in, long double* out, std::vector<long double>& scratch) const {
     scratch.resize(num_monomials());
     eval_with(in, out, scratch.data());

@@ -26,6 +26,14 @@ public:
 
     /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch).
     void eval(const double* in, double* out) const;
+    /// m points at once, structure of arrays: in[v m + j] is input v of point j, out[o m + j] is output o
+    /// of point j. Every point's outputs are bit for bit eval()'s on it (the same operations in the same
+    /// order, lane by lane; the loops over the points are the inner ones, which the compiler vectorises).
+    /// The points are taken batch_lanes at a time (the last block padded), so scratch holds
+    /// (num_monomials() + num_inputs() + num_outputs()) batch_lanes doubles whatever m is; it is resized when
+    /// too small: reused, it allocates nothing. Unlike eval(), thread-safe (all scratch is the caller's).
+    void eval_batch(const double* in, double* out, std::size_t m, std::vector<double>& scratch) const;
+    static constexpr std::size_t batch_lanes = 8;
     /// The same polynomials (with the same double coefficients) in long double, for reference
     /// solutions of the problem the double evaluator defines; scratch is resized as needed.
     void eval(const long double* in, long double* out, std::vector<long double>& scratch) const;
@@ -38,6 +46,8 @@ private:
     mutable std::vector<double> mono_;
     template <class T>
     void eval_with(const T* in, T* out, T* mono) const;
+    template <std::size_t W>
+    void eval_lanes(const double* in, std::size_t in_stride, double* out, std::size_t out_stride, double* mono) const;
 };
 
 }  // namespace pgi

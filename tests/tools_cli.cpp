@@ -33,10 +33,10 @@ std::string slurp(const fs::path& p) {
     return s.str();
 }
 
-// Runs the pgi binary with the arguments (single-quoted for the shell).
-Run pgi_run(const std::vector<std::string>& args) {
+// Runs the pgi binary with the arguments (single-quoted for the shell), after the shell assignments env.
+Run pgi_run(const std::vector<std::string>& args, const std::string& env = "") {
     fs::path err = fs::temp_directory_path() / ("pgi_test_stderr_" + std::to_string(::getpid()));
-    std::string cmd = std::string("'") + PGI_BINARY + "'";
+    std::string cmd = env + " '" + PGI_BINARY + "'";
     for (const auto& a : args) cmd += " '" + a + "'";
     cmd += " 2>'" + err.string() + "'";
     Run r{};
@@ -380,6 +380,11 @@ TEST_CASE("issue 11.1: the step count is computed in checked arithmetic and refu
     Run budget = pgi_run({"integrate", rb, "--t-end", "1", "--max-steps", "9"});
     CHECK(budget.exit_code == 4);
     CHECK_MESSAGE(budget.err.find("needs 10 steps, above the step budget of 9") != std::string::npos, budget.err);
+    // report runs the scene's trajectory too: the same budget, refused before anything is written
+    Run report = pgi_run({"report", rb, "--t-end", "1", "--max-steps", "9"});
+    CHECK(report.exit_code == 4);
+    CHECK(report.out.empty());
+    CHECK_MESSAGE(report.err.find("needs 10 steps, above the step budget of 9") != std::string::npos, report.err);
     Run ok = pgi_run({"integrate", rb, "--t-end", "1", "--max-steps", "10", "--json"});
     REQUIRE(ok.exit_code == 0);
     CHECK(nlohmann::json::parse(ok.out)["steps"] == 10);
@@ -598,4 +603,20 @@ TEST_CASE("issue 13: --trust-jacobi skips the Jacobi check and says so; without 
     CHECK_FALSE(nlohmann::json::parse(checked.out).contains("jacobi_checked"));
     // report does not take it (its document states the verdict): an unknown option, exit 2
     CHECK(pgi_run({"report", test::scene_path("rigid_body"), "--trust-jacobi"}).exit_code == 2);
+}
+
+TEST_CASE("--plot: gnuplot failing after the run is an output failure (exit 6), nothing left behind") {
+    // (the figures themselves are tested in tools_report.cpp)
+    const std::string rb = test::scene_path("rigid_body");
+    const fs::path dir = fs::temp_directory_path() / ("pgi_test_plot_" + std::to_string(::getpid()));
+    fs::create_directories(dir / "bin");
+    // a gnuplot that fails: the run has finished, its figures cannot be written
+    const fs::path fake = dir / "bin" / "gnuplot";
+    std::ofstream(fake) << "#!/bin/sh\necho 'simulated failure' >&2\nexit 1\n";
+    fs::permissions(fake, fs::perms::owner_all);
+    Run failed = pgi_run({"integrate", rb, "--t-end", "1", "--plot", dir.string()}, "PATH='" + (dir / "bin").string() + "':\"$PATH\"");
+    CHECK(failed.exit_code == 6);
+    CHECK_MESSAGE(failed.err.find("--plot: gnuplot failed") != std::string::npos, failed.err);
+    for (const auto& e : fs::directory_iterator(dir)) CHECK_MESSAGE(e.path().filename() == "bin", e.path());
+    fs::remove_all(dir);
 }

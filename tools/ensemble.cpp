@@ -50,6 +50,7 @@ RowMatrix initial_states(const Scene& scene, const EnsembleCommandOptions& o) {
         if (std::size_t(X.cols()) != n)
             throw InputError(o.states, "holds " + std::to_string(X.cols()) + " columns, the scene has " + std::to_string(n) +
                                            " coordinates (" + names(scene.phase_space()) + ")");
+        if (X.rows() == 0) throw InputError(o.states, "holds no states (no rows): nothing to integrate");
         return X;
     }
     SampleSpec spec;

@@ -280,7 +280,7 @@ int main(int argc, char** argv) {
     modified->add_option("--upto", o.upto, "last power of dt, 0..64 (default 4)");
     modified->add_option("--splitting", o.splitting, "lie-trotter | strang | yoshida: the splitting method's for [splitting] H = A + B")
         ->check(CLI::IsMember({"lie-trotter", "strang", "yoshida"}));
-    for (auto* cmd : {integrate, run, section})  // report's run keeps the default step budget
+    for (auto* cmd : {integrate, run, section, report})
         cmd->add_option("--max-steps", o.max_steps, "refuse a run of more steps than this, before any work (default 1e8)");
     for (auto* cmd : {integrate, run}) {
         cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");

@@ -1,6 +1,6 @@
 #include "tools/plot.hpp"
 
-#include "magnus/modified_hamiltonian.hpp"
+#include "tools/atomic_file.hpp"
 
 #include <fmt/format.h>
 
@@ -87,14 +87,14 @@ void run_gnuplot(const fs::path& script, const fs::path& log) {
     pid_t pid;
     const int spawned = posix_spawnp(&pid, "gnuplot", &actions, nullptr, const_cast<char* const*>(argv), environ);
     posix_spawn_file_actions_destroy(&actions);
-    if (spawned != 0) throw std::runtime_error("--plot: gnuplot is not installed (Debian: gnuplot-nox)");
+    if (spawned != 0) throw OutputError("--plot: gnuplot is not installed (Debian: gnuplot-nox)");
     int status = 0;
     while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
         std::ifstream in(log);
         std::stringstream text;
         text << in.rdbuf();
-        throw std::runtime_error("--plot: gnuplot failed: " + text.str());
+        throw OutputError("--plot: gnuplot failed: " + text.str());
     }
 }
 
@@ -185,7 +185,7 @@ std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string
     try {
         run_gnuplot(tmp.path / "plot.gp", tmp.path / "gnuplot.log");
         for (const auto& [temp, target] : renames) {
-            if (!fs::exists(temp) || fs::file_size(temp) == 0) throw std::runtime_error("--plot: gnuplot wrote no " + target.string());
+            if (!fs::exists(temp) || fs::file_size(temp) == 0) throw OutputError("--plot: gnuplot wrote no " + target.string());
             fs::rename(temp, target);
             written.push_back(target);
         }
@@ -212,8 +212,7 @@ RunPlot::RunPlot(const Scene& scene, fs::path dir) : scene_(scene), dir_(std::mo
     // Htilde through dt^{method order}: the first power whose term is not zero for the order-k scheme
     modified_upto_ = 2 * ((scene.order + 1) / 2);
     try {
-        modified_ = sum_powers(modified_hamiltonian(scene.pi, scene.H, scene.order, scene.realisation, modified_upto_),
-                               Rational::from_double(scene.dt));
+        modified_ = sum_powers(scene.scheme->modified_hamiltonian(modified_upto_), Rational::from_double(scene.dt));
     } catch (const ResourceLimitError& e) {
         std::cerr << "pgi: " << scene.file.string() << ": --plot: no modified Hamiltonian in the figure (" << e.what() << ")\n";
     }

@@ -48,7 +48,7 @@ json in_invariants(const Scene& scene, const std::vector<Poly>& Ht) {
     std::vector<std::string> names{"H"};
     for (std::size_t c = 0; c < scene.casimirs.size(); ++c) {
         G.push_back(scene.casimirs[c]);
-        names.push_back("C" + std::to_string(c + 1));
+        names.push_back(fmt::format("C{}", c + 1));  // ("C" + std::to_string: a GCC 12 -Wrestrict false positive)
     }
     json found = json::array();
     if (scene.H.total_degree() < 1) return found;

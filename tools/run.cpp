@@ -2,8 +2,7 @@
 #include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
 
-#include "poisson/integrate.hpp"
-#include "scheme/trajectory.hpp"
+#include "scheme/run_loop.hpp"
 
 #include <fmt/format.h>
 
@@ -124,9 +123,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     const auto built = Clock::now();
     NewtonStepper s = build_stepper(scene);
     const double build_seconds = std::chrono::duration<double>(Clock::now() - built).count();
-    CompiledMap inv = invariants(scene, extra);
-    std::vector<double> values(inv.num_outputs()), initial(inv.num_outputs()), worst(inv.num_outputs(), 0.0);
-    const std::vector<double> scale = invariant_scales(scene, require_x0(scene), extra);
+    RunLoop loop(*scene.scheme, extra, {"Htilde"});
     if (csv) {
         csv->stream() << "t";
         for (const auto& c : scene.phase_space().coordinates()) csv->stream() << "," << c;
@@ -135,57 +132,40 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
         csv->stream() << "\n";
     }
     Progress progress(options.progress, N);
-    Eigen::VectorXd x = to_vector(require_x0(scene)), last_good = x;
-    std::size_t last_good_n = 0;
-    bool started = false;  // x0 itself was observed, with finite invariants
-    std::string non_finite;  // which invariant became inf or NaN, if one did
+    Eigen::VectorXd x = to_vector(require_x0(scene));
     const auto start = Clock::now();
-    auto summary = integrate_steps(s, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& y) {
-        inv.eval(y.data(), values.data());
-        for (std::size_t i = 0; i < values.size(); ++i)
-            if (!std::isfinite(values[i])) {
-                non_finite = fmt::format("{} = {}", i == 0 ? std::string("H") : i <= scene.casimirs.size() ? fmt::format("C{}", i) : "Htilde", values[i]);
-                return true;  // stop: this state is not a result
-            }
-        if (n == 0) initial = values;
-        for (std::size_t i = 0; i < values.size(); ++i) worst[i] = std::max(worst[i], relative_error(values[i], initial[i], scale[i]));
-        if (options.observe) options.observe(n, t, y, values);
-        last_good = y;
-        last_good_n = n;
-        started = true;
-        if (csv && (n % options.every == 0 || n == N)) {
-            csv->stream() << fmt::format("{:.17g}", t);
-            for (Eigen::Index i = 0; i < y.size(); ++i) csv->stream() << fmt::format(",{:.17g}", y[i]);
-            for (std::size_t i = 0; i < 1 + scene.casimirs.size(); ++i) csv->stream() << fmt::format(",{:.17g}", values[i]);
+    // the observer: what the command line does with each state (the loop is the library's, scheme/run_loop)
+    const RunEnd end = loop.run(s, x, N, [&](const RunPoint& p) {
+        if (options.observe) options.observe(p.step, p.t, p.x, loop.values());
+        if (csv && (p.step % options.every == 0 || p.step == N)) {
+            csv->stream() << fmt::format("{:.17g}", p.t);
+            for (Eigen::Index i = 0; i < p.x.size(); ++i) csv->stream() << fmt::format(",{:.17g}", p.x[i]);
+            for (std::size_t i = 0; i < 1 + scene.casimirs.size(); ++i) csv->stream() << fmt::format(",{:.17g}", loop.values()[i]);
             csv->stream() << "\n";
         }
-        progress.update(n);
+        progress.update(p.step);
         return false;
     });
     const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+    const std::vector<double>& worst = loop.error_max();
     std::vector<double> casimir_errors(worst.begin() + 1, worst.begin() + 1 + long(scene.casimirs.size()));
-    json r{{"status", "ok"}, {"steps", last_good_n}, {"t", double(last_good_n) * scene.dt}, {"x", to_std(last_good)},
+    json r{{"status", "ok"}, {"steps", end.steps}, {"t", double(end.steps) * scene.dt}, {"x", to_std(x)},
            {"energy_error_max", worst[0]}, {"casimir_error_max", casimir_errors},
-           {"newton_iterations_mean", summary.mean_iterations}, {"wall_seconds", wall}, {"build_seconds", build_seconds},
-           {"ns_per_step", wall / double(std::max<std::size_t>(summary.steps, 1)) * 1e9}, {"dt", scene.dt},
+           {"newton_iterations_mean", end.mean_iterations}, {"wall_seconds", wall}, {"build_seconds", build_seconds},
+           {"ns_per_step", wall / double(std::max<std::size_t>(end.steps, 1)) * 1e9}, {"dt", scene.dt},
            {"t_end", *scene.t_end}};
     if (options.modified) r["modified_energy_error_max"] = worst.back();
     r.update(stepper_info(scene, s));
-    if (summary.status != StepStatus::ok || !non_finite.empty()) {
-        const std::size_t failed = started ? last_good_n + 1 : 0;
-        std::string message =
-            non_finite.empty() ? failure_message(s, failed, summary.status)
-            : started ? fmt::format("step {} (from t = {:.17g}) failed: non-finite invariant {} after the step; a smaller dt may help",
-                                    failed, double(last_good_n) * s.dt(), non_finite)
-                      : fmt::format("the invariant {} at x0 is not finite: nothing to integrate", non_finite);
-        if (started) message += fmt::format(" (the last good state is step {}, t = {:.17g})", last_good_n, double(last_good_n) * s.dt());
+    if (!end.ok()) {
+        std::string message = loop.failure_message(s, end);
+        if (end.started) message += fmt::format(" (the last good state is step {}, t = {:.17g})", end.steps, double(end.steps) * s.dt());
         if (csv) {
             csv->stream() << "# INCOMPLETE: " << message << "\n";
             csv->commit();
         }
         r["status"] = "step_failed";
         r["failure"] = message;
-        r["failed_step"] = failed;
+        r["failed_step"] = end.started ? end.steps + 1 : 0;
         r["residual"] = s.last_residual();
         r["last_correction"] = s.last_correction();
         throw NumericalFailure(message, r);

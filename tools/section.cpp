@@ -2,6 +2,7 @@
 #include "tools/section.hpp"
 
 #include "poisson/events.hpp"
+#include "scheme/run_loop.hpp"
 #include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
 
@@ -28,12 +29,12 @@ json section_report(const Scene& scene, const SectionOptions& options) {
     NewtonStepper stepper = scene.scheme->stepper(scene.dt, x);
     EventDetector detector(std::move(events), DenseOutput::build(scene.pi, scene.H, stepper.order()), options.samples);
     json crossings = json::array();
-    const EventRun run = integrate_with_events(stepper, detector, x, N, [&](const Crossing& c) {
+    RunLoop loop(*scene.scheme);  // the run loop of pgi integrate, with the events and no other observer
+    const RunEnd run = loop.run(stepper, x, N, [](const RunPoint&) { return false; }, &detector, [&](const Crossing& c) {
         crossings.push_back({{"t", c.t}, {"x", std::vector<double>(c.x.data(), c.x.data() + c.x.size())}});
         return options.max_crossings && crossings.size() >= *options.max_crossings;
     });
-    if (run.integration.status != StepStatus::ok)
-        throw NumericalFailure(failure_message(stepper, run.integration.steps + 1, run.integration.status));
+    if (!run.ok()) throw NumericalFailure(loop.failure_message(stepper, run));
     if (file) {
         file->stream() << "t";
         for (const auto& name : scene.phase_space().coordinates()) file->stream() << "," << name;
@@ -46,7 +47,7 @@ json section_report(const Scene& scene, const SectionOptions& options) {
         file->commit();
     }
     return {{"event", options.event}, {"direction", options.direction}, {"crossings", crossings},
-            {"count", crossings.size()}, {"steps", run.integration.steps}, {"t", run.t},
+            {"count", crossings.size()}, {"steps", run.steps}, {"t", run.t},
             {"order", scene.order}, {"method_order", stepper.order()}, {"dt", scene.dt},
             {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()}};
 }

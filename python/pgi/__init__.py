@@ -33,7 +33,9 @@ class StepFailure(ArithmeticError):
 
 class Result:
     """A run: t (times recorded), x (one row per time), energy_error and casimir_error (relative, per row),
-    their maxima over every step, steps, dt, newton_iterations_mean/max, status ("ok" or why it stopped)."""
+    their maxima over every step, steps, dt, newton_iterations_mean/max, status ("ok", "terminal_event" or
+    why it stopped). With events: event_index (which event, its place in the list), event_t, event_x (one
+    row per crossing) and event_step (the step that holds it), in time order."""
 
     def __init__(self, d):
         self.__dict__.update(d)
@@ -69,6 +71,44 @@ def _rebuild(description):
     if description[0] == "values":
         return Scheme(**description[1])
     return Scheme._from_toml_text(description[1], description[2])
+
+
+_EVENT_KEYS = ("g", "direction", "terminal")
+
+
+def _event(i, e):
+    """Event i as (g, direction, terminal), from "g", a tuple (g[, direction[, terminal]]) or a dict with the
+    keys g, direction (default 0), terminal (default False)."""
+    where = f"events[{i}]"
+    if isinstance(e, str):
+        e = (e,)
+    if isinstance(e, dict):
+        unknown = sorted(set(e) - set(_EVENT_KEYS))
+        if unknown or "g" not in e:
+            raise InputError(f"{where}: a dict needs the key 'g' and may have 'direction' and 'terminal'"
+                             + (f", not {unknown}" if unknown else ""))
+        e = (e["g"], e.get("direction", 0), e.get("terminal", False))
+    if not isinstance(e, (tuple, list)) or not 1 <= len(e) <= 3:
+        raise InputError(f"{where}: must be a polynomial string, a tuple (g, direction, terminal) or a dict, got {e!r}")
+    g, direction, terminal = tuple(e) + (None, 0, False)[len(e):]
+    if not isinstance(g, str):
+        raise InputError(f"{where}: g must be a polynomial string, got {g!r}")
+    if isinstance(direction, bool) or not isinstance(direction, (int, _np.integer)) or direction not in (-1, 0, 1):
+        raise InputError(f"{where}: direction must be -1, 0 or 1, got {direction!r}")
+    if not isinstance(terminal, (bool, _np.bool_)):
+        raise InputError(f"{where}: terminal must be True or False, got {terminal!r}")
+    return g, int(direction), bool(terminal)
+
+
+def _states(X0):
+    """X0 as a numpy array: given as one, or converted from nested lists (a ragged or non-numeric list is an
+    InputError naming X0; shape and dtype are checked by the C++ side)."""
+    if isinstance(X0, _np.ndarray):
+        return X0
+    try:
+        return _np.array(X0, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise InputError(f"X0: must be an (m, n) array of numbers: {e}") from None
 
 
 def _sympy(texts, coordinates):
@@ -145,14 +185,31 @@ class Scheme:
             raise StepFailure(r["message"], 1, 0.0, r["residual"])
         return r["x"]
 
-    def integrate(self, x0=None, dt=None, t_end=None, every=1, x_typical=None):
+    def integrate(self, x0=None, dt=None, t_end=None, every=1, x_typical=None, events=None, event_samples=1):
         """ceil(t_end/dt) steps from x0 (defaults: the scheme's), Kahan-summed, recording every `every`-th
         state and the last; returns a Result. The GIL is released while it runs. Raises StepFailure (with
         .result holding the run up to the failure) if a step fails. The compiled step is built at x0, or at
-        x_typical when given (an ensemble's x_typical gives its run of this trajectory, bit for bit)."""
+        x_typical when given (an ensemble's x_typical gives its run of this trajectory, bit for bit).
+
+        events: a list of polynomials g(x) in the coordinates whose zeros are reported, each "g", a tuple
+        (g, direction, terminal) (direction +1: g rising through 0, -1: falling, 0: both, the default;
+        terminal: the run stops at its first crossing, default False) or a dict with those keys. Crossings
+        are located to round-off on the step's dense output (the method's order) and returned as
+        r.event_index, r.event_t, r.event_x, r.event_step; a terminal crossing is the run's last row and
+        r.status is "terminal_event". event_samples > 1 also tests that many - 1 interior points of each
+        step (two crossings inside one step). A bad event raises ValueError naming it (events[i]) and,
+        for a polynomial, the problem and its position."""
+        if events is None:
+            events = []
+        elif isinstance(events, (str, dict)) or not isinstance(events, (list, tuple)):
+            raise InputError(f"events: must be a list of events, got {events!r}")
+        specs = [_event(i, e) for i, e in enumerate(events)]
+        if isinstance(event_samples, bool) or not isinstance(event_samples, (int, _np.integer)) or event_samples < 1:
+            raise InputError(f"event_samples: must be a positive integer, got {event_samples!r}")
         r = Result(self._core._integrate(None if x0 is None else _np.asarray(x0, dtype=float), dt, t_end, every,
-                                         None if x_typical is None else _np.asarray(x_typical, dtype=float)))
-        if r.status != "ok":
+                                         None if x_typical is None else _np.asarray(x_typical, dtype=float),
+                                         specs, event_samples))
+        if r.status not in ("ok", "terminal_event"):
             raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
         return r
 
@@ -163,8 +220,7 @@ class Scheme:
         chunk (trajectories per task). The step is built once, at x_typical (default: the finite row of largest
         norm). A row that is not finite or a step that fails ends that trajectory with its status; nothing is
         raised for it. Raises ValueError (before any work) for X0 of the wrong shape or dtype."""
-        if not isinstance(X0, _np.ndarray):
-            X0 = _np.array(X0, dtype=float)
+        X0 = _states(X0)
         for name, v in (("threads", threads), ("chunk", chunk)):
             if v is not None and (not isinstance(v, (int, _np.integer)) or v < 1):
                 raise InputError(f"{name}: must be a positive integer, got {v!r}")
@@ -173,7 +229,7 @@ class Scheme:
 
     def typical_state(self, X0):
         """The row integrate_ensemble builds its step at by default: the finite row of largest norm (None if none)."""
-        return self._core._typical_state(X0 if isinstance(X0, _np.ndarray) else _np.array(X0, dtype=float))
+        return self._core._typical_state(_states(X0))
 
     def __repr__(self):
         c = self._core

@@ -18,7 +18,7 @@ import uuid
 
 import numpy as _np
 
-from . import EnsembleResult, InputError, _rebuild
+from . import EnsembleResult, InputError, _rebuild, _states
 
 __all__ = ["integrate_ensemble", "sweep"]
 
@@ -27,11 +27,13 @@ _FIELDS = ("x", "energy_error", "casimir_error", "status", "steps", "failed_step
 _cache_lock = threading.Lock()
 
 
-def _worker_scheme(description):
-    """The worker's Scheme for this description, built on first use and kept on the worker."""
+def _worker_scheme(description, dt):
+    """The worker's Scheme for this description and dt, built on first use and kept on the worker. One per dt:
+    a Scheme's step built for a larger dt serves smaller ones, equal to their own build only to round-off,
+    so a worker's scheme sees the dts of one run only, as the local run's does."""
     from distributed import get_worker
     worker = get_worker()
-    key = repr(description)
+    key = (repr(description), dt)
     with _cache_lock:
         cache = worker.__dict__.setdefault("_pgi_schemes", {})
         if key not in cache:
@@ -40,7 +42,7 @@ def _worker_scheme(description):
 
 
 def _run_chunk(description, X0, dt, t_end, x_typical, threads):
-    r = _worker_scheme(description).integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads, x_typical=x_typical)
+    r = _worker_scheme(description, dt).integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads, x_typical=x_typical)
     return {f: getattr(r, f) for f in _FIELDS}
 
 
@@ -48,8 +50,7 @@ class _Job:
     """One ensemble's chunks, submitted; collect() gathers them in order."""
 
     def __init__(self, client, scheme, X0, dt, t_end, chunks, threads, retries):
-        if not isinstance(X0, _np.ndarray):
-            X0 = _np.array(X0, dtype=float)
+        X0 = _states(X0)
         # every check of the local run (shape, dtype, dt, t_end), on no rows: refused here, before any work
         empty = scheme.integrate_ensemble(X0[:0], dt=dt, t_end=t_end, threads=1)
         if chunks is not None and (not isinstance(chunks, (int, _np.integer)) or chunks < 1):
@@ -82,10 +83,11 @@ class _Job:
 def integrate_ensemble(client, scheme, X0, dt=None, t_end=None, chunks=None, threads=1, retries=2):
     """scheme.integrate_ensemble(X0, dt, t_end) on the client's cluster: chunks of `chunks` rows (default:
     about four chunks per worker), each run with `threads` threads on its worker, gathered in order; returns
-    a pgi.EnsembleResult with the local run's numbers bit for bit. A chunk whose task raises is retried
-    `retries` times (Dask's own retries; a worker that dies has its tasks rescheduled by the scheduler); a
-    chunk that still fails raises RuntimeError naming the chunk and its rows. Bad X0, dt or t_end raise
-    ValueError before anything is submitted."""
+    a pgi.EnsembleResult with the local run's numbers bit for bit. A chunk whose task raises is rerun
+    `retries` times (Dask's own Client.submit(retries=)); a chunk whose worker dies is rerun elsewhere by the
+    scheduler, up to its distributed.scheduler.allowed-failures deaths (default 3; retries does not count
+    deaths). A chunk that still fails raises RuntimeError naming the chunk and its rows. Bad X0, dt or t_end
+    raise ValueError before anything is submitted."""
     return _Job(client, scheme, X0, dt, t_end, chunks, threads, retries).collect()
 
 

@@ -63,3 +63,65 @@ def test_bad_input_is_refused_before_submitting_and_a_failing_chunk_is_named(cli
     bad._description = ("values", {**bad.description[1], "hamiltonian": "x1^"})
     with pytest.raises(RuntimeError, match=r"chunk 0 \(rows 0\.\.1 of X0\) failed: .*hamiltonian"):
         pgi.dask.integrate_ensemble(client, bad, np.ones((4, 3)), dt=0.1, t_end=1, chunks=2, retries=0)
+
+
+# A worker that dies: the task of one chunk kills its own worker process (os._exit) the first time it runs,
+# leaving a marker file so that the rerun lives. Dask's scheduler reruns the tasks of a dead worker elsewhere,
+# up to distributed.scheduler.allowed-failures deaths per task (default 3); Client.submit's retries= counts
+# only tasks that raise, not deaths (distributed's Scheduler.remove_worker marks a task erred, with
+# KilledWorker, past allowed-failures, without looking at retries).
+def fail_once(marker, first_row, how):
+    """pgi.dask's task for one chunk (the one starting with first_row) failing once: how = "die" kills the
+    worker process, "raise" raises OSError. Defined here, pickled by value with its closure."""
+    def task(description, X0, *args):
+        import os
+        import pgi.dask as d
+        if len(X0) and X0[0].tobytes() == first_row.tobytes() and not os.path.exists(marker):
+            open(marker, "w").close()
+            if how == "die":
+                os._exit(1)
+            raise OSError("a transient failure")
+        return d._run_chunk(description, X0, *args)
+    return task
+
+
+def test_a_chunk_whose_worker_dies_is_rerun_and_the_result_is_the_local_one(client, tmp_path, monkeypatch):
+    s = pgi.Scheme(**RIGID_BODY)
+    X0 = states(16)
+    local = s.integrate_ensemble(X0, dt=0.1, t_end=2, threads=1)
+    marker = tmp_path / "died"
+    monkeypatch.setattr(pgi.dask, "_run_chunk", fail_once(str(marker), X0[4], "die"))
+    d = pgi.dask.integrate_ensemble(client, s, X0, dt=0.1, t_end=2, chunks=4, retries=0)
+    assert marker.exists()  # the chunk of rows 4..7 did kill its worker once
+    for f in ("x", "energy_error", "casimir_error", "status", "steps", "newton_iterations_mean"):
+        assert np.array_equal(getattr(d, f), getattr(local, f), equal_nan=f not in ("status", "steps")), f
+    client.wait_for_workers(2, timeout=30)  # the nanny restarts the dead worker for the tests after this one
+
+
+def test_a_chunk_that_raises_once_is_retried_with_retries(client, tmp_path, monkeypatch):
+    s = pgi.Scheme(**RIGID_BODY)
+    X0 = states(12)
+    local = s.integrate_ensemble(X0, dt=0.1, t_end=1, threads=1)
+    monkeypatch.setattr(pgi.dask, "_run_chunk", fail_once(str(tmp_path / "raised"), X0[8], "raise"))
+    d = pgi.dask.integrate_ensemble(client, s, X0, dt=0.1, t_end=1, chunks=4, retries=1)
+    assert (tmp_path / "raised").exists()
+    assert np.array_equal(d.x, local.x, equal_nan=True) and np.array_equal(d.energy_error, local.energy_error, equal_nan=True)
+    monkeypatch.setattr(pgi.dask, "_run_chunk", fail_once(str(tmp_path / "raised again"), X0[8], "raise"))
+    with pytest.raises(RuntimeError, match=r"chunk 2 \(rows 8\.\.11 of X0\) failed: OSError: a transient failure"):
+        pgi.dask.integrate_ensemble(client, s, X0, dt=0.1, t_end=1, chunks=4, retries=0)
+
+
+def test_without_reruns_a_dead_worker_names_its_chunk(tmp_path, monkeypatch):
+    # a scheduler that allows no death (the setting a real one reads from DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES):
+    # the chunk fails at its worker's first death, whatever retries says, and the error names it
+    import dask
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cluster = distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None,
+                                           silence_logs=50)
+    with cluster, distributed.Client(cluster) as c:
+        s = pgi.Scheme(**RIGID_BODY)
+        X0 = states(12)
+        monkeypatch.setattr(pgi.dask, "_run_chunk", fail_once(str(tmp_path / "died"), X0[4], "die"))
+        with pytest.raises(RuntimeError, match=r"chunk 1 \(rows 4\.\.7 of X0\) failed: KilledWorker"):
+            pgi.dask.integrate_ensemble(c, s, X0, dt=0.1, t_end=1, chunks=4, retries=2)
+        assert (tmp_path / "died").exists()

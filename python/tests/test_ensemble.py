@@ -78,3 +78,17 @@ def test_pickle_rebuilds_the_scheme_from_its_values_or_its_scene_text():
         assert np.array_equal(t.integrate_ensemble(X0, t_end=2).x, s.integrate_ensemble(X0, t_end=2).x)
     with pytest.raises(pgi.SceneError, match="no_such_scene.toml"):
         pgi.Scheme.from_toml(SCENES / "no_such_scene.toml")
+
+
+def test_x0_that_is_not_an_array_of_numbers_names_x0():
+    s = pgi.Scheme(**RIGID_BODY)
+    for X0, message in [([[1.0, 2.0, 3.0], [1.0]], "X0: must be an \\(m, n\\) array of numbers"),
+                        ([["a", "b", "c"]], "X0: must be an \\(m, n\\) array of numbers"),
+                        (np.zeros((2, 3, 1)), r"X0: must have shape \(m, 3\), one column per coordinate, got \(2, 3, 1\)"),
+                        (np.zeros((2, 3), dtype=complex), "X0: must have dtype float64, got complex128"),
+                        (np.zeros((2, 3), dtype=bool), "X0: must have dtype float64, got bool")]:
+        with pytest.raises(pgi.InputError, match=message):
+            s.integrate_ensemble(X0, dt=0.1, t_end=1)
+    # no rows is not an error from Python (numpy's empty arrays): an empty result
+    e = s.integrate_ensemble(np.zeros((0, 3)), dt=0.1, t_end=1)
+    assert e.x.shape == (0, 3) and e.status.shape == (0,) and e.x_typical is None

@@ -121,3 +121,32 @@ def test_casimir_sampler_refuses_what_rescaling_cannot_reach(tmp_path, scene, me
     code, out, err = cli("ensemble", SCENES / f"{scene}.toml", "--t-end", 1, "--out", tmp_path / "r", "--sample", "casimir",
                          "--count", 3, "--box", "-1,1", check=False)
     assert code == 2 and message in err and list(tmp_path.iterdir()) == []
+
+
+def test_a_trajectory_whose_newton_fails_ends_alone_as_in_python(tmp_path):
+    # x0 scaled by 40 turns 40 times faster: at dt = 0.5 its Newton iteration does not converge; the others finish
+    s = pgi.Scheme.from_toml(RB)
+    x0 = np.array(s.x0)
+    X0 = np.array([x0, 0.5 * x0, 40 * x0, -x0])
+    np.save(tmp_path / "X0.npy", X0)
+    code, out, err = cli("ensemble", RB, "--states", tmp_path / "X0.npy", "--t-end", 5, "--dt", 0.5, "--out", tmp_path / "r",
+                         check=False)
+    assert code == 3 and "1 of 4 trajectories did not reach t_end" in err and "row 2: newton_not_converged at step 1" in err
+    rows = np.genfromtxt(tmp_path / "r.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    assert list(rows["status"]) == ["ok", "ok", "newton_not_converged", "ok"]
+    assert rows["failed_step"].tolist() == [0, 0, 1, 0] and rows["steps"].tolist() == [10, 10, 0, 10]
+    py = s.integrate_ensemble(X0, dt=0.5, t_end=5)
+    assert np.array_equal(np.load(tmp_path / "r.x.npy"), py.x) and np.array_equal(rows["residual"], py.residual)
+    assert np.array_equal(np.load(tmp_path / "r.x.npy")[2], X0[2])  # the last good state: its start
+
+
+@pytest.mark.parametrize("name, text", [("empty.csv", ""), ("header.csv", "x1,x2,x3\n"), ("none.npy", None)])
+def test_states_without_rows_exit_2_with_nothing_written(tmp_path, name, text):
+    path = tmp_path / name
+    if text is None:
+        np.save(path, np.zeros((0, 3)))
+    else:
+        path.write_text(text)
+    code, out, err = cli("ensemble", RB, "--states", path, "--t-end", 1, "--out", tmp_path / "r", check=False)
+    assert code == 2 and f"{path}: holds no states (no rows): nothing to integrate" in err and out == ""
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]

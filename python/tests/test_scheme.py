@@ -141,3 +141,16 @@ def test_integrations_run_in_parallel_threads_with_the_same_result():
 def test_version():
     assert pgi.__version__.count(".") == 2
     assert cli("--version")[1].strip().endswith(pgi.__version__)
+
+
+def test_a_non_finite_invariant_ends_the_run_as_on_the_command_line():
+    # one run loop (scheme/run_loop) for Python, the command line and ensembles: H = inf at x0 stops all three
+    s = pgi.Scheme.from_toml(SCENES / "rigid_body.toml")
+    code, _, err = cli("integrate", SCENES / "rigid_body.toml", "--x0", "1e200,0,0", check=False)
+    assert code == 3
+    with pytest.raises(pgi.StepFailure) as e:
+        s.integrate([1e200, 0.0, 0.0], t_end=1)
+    assert str(e.value) == "the invariant H = inf at x0 is not finite: nothing to integrate" and str(e.value) in err
+    assert e.value.step == 0 and e.value.result.steps == 0 and len(e.value.result.t) == 0
+    r = s.integrate_ensemble(np.array([[1e200, 0.0, 0.0], s.x0]), t_end=1)
+    assert r.status.tolist() == ["non_finite", "ok"] and r.steps.tolist() == [0, 10] and r.failed_step[0] == 0

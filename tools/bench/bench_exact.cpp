@@ -1,7 +1,6 @@
 // Times pgi's exact phase on the workloads of tools/bench/bench_exact.py and bench_modified.py, prints JSON:
 // {"seconds": median wall time, "repetitions": R, "result": [polynomials]} for one workload.
-#include "magnus/modified_hamiltonian.hpp"
-#include "poisson/hamilton_jacobi.hpp"
+#include "scheme/scheme.hpp"
 #include "tools/scene.hpp"
 
 #include <nlohmann/json.hpp>
@@ -20,14 +19,12 @@ std::vector<std::string> strings(const std::vector<pgi::Poly>& v) {
     return out;
 }
 
-// workload(scene) -> polynomials, timed from the loaded scene on (parsing excluded, as in the sympy versions).
+// workload(scene) -> polynomials, timed from the loaded scene on (parsing excluded, as in the sympy versions),
+// each repetition by a new Scheme: what a user's first request costs.
 std::vector<pgi::Poly> run(const std::string& kind, const pgi::Scene& s, std::size_t n, std::size_t k) {
-    if (kind == "modified") return pgi::modified_hamiltonian(s.pi, s.H, k, s.realisation, n);
-    if (kind == "terms") {
-        auto r = pgi::build_realisation(s.pi, s.realisation, pgi::realisation_degree_for_order(n));
-        return pgi::hamilton_jacobi_terms(s.phase_space(), r, s.H, n);
-    }
-    auto r = pgi::build_realisation(s.pi, pgi::RealisationChoice::radial, n);
+    if (kind == "modified") return pgi::Scheme(s.pi, s.H, {}, k, s.realisation).modified_hamiltonian(n);
+    if (kind == "terms") return pgi::Scheme(s.pi, s.H, {}, n, s.realisation).terms();
+    auto r = pgi::Scheme(s.pi, s.H, {}, 1, pgi::RealisationChoice::radial).realisation(n);
     std::vector<pgi::Poly> alpha;
     for (const auto& a : r.alpha) alpha.push_back(a.sum());
     return alpha;

@@ -51,7 +51,8 @@ int main(int argc, char** argv) {
         opt.predictor_order = predictor;
         auto t0 = Clock::now();
         s.phase_space().ring()->budget().restart();  // each build has the whole time budget
-        auto st = pgi::NewtonStepper::build(s.pi, s.H, opt, x0);
+        const pgi::Scheme scheme(s.pi, s.H, s.casimirs, k, s.realisation);  // the scene's problem at order k
+        auto st = scheme.stepper(opt, x0);
         const double build_s = std::chrono::duration<double>(Clock::now() - t0).count();
         // the trajectory the step times are taken on, and its mean Newton iterations
         std::vector<Eigen::VectorXd> states;

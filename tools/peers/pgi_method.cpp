@@ -21,7 +21,8 @@ Method pgi_method(std::size_t k, std::optional<RealisationChoice> realisation) {
                 Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(x0.data(), Eigen::Index(x0.size()));
                 const auto setup = Clock::now();
                 pr.scene.phase_space().ring()->budget().restart();  // each stepper's exact phase has the whole time budget
-                auto stepper = NewtonStepper::build(pr.scene.pi, pr.scene.H, opt, x);
+                const Scheme scheme(pr.scene.pi, pr.scene.H, pr.scene.casimirs, k, opt.realisation);  // the problem at order k
+                auto stepper = scheme.stepper(opt, x);
                 const double setup_seconds = std::chrono::duration<double>(Clock::now() - setup).count();
                 pr.evaluations = 0;
                 Monitor monitor(pr, x0.data(), samples);

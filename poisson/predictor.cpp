@@ -1,0 +1,138 @@
+#include "poisson/predictor.hpp"
+
+#include "poisson/bisection.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <optional>
+
+namespace pgi {
+
+namespace {
+
+// Newton iterations from a start of relative error e: each squares the error, and the step stops after
+// the first correction below tol (the next would be ~tol^2).
+int expected_iterations(double e, double tol) {
+    int it = 1;
+    for (; e > tol && it < 8; ++it) e *= e;
+    return it;
+}
+
+// The predictor order P minimising (terms of the predictor) + (expected iterations) x (one iteration's
+// cost), the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
+// Fed the base point's series order by order (base_point_series' `enough`); stops at the first order
+// expecting one iteration, or once the next orders cannot win or cost more exact work than they save.
+// Deterministic: the choice depends on the scene only.
+class PredictorChoice {
+public:
+    static constexpr double cheap_order_terms = 500;
+    /// cap_stops: whether an order above cheap_order_terms stops the choice (not in the first pass, whose
+    /// orders are computed anyway).
+    PredictorChoice(const StepOptions& opt, double iteration_cost, std::vector<double> point, double scale, std::size_t limit,
+                    bool cap_stops = true)
+        : opt_(opt), iteration_cost_(iteration_cost), point_(std::move(point)), scale_(scale), limit_(limit), cap_stops_(cap_stops) {}
+    bool operator()(const std::vector<Series>& v) {
+        const std::size_t s = v.front().order() - 1;  // exact through dt^s: scores the order P = s - 1
+        double e = 0, terms = 0, top = 0;
+        for (const auto& vl : v) {
+            e = std::max(e, std::abs(std::pow(opt_.dt, double(s)) * evaluate(vl[s], point_)) / scale_);
+            for (std::size_t m = 1; m < s; ++m) terms += static_cast<double>(vl[m].length());
+            top += static_cast<double>(vl[s].length());
+        }
+        const int iterations = expected_iterations(e, opt_.newton_tol);
+        const double cost = terms + iterations * iteration_cost_;
+        if (!best_ || cost < best_cost_) best_ = s - 1, best_cost_ = cost;
+        // Every order costs at least one iteration: the next (terms + top) wins only below best - one
+        // iteration. An order computed from more than cheap_order_terms new terms costs several times the
+        // last in exact work (seconds from ~2000 terms in 6 variables: e(3)* k = 4 spent 26 s on orders 6-7
+        // to save one iteration in two), more than a run saves: the choice stays among the cheap orders.
+        // A first neglected term that does not shrink means the series diverges at this dt.
+        const bool hopeless = terms + top >= best_cost_ - iteration_cost_;
+        const bool diverging = e_ > 0 && e >= e_;
+        const bool capped = top > cheap_order_terms;
+        capped_ = capped_ || capped;
+        const bool decided = iterations == 1 || hopeless || (capped && cap_stops_) || diverging;
+        at_limit_ = !decided && s >= limit_ + 1;
+        e_ = e;
+        return decided || s >= limit_ + 1;
+    }
+    std::size_t order() const { return best_.value_or(0); }
+    /// Whether only the limit stopped the choice, every order seen within the cap: a higher limit could go on.
+    bool at_limit() const { return at_limit_ && !capped_; }
+
+private:
+    const StepOptions& opt_;
+    double iteration_cost_;
+    std::vector<double> point_;
+    double scale_;
+    std::size_t limit_;
+    std::optional<std::size_t> best_;
+    double best_cost_ = 0;
+    double e_ = 0;  // of the order before
+    bool cap_stops_;
+    bool at_limit_ = false, capped_ = false;
+};
+
+// (x, p = 0): the point the exact series are evaluated at (they read no p).
+std::vector<double> point_at(const Eigen::VectorXd& x) {
+    std::vector<double> point(x.data(), x.data() + x.size());
+    point.resize(2 * std::size_t(x.size()), 0.0);
+    return point;
+}
+
+}  // namespace
+
+std::size_t predictor_limit(const StepOptions& opt) {
+    return opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 8) + 1;
+}
+
+std::size_t predictor_first_pass(const StepOptions& opt) {
+    return opt.predictor_order ? predictor_limit(opt) : std::min<std::size_t>(predictor_limit(opt), 3);
+}
+
+double newton_iteration_cost(std::size_t evaluation_cost, std::size_t n) {
+    const double N = static_cast<double>(n);
+    return static_cast<double>(evaluation_cost) + N * N * N / 3 + 2 * N * N + 150;
+}
+
+Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u) {
+    Predictor p;
+    p.order_ = u.size();
+    p.map_ = DtSeriesMap::build(u, M.coordinate_vars());
+    return p;
+}
+
+Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
+                            double iteration_cost, const Eigen::VectorXd& x_typical,
+                            const std::function<Realisation(std::size_t)>& deeper) {
+    if (opt.predictor_order) return build(M, base_point_series(M, probe, S, std::min(predictor_limit(opt), probe.degree)));
+    const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
+    // The series is computed to the limit's order before the choice sees it, and at large n (the lattices) every
+    // order holds O(n) terms: a first pass scores the orders through predictor_first_pass (all of them, whatever
+    // their size), and the full limit is computed only when that limit alone stopped the choice within the cap
+    // (then it decides exactly as one pass would).
+    const std::size_t P1 = std::min(predictor_first_pass(opt), probe.degree);
+    std::optional<PredictorChoice> choice;
+    choice.emplace(opt, iteration_cost, point_at(x_typical), scale, P1 - 1, false);
+    auto u = base_point_series(M, probe, S, P1, std::ref(*choice));
+    const std::size_t P = std::min(predictor_limit(opt), deeper ? predictor_limit(opt) : probe.degree);
+    if (choice->at_limit() && P1 < P) {
+        const Realisation deep = probe.degree >= P ? probe : deeper(std::max(P, probe.degree));
+        choice.emplace(opt, iteration_cost, point_at(x_typical), scale, P - 1);
+        u = base_point_series(M, deep, S, P, std::ref(*choice));
+    }
+    u.resize(std::min(u.size(), choice->order()), std::vector<Poly>{});
+    return build(M, u);
+}
+
+void Predictor::eval(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& xb) const {
+    if (order_ == 0) {
+        xb = x;
+        return;
+    }
+    map_.eval(x.data(), dt, xb.data());
+    xb += x;
+}
+
+}  // namespace pgi

@@ -1,0 +1,48 @@
+#pragma once
+// The Newton predictor (docs/math.md 6): the base point's exact series in dt, xb = x + sum_{m=1..P} dt^m u_m(x),
+// its order P chosen by a cost model at the build's dt, the u_m compiled stacked (dt a run-time argument).
+#include "poisson/dt_series.hpp"
+#include "poisson/step_options.hpp"
+
+#include <Eigen/Dense>
+
+#include <functional>
+
+namespace pgi {
+
+/// The longest series the build computes: opt.predictor_order if given, else max(k + 1, 8) + 1 (the
+/// choice scores order P from the series through dt^(P+1), its first neglected term).
+std::size_t predictor_limit(const StepOptions& opt);
+/// The orders the choice scores first, before any deeper series is computed (predictor_limit if the order is asked).
+std::size_t predictor_first_pass(const StepOptions& opt);
+
+/// One Newton iteration's cost in multiply-adds, roughly: one evaluation of the Newton system (grad and
+/// Hess of S_dt, the realisation with its derivatives: evaluation_cost), the LU solve, and a fixed 150 for
+/// what is not arithmetic (calls, pivoting, the update), which measured F+J times on the bundled scenes put
+/// at 100-200 predictor terms' worth.
+double newton_iteration_cost(std::size_t evaluation_cost, std::size_t n);
+
+class Predictor {
+public:
+    Predictor() = default;
+    /// u[m - 1] = u_m, one polynomial per coordinate (P = u.size(); P = 0 predicts xb = x).
+    static Predictor build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u);
+    /// The series of the base point of the truncated realisation probe and S_1..S_k, to the order asked
+    /// (opt.predictor_order) or else to the order P <= min(predictor_limit - 1, probe.degree - 1) minimising
+    /// the predictor's terms plus the Newton iterations it leaves at (x_typical, opt.dt) times iteration_cost.
+    /// deeper (closed forms): the realisation through a degree beyond probe's, asked only if the choice goes past
+    /// predictor_first_pass; without it the orders stop at probe.degree - 1.
+    static Predictor choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
+                            double iteration_cost, const Eigen::VectorXd& x_typical,
+                            const std::function<Realisation(std::size_t)>& deeper = {});
+
+    std::size_t order() const { return order_; }
+    /// xb = x + sum_m dt^m u_m(x). Allocates nothing.
+    void eval(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& xb) const;
+
+private:
+    DtSeriesMap map_;
+    std::size_t order_ = 0;
+};
+
+}  // namespace pgi

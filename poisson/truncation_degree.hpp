@@ -1,0 +1,43 @@
+#pragma once
+// The realisation the step evaluates (docs/math.md 3, 4 and 6): a closed form where there is one, otherwise
+// the series truncated at the p-degree D whose neglected terms are below round-off at the typical state.
+#include "poisson/realisation_eval.hpp"
+#include "poisson/step_options.hpp"
+
+#include <Eigen/Dense>
+
+#include <functional>
+
+namespace pgi {
+
+/// The realisation through p-degree D, exact. The Scheme binds it to Scheme::realisation (built once there).
+using RealisationSource = std::function<Realisation(std::size_t)>;
+
+/// The lowest p-degree the step reads: S_1..S_k need k - 1 (docs/math.md 5), and at least 1.
+std::size_t step_degree_min(std::size_t k);
+/// The degree the step's build first asks its source for (the probe): for the radial recursion two degrees
+/// past step_degree_min to fit the decay (deepened only where D needs it: the exact recursion is the costly
+/// part); for a closed form on fewer than shallow_probe_from coordinates, enough for the predictor's longest
+/// series (predictor_limit) and two more, built at once; from there on (lattices: every degree holds O(n) terms
+/// of O(n) words each) enough for its first pass (predictor_first_pass), deepened only if its choice goes on.
+std::size_t probe_degree(RealisationForm form, const StepOptions& opt, std::size_t n);
+inline constexpr std::size_t shallow_probe_from = 40;
+
+/// The evaluator of alpha and beta - alpha, and what was chosen.
+struct StepRealisation {
+    RealisationEvaluator evaluator;
+    std::string method;
+    std::size_t degree = 0;               // D (0 for the log-canonical closed form)
+    bool exact = false;                   // a closed form: no truncation
+    double truncation_estimate = 0;       // the largest neglected |A_m| / |x| at the typical state
+};
+
+/// A closed form where there is one (log-canonical; so(3)*-type; any other Lie-Poisson structure by its
+/// series to the degree whose tail is below round-off at p0, scaling and squaring beyond), otherwise the
+/// compiled series truncated at the smallest D whose neglected terms at (x_typical, p0) are below round-off
+/// (capped at opt.max_degree). probe: the realisation at probe_degree, deepened in place from source when D
+/// needs it. p0 = grad S_dt(x_typical) at the build's dt.
+StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, Realisation& probe,
+                                 const RealisationSource& source, const Eigen::VectorXd& x_typical, const Eigen::VectorXd& p0);
+
+}  // namespace pgi

@@ -1,0 +1,64 @@
+#include "scheme/run_loop.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+namespace pgi {
+
+namespace {
+
+std::string numbered(char letter, std::size_t i) {
+    std::string name(1, letter);  // (not letter + std::to_string(i): GCC 12 warns of a false -Wrestrict there)
+    name += std::to_string(i);
+    return name;
+}
+
+std::vector<std::string> invariant_names(const Scheme& scheme, std::size_t extra, std::vector<std::string> extra_names) {
+    std::vector<std::string> names{"H"};
+    for (std::size_t c = 1; c <= scheme.casimirs().size(); ++c) names.push_back(numbered('C', c));
+    for (std::size_t e = 0; e < extra; ++e) names.push_back(e < extra_names.size() ? std::move(extra_names[e]) : numbered('I', e + 1));
+    return names;
+}
+
+// How fmt prints a double that is not finite: "inf", "-inf", "nan", "-nan".
+std::string non_finite_text(double v) { return std::string(std::signbit(v) ? "-" : "") + (std::isnan(v) ? "nan" : "inf"); }
+
+}  // namespace
+
+RunLoop::RunLoop(const Scheme& scheme, std::vector<Poly> extra, std::vector<std::string> extra_names)
+    : scheme_(&scheme), extra_(std::move(extra)), invariants_(scheme.invariants(extra_)),
+      names_(invariant_names(scheme, extra_.size(), std::move(extra_names))), values_(invariants_.num_outputs()),
+      initial_(values_), worst_(values_), scale_(values_) {}
+
+void RunLoop::start(const Eigen::VectorXd& x0) {
+    scale_ = invariant_scales(*scheme_, std::span<const double>(x0.data(), std::size_t(x0.size())), extra_);
+    std::fill(worst_.begin(), worst_.end(), 0.0);
+    non_finite_.clear();
+    last_ = x0;
+}
+
+bool RunLoop::evaluate(const Eigen::VectorXd& x) {
+    invariants_.eval(x.data(), values_.data());
+    for (std::size_t i = 0; i < values_.size(); ++i)
+        if (!std::isfinite(values_[i])) {
+            non_finite_ = names_[i] + " = " + non_finite_text(values_[i]);
+            return false;
+        }
+    return true;
+}
+
+void RunLoop::commit(bool first) {
+    if (first) initial_ = values_;
+    for (std::size_t i = 0; i < values_.size(); ++i) worst_[i] = std::max(worst_[i], error(i));
+}
+
+std::string RunLoop::failure_message(const NewtonStepper& stepper, const RunEnd& end) const {
+    if (end.non_finite.empty()) return step_failure_message(stepper, end.steps + 1, end.status);
+    if (!end.started) return "the invariant " + end.non_finite + " at x0 is not finite: nothing to integrate";
+    char buffer[512];
+    std::snprintf(buffer, sizeof buffer, "step %zu (from t = %.17g) failed: non-finite invariant %s after the step; a smaller dt may help",
+                  end.steps + 1, double(end.steps) * stepper.dt(), end.non_finite.c_str());
+    return buffer;
+}
+
+}  // namespace pgi
