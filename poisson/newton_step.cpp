@@ -24,28 +24,6 @@ namespace {
 
 constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
 
-// For each j: grad S_j and the upper triangle of Hess S_j (column by column: (0,0), (0,1), (1,1), (0,2), ...;
-// the Hessian is symmetric, so n(n+1)/2 of its n^2 entries are compiled); grad S_j alone; the sizes of grad
-// S_j's terms at |x| (with dt > 0, sum_j dt^j of these bounds the sizes of grad S_dt's terms).
-std::array<DtSeriesMap, 3> gradient_maps(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt) {
-    const std::size_t n = M.dim();
-    std::vector<std::vector<Poly>> with_hessian, gradient, sizes;
-    for (const auto& Sj : S) {
-        std::vector<Poly> g;
-        for (std::size_t l = 0; l < n; ++l) g.push_back(derivative(Sj, M.x(l)));
-        std::vector<Poly> gh(g), size;
-        for (std::size_t c = 0; c < n; ++c)
-            for (std::size_t r = 0; r <= c; ++r) gh.push_back(derivative(g[c], M.x(r)));
-        for (const auto& gl : g) size.push_back(absolute_coefficients(gl));
-        with_hessian.push_back(std::move(gh));
-        gradient.push_back(std::move(g));
-        sizes.push_back(std::move(size));
-    }
-    const auto vars = M.coordinate_vars();
-    return {DtSeriesMap::build(with_hessian, vars, planned_dt), DtSeriesMap::build(gradient, vars, planned_dt),
-            DtSeriesMap::build(sizes, vars, planned_dt)};
-}
-
 void check_build_arguments(const PhaseSpace& M, const std::vector<Poly>* S, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
     const std::size_t n = M.dim();
     if (opt.k < 1) throw std::invalid_argument("NewtonStepper: the order k must be at least 1");
@@ -67,25 +45,30 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.k_ = opt.k;
     s.dt_ = s.step_dt_ = opt.dt;
     s.opt_ = opt;
-    auto maps = gradient_maps(M, S, opt.dt);
-    s.gradient_ = std::move(maps[0]);
-    s.gradient_only_ = std::move(maps[1]);
-    s.gradient_size_ = std::move(maps[2]);
+    s.gradient_ = compile_gradient(M, S, opt.dt);
 
     // the truncation degree (and evaluator), sized at p0 = grad S_dt(x_typical): docs/math.md 4 and 6
     Eigen::VectorXd p0(static_cast<Eigen::Index>(n));
-    s.gradient_only_.eval(x_typical.data(), opt.dt, p0.data());
-    Realisation probe = realisation(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt));
+    s.gradient_.gradient.eval(x_typical.data(), opt.dt, p0.data());
+    Realisation probe = realisation(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, n));
     StepRealisation r = step_realisation(pi, opt, probe, realisation, x_typical, p0);
     s.realisation_ = std::move(r.evaluator);
     s.simplified_newton_ = r.simplified_newton;
     s.info_ = {std::move(r.method), r.degree, r.exact, r.truncation_estimate, 0};
+    // J = alpha_x + alpha_p Hess S_dt on its pattern: dense or sparse (NewtonMatrix::choose)
+    s.matrix_ = NewtonMatrix(s.realisation_.pattern_x(), s.realisation_.pattern_p(), s.gradient_.hessian, opt.solver);
+    s.sparse_ = s.matrix_.solver() == NewtonSolver::sparse;
+    s.info_.solver = s.matrix_.solver();
 
     // the predictor, xb = x + sum_m dt^m u_m, its order chosen by cost at opt.dt
     // (the acceptance test's evaluation of alpha costs about a third of eval's, which adds the derivatives)
-    const NewtonCost cost = newton_cost(s.gradient_.planned_cost() + s.realisation_.cost(), s.gradient_only_.planned_cost() + s.realisation_.cost() / 3, n,
-                                        s.simplified_newton_);
-    s.predictor_ = Predictor::choose(M, probe, S, opt, cost, x_typical);
+    const NewtonCost cost = newton_cost(s.gradient_.with_hessian.planned_cost() + s.realisation_.cost(s.sparse_),
+                                        s.gradient_.gradient.planned_cost() + s.realisation_.cost(s.sparse_) / 3, s.matrix_.factor_cost(),
+                                        s.matrix_.solve_cost(), s.simplified_newton_);
+    // a closed form is deepened for the predictor only if its choice goes past the first orders (the radial
+    // recursion is not: its cost is the point of its probe)
+    const bool closed = realisation_form(pi.structure_class(), opt.realisation) != RealisationForm::radial;
+    s.predictor_ = Predictor::choose(M, probe, S, opt, cost, x_typical, closed ? realisation : RealisationSource{});
     s.info_.predictor_order = s.predictor_.order();
     s.size_scratch(n);
     return s;
@@ -99,7 +82,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
         if (!deepest || deepest->degree < D) deepest = build_realisation(pi, opt.realisation, D);
         return deepest->degree == D ? *deepest : truncated(*deepest, D);
     };
-    const auto S = hamilton_jacobi_terms(pi.phase_space(), source(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt)), H, opt.k);
+    const auto S = hamilton_jacobi_terms(pi.phase_space(), source(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, pi.dim())), H, opt.k);
     return build(pi, S, source, opt, x_typical);
 }
 
@@ -110,10 +93,14 @@ void NewtonStepper::set_dt(double dt) {
 
 void NewtonStepper::size_scratch(std::size_t n) {
     const auto N = static_cast<Eigen::Index>(n);
-    v_ = RealisationValues(n);
     check_ = RealisationCheck(n);
     for (auto* v : {&xb_, &xb_good_, &p_, &r_, &dx_, &gsize_, &tol_}) v->setZero(N);
-    gh_.setZero(N + N * (N + 1) / 2);
+    gh_.setZero(N + static_cast<Eigen::Index>(gradient_.hessian.nonzeros()));
+    if (sparse_) {  // nothing n x n: the values live on the patterns
+        sparse_values_ = realisation_.sparse_values();
+        return;
+    }
+    v_ = RealisationValues(n);
     hess_.setZero(N, N);
     J_.setZero(N, N);
     D_.setZero(N, N);
@@ -122,12 +109,22 @@ void NewtonStepper::size_scratch(std::size_t n) {
 
 void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
     const auto n = xb.size();
-    gradient_.eval(xb.data(), step_dt_, gh_.data());
+    gradient_.with_hessian.eval(xb.data(), step_dt_, gh_.data());
     p_ = gh_.head(n);
-    const double* h = gh_.data() + n;
-    for (Eigen::Index c = 0; c < n; ++c)
-        for (Eigen::Index r = 0; r <= c; ++r) hess_(r, c) = hess_(c, r) = *h++;
+    if (sparse_) {
+        realisation_.eval(xb, p_, sparse_values_);
+        return;
+    }
+    gradient_.hessian.scatter(gh_.data() + n, hess_);
     realisation_.eval(xb, p_, v_);
+}
+
+void NewtonStepper::assemble() {
+    if (sparse_) {
+        matrix_.assemble(sparse_values_.alpha_x.data(), sparse_values_.alpha_p.data(), gh_.data() + p_.size());
+        return;
+    }
+    algebra_.jacobian(v_.alpha_x, v_.alpha_p, hess_, J_);
 }
 
 const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
@@ -137,7 +134,8 @@ const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
 
 const Eigen::MatrixXd& NewtonStepper::jacobian_at(const Eigen::VectorXd& xb) {
     evaluate_at(xb);
-    algebra_.jacobian(v_.alpha_x, v_.alpha_p, hess_, J_);
+    assemble();
+    if (sparse_) J_ = matrix_.dense();  // (the benchmarks' and tangent maps' dense view; Newton reads matrix_)
     return J_;
 }
 
@@ -157,10 +155,13 @@ constexpr double residual_kappa = 64;
 // system), is added to the tolerance only if the test fails without it (the stricter test passing suffices).
 bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction) {
     if (small_correction) {
-        algebra_.product(hess_, dx_, r_);
+        if (sparse_)
+            gradient_.hessian.multiply(gh_.data() + p_.size(), dx_, r_);
+        else
+            algebra_.product(hess_, dx_, r_);
         p_ -= r_;
     } else {
-        gradient_only_.eval(xb_.data(), step_dt_, p_.data());
+        gradient_.gradient.eval(xb_.data(), step_dt_, p_.data());
     }
     realisation_.check(xb_, p_, check_);
     r_ = check_.alpha - x;
@@ -168,10 +169,8 @@ bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction
     tol_ = residual_kappa * unit_roundoff * (x.cwiseAbs() + check_.size);
     if (!within_tolerance()) {
         r_ = xb_.cwiseAbs();
-        gradient_size_.eval(r_.data(), std::abs(step_dt_), gsize_.data());
-        const auto n = x.size();
-        for (Eigen::Index i = 0; i < n; ++i)
-            for (Eigen::Index l = 0; l < n; ++l) tol_[i] += residual_kappa * unit_roundoff * std::abs(v_.alpha_p(i, l)) * gsize_[l];
+        gradient_.gradient_size.eval(r_.data(), std::abs(step_dt_), gsize_.data());
+        add_propagated_sizes();
         r_ = check_.alpha - x;
         within_tolerance();
     }
@@ -179,6 +178,22 @@ bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction
     const double size = std::max({x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min()});
     truncation_ = check_.neglected / size;
     return ratio_ <= 1;
+}
+
+// tol_i += kappa u sum_l |alpha_p(i, l)| gsize_l: the round-off of grad S_dt's terms carried into alpha_i, over
+// alpha_p's pattern on the sparse path.
+void NewtonStepper::add_propagated_sizes() {
+    const double c = residual_kappa * unit_roundoff;
+    if (sparse_) {
+        const SparsePattern& P = realisation_.pattern_p();
+        for (std::size_t l = 0; l < P.cols; ++l)
+            for (int k = P.outer[l]; k < P.outer[l + 1]; ++k)
+                tol_[P.inner[std::size_t(k)]] += c * std::abs(sparse_values_.alpha_p[std::size_t(k)]) * gsize_[Eigen::Index(l)];
+        return;
+    }
+    const auto n = tol_.size();
+    for (Eigen::Index i = 0; i < n; ++i)
+        for (Eigen::Index l = 0; l < n; ++l) tol_[i] += c * std::abs(v_.alpha_p(i, l)) * gsize_[l];
 }
 
 // ratio_ = max_i |r_i| / tol_i; whether it is at most 1.
@@ -197,6 +212,17 @@ StepStatus NewtonStepper::finish(double x_norm, Eigen::VectorXd& increment) {
     return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
 }
 
+// dx = J^{-1} r_ with the J just assembled (factored and kept), or with the kept factors (again): false when
+// the sparse factorisation fails (J singular; the dense LU shows it as a non-finite dx).
+bool NewtonStepper::solve(bool again) {
+    if (sparse_) return again ? matrix_.solve_again(r_, dx_) : matrix_.solve(r_, dx_);
+    if (again)
+        algebra_.solve_again(r_, dx_);
+    else
+        algebra_.solve(J_, r_, dx_);
+    return true;
+}
+
 // Newton from the predicted xb_: corrections until one is small (or stalls at round-off), then the
 // acceptance test; a failed test goes on iterating. Near the solution (a correction below 1e-4 |x|) the
 // next iterations are simplified Newton: the residual alone at the new base point (grad S_dt and alpha, the
@@ -212,7 +238,7 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
             // r = alpha(xb, grad S_dt(xb)) - x, evaluated by the acceptance test itself
             if (accept_check(x, false)) return finish(x_norm, increment);
             if (!std::isfinite(residual_)) return StepStatus::non_finite;
-            algebra_.solve_again(r_, dx_);
+            if (!solve(true)) return StepStatus::non_finite;
             xb_ -= dx_;
             iterations_ = it;
             const double correction = dx_.lpNorm<Eigen::Infinity>();
@@ -223,8 +249,9 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
             continue;
         }
         // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
-        jacobian_at(xb_);
-        r_ = v_.alpha - x;
+        evaluate_at(xb_);
+        assemble();
+        r_ = evaluated_alpha() - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
         // Far from the solution (large steps) a full correction may overshoot: back along it, halving (down
         // to 2^-20 of it: stopping at 1/64 took points whose residual had grown 20-fold, from which sl(2)*
@@ -235,10 +262,10 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
             xb_ = xb_good_ - lambda * dx_;
             continue;
         }
-        if (!std::isfinite(residual_) || !v_.delta.allFinite()) return StepStatus::non_finite;
+        if (!std::isfinite(residual_) || !evaluated_delta().allFinite()) return StepStatus::non_finite;
         good_residual = residual_, lambda = 1;
         xb_good_ = xb_;
-        algebra_.solve(J_, r_, dx_);
+        if (!solve(false)) return StepStatus::non_finite;  // J singular
         xb_ -= dx_;
         iterations_ = it;
         correction_ = dx_.lpNorm<Eigen::Infinity>();
@@ -272,13 +299,18 @@ StepStatus NewtonStepper::step(const Eigen::VectorXd& x, double dt, Eigen::Vecto
 
 double NewtonStepper::residual_at_solution(const Eigen::VectorXd& x) {
     evaluate_at(xb_);  // at the last step's dt
-    return (v_.alpha - x).lpNorm<Eigen::Infinity>();
+    return (evaluated_alpha() - x).lpNorm<Eigen::Infinity>();
 }
 
 Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
     Eigen::VectorXd inc(x.size());
     if (step(x, inc) != StepStatus::ok) throw std::runtime_error("NewtonStepper::tangent_map: the step failed");
     jacobian_at(xb_);
+    if (sparse_) {  // the dense blocks from the patterns: a tangent map is dense anyway
+        v_ = RealisationValues(dim());
+        realisation_.eval(xb_, p_, v_);
+        gradient_.hessian.scatter(gh_.data() + p_.size(), hess_);
+    }
     D_ = v_.delta_x;
     D_.noalias() += v_.delta_p * hess_;
     // x = alpha(xb(x)) gives dxb/dx = J^{-1}; x_new = beta(xb) = alpha + delta, so Dphi = (J + D) J^{-1}

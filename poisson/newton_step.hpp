@@ -5,7 +5,9 @@
 // predictor (poisson/predictor), and here Newton with the acceptance test. dt is a run-time argument.
 #include "poisson/dense_algebra.hpp"
 #include "poisson/hamilton_jacobi.hpp"
+#include "poisson/newton_matrix.hpp"
 #include "poisson/predictor.hpp"
+#include "poisson/sparse_hessian.hpp"
 #include "poisson/step_options.hpp"
 #include "poisson/truncation_degree.hpp"
 
@@ -40,7 +42,8 @@ public:
     static NewtonStepper build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
                                const Eigen::VectorXd& x_typical);
 
-    /// Fast: increment = phi_dt(x) - x. Allocates nothing, throws nothing. dt is any positive step (a
+    /// Fast: increment = phi_dt(x) - x. Allocates nothing (on the dense path; SparseLU's factorisation allocates
+    /// on the sparse one), throws nothing. dt is any positive step (a
     /// non-finite one returns non_finite); the realisation degree and predictor were chosen for built_dt().
     [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment);
     /// The same at dt().
@@ -78,12 +81,17 @@ public:
 
 private:
     StepStatus newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment);
-    StepStatus finish(double x_norm, Eigen::VectorXd& increment);
     const Eigen::MatrixXd& jacobian_at(const Eigen::VectorXd& xb);  // at step_dt_
     void evaluate_at(const Eigen::VectorXd& xb);
     bool accept_check(const Eigen::VectorXd& x, bool small_correction);
     bool within_tolerance();
+    void add_propagated_sizes();
+    StepStatus finish(double x_norm, Eigen::VectorXd& increment);
+    bool solve(bool again);
     void size_scratch(std::size_t n);
+    void assemble();  // J at the point evaluate_at saw
+    const Eigen::VectorXd& evaluated_alpha() const { return sparse_ ? sparse_values_.alpha : v_.alpha; }
+    const Eigen::VectorXd& evaluated_delta() const { return sparse_ ? sparse_values_.delta : v_.delta; }
 
     std::size_t k_ = 1;
     double dt_ = 0;                       // the default step
@@ -92,16 +100,17 @@ private:
     StepInfo info_;
     RealisationEvaluator realisation_;
     bool simplified_newton_ = true;       // StepRealisation::simplified_newton
-    DtSeriesMap gradient_;                // (x, dt) -> grad S_dt (n), Hess S_dt's upper triangle (n(n+1)/2, by columns)
+    CompiledGradient gradient_;           // (x, dt) -> grad S_dt (n), Hess S_dt on its pattern; grad S_dt alone; its terms' sizes
     Predictor predictor_;                 // (x, dt) -> xb, the base point's series in dt
-    DtSeriesMap gradient_only_;           // (x, dt) -> grad S_dt
-    DtSeriesMap gradient_size_;           // (|x|, dt) -> the sizes of grad S_dt's terms
+    NewtonMatrix matrix_;                 // the sparse path's J (its pattern and SparseLU, kept for simplified Newton)
+    bool sparse_ = false;
+    SparseRealisationValues sparse_values_;
     RealisationCheck check_;
     Eigen::VectorXd gsize_, tol_;
     RealisationValues v_;
     Eigen::VectorXd xb_, xb_good_, p_, r_, dx_, gh_;
     Eigen::MatrixXd hess_, J_, D_;
-    DenseAlgebra algebra_;
+    DenseAlgebra algebra_;                // the dense path's J, LU and products
     int iterations_ = 0;
     double residual_ = 0, correction_ = 0, tolerance_ = 0, ratio_ = 0, truncation_ = 0;
 };

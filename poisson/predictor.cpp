@@ -19,15 +19,19 @@ int expected_iterations(double e, double tol) {
     return it;
 }
 
-// The predictor order P minimising (terms of the predictor) + the cost of the expected iterations, the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
+// The predictor order P minimising (terms of the predictor) + (expected iterations) x (one iteration's
+// cost), the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
 // Fed the base point's series order by order (base_point_series' `enough`); stops at the first order
 // expecting one iteration, or once the next orders cannot win or cost more exact work than they save.
 // Deterministic: the choice depends on the scene only.
 class PredictorChoice {
 public:
     static constexpr double cheap_order_terms = 500;
-    PredictorChoice(const StepOptions& opt, const NewtonCost& cost, std::vector<double> point, double scale, std::size_t limit)
-        : opt_(opt), cost_(cost), point_(std::move(point)), scale_(scale), limit_(limit) {}
+    /// cap_stops: whether an order above cheap_order_terms stops the choice (not in the first pass, whose
+    /// orders are computed anyway).
+    PredictorChoice(const StepOptions& opt, const NewtonCost& cost, std::vector<double> point, double scale, std::size_t limit,
+                    bool cap_stops = true)
+        : opt_(opt), cost_(cost), point_(std::move(point)), scale_(scale), limit_(limit), cap_stops_(cap_stops) {}
     bool operator()(const std::vector<Series>& v) {
         const std::size_t s = v.front().order() - 1;  // exact through dt^s: scores the order P = s - 1
         double e = 0, terms = 0, top = 0;
@@ -46,11 +50,16 @@ public:
         // A first neglected term that does not shrink means the series diverges at this dt.
         const bool hopeless = terms + top >= best_cost_ - cost_.first;
         const bool diverging = e_ > 0 && e >= e_;
-        const bool stop = iterations == 1 || s >= limit_ + 1 || hopeless || top > cheap_order_terms || diverging;
+        const bool capped = top > cheap_order_terms;
+        capped_ = capped_ || capped;
+        const bool decided = iterations == 1 || hopeless || (capped && cap_stops_) || diverging;
+        at_limit_ = !decided && s >= limit_ + 1;
         e_ = e;
-        return stop;
+        return decided || s >= limit_ + 1;
     }
     std::size_t order() const { return best_.value_or(0); }
+    /// Whether only the limit stopped the choice, every order seen within the cap: a higher limit could go on.
+    bool at_limit() const { return at_limit_ && !capped_; }
 
 private:
     const StepOptions& opt_;
@@ -61,6 +70,8 @@ private:
     std::optional<std::size_t> best_;
     double best_cost_ = 0;
     double e_ = 0;  // of the order before
+    bool cap_stops_;
+    bool at_limit_ = false, capped_ = false;
 };
 
 // (x, p = 0): the point the exact series are evaluated at (they read no p).
@@ -76,10 +87,13 @@ std::size_t predictor_limit(const StepOptions& opt) {
     return opt.predictor_order ? opt.predictor_order : std::max<std::size_t>(opt.k + 1, 8) + 1;
 }
 
-NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, std::size_t n, bool simplified) {
-    const double N = static_cast<double>(n);
-    const double first = static_cast<double>(system_cost) + N * N * N / 3 + 2 * N * N + 150;
-    return {first, simplified ? static_cast<double>(residual_cost) + 2 * N * N + 150 : first};
+std::size_t predictor_first_pass(const StepOptions& opt) {
+    return opt.predictor_order ? predictor_limit(opt) : std::min<std::size_t>(predictor_limit(opt), 3);
+}
+
+NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, double factor_cost, double solve_cost, bool simplified) {
+    const double first = static_cast<double>(system_cost) + factor_cost + solve_cost + 150;
+    return {first, simplified ? static_cast<double>(residual_cost) + solve_cost + 150 : first};
 }
 
 Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u, double planned_dt) {
@@ -90,13 +104,25 @@ Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Po
 }
 
 Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
-                            const NewtonCost& cost, const Eigen::VectorXd& x_typical) {
-    const std::size_t P = std::min(predictor_limit(opt), probe.degree);
-    if (opt.predictor_order) return build(M, base_point_series(M, probe, S, P), opt.dt);
+                            const NewtonCost& cost, const Eigen::VectorXd& x_typical,
+                            const std::function<Realisation(std::size_t)>& deeper) {
+    if (opt.predictor_order) return build(M, base_point_series(M, probe, S, std::min(predictor_limit(opt), probe.degree)), opt.dt);
     const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
-    PredictorChoice choice(opt, cost, point_at(x_typical), scale, P - 1);
-    auto u = base_point_series(M, probe, S, P, std::ref(choice));
-    u.resize(std::min(u.size(), choice.order()), std::vector<Poly>{});
+    // The series is computed to the limit's order before the choice sees it, and at large n (the lattices) every
+    // order holds O(n) terms: a first pass scores the orders through predictor_first_pass (all of them, whatever
+    // their size), and the full limit is computed only when that limit alone stopped the choice within the cap
+    // (then it decides exactly as one pass would).
+    const std::size_t P1 = std::min(predictor_first_pass(opt), probe.degree);
+    std::optional<PredictorChoice> choice;
+    choice.emplace(opt, cost, point_at(x_typical), scale, P1 - 1, false);
+    auto u = base_point_series(M, probe, S, P1, std::ref(*choice));
+    const std::size_t P = std::min(predictor_limit(opt), deeper ? predictor_limit(opt) : probe.degree);
+    if (choice->at_limit() && P1 < P) {
+        const Realisation deep = probe.degree >= P ? probe : deeper(std::max(P, probe.degree));
+        choice.emplace(opt, cost, point_at(x_typical), scale, P - 1);
+        u = base_point_series(M, deep, S, P, std::ref(*choice));
+    }
+    u.resize(std::min(u.size(), choice->order()), std::vector<Poly>{});
     return build(M, u, opt.dt);
 }
 

@@ -6,21 +6,26 @@
 
 #include <Eigen/Dense>
 
+#include <functional>
+
 namespace pgi {
 
 /// The longest series the build computes: opt.predictor_order if given, else max(k + 1, 8) + 1 (the
 /// choice scores order P from the series through dt^(P+1), its first neglected term).
 std::size_t predictor_limit(const StepOptions& opt);
+/// The orders the choice scores first, before any deeper series is computed (predictor_limit if the order is asked).
+std::size_t predictor_first_pass(const StepOptions& opt);
 
 /// What Newton costs in multiply-adds, roughly, for the predictor's cost model: its first iteration (one
-/// evaluation of the Newton system: grad and Hess of S_dt, the realisation with its derivatives; the LU
-/// solve; and a fixed 150 for what is not arithmetic (calls, pivoting, the update), which measured F+J
-/// times on the bundled scenes put at 100-200 predictor terms' worth), and each later one (simplified
-/// Newton: the residual alone and a solve with the kept factors; the first's cost where it is not used).
+/// evaluation of the Newton system: grad and Hess of S_dt, the realisation with its derivatives; the
+/// factorisation and solve of J; and a fixed 150 for what is not arithmetic (calls, pivoting, the update),
+/// which measured F+J times on the bundled scenes put at 100-200 predictor terms' worth), and each later one
+/// (simplified Newton: the residual alone and a solve with the kept factors; the first's cost where it is
+/// not used).
 struct NewtonCost {
     double first = 0, later = 0;
 };
-NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, std::size_t n, bool simplified);
+NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, double factor_cost, double solve_cost, bool simplified);
 
 class Predictor {
 public:
@@ -31,8 +36,11 @@ public:
     /// The series of the base point of the truncated realisation probe and S_1..S_k, to the order asked
     /// (opt.predictor_order) or else to the order P <= min(predictor_limit - 1, probe.degree - 1) minimising
     /// the predictor's terms plus the Newton iterations it leaves at (x_typical, opt.dt) at their cost.
+    /// deeper (closed forms): the realisation through a degree beyond probe's, asked only if the choice goes past
+    /// predictor_first_pass; without it the orders stop at probe.degree - 1.
     static Predictor choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
-                            const NewtonCost& cost, const Eigen::VectorXd& x_typical);
+                            const NewtonCost& cost, const Eigen::VectorXd& x_typical,
+                            const std::function<Realisation(std::size_t)>& deeper = {});
 
     std::size_t order() const { return order_; }
     /// xb = x + sum_m dt^m u_m(x). Allocates nothing.

@@ -124,7 +124,7 @@ Realisation log_canonical_realisation(const PoissonStructure& pi, std::size_t D)
     for (std::size_t j = 0; j < M.dim(); ++j) {
         // u_j = (1/2) sum_i a_ij x_i p_i;  alpha_j = sum_m u_j^m/m! x_j
         Poly u(M.ring());
-        for (std::size_t i = 0; i < M.dim(); ++i)
+        for (std::size_t i : pi.row_support(j))  // a_ij != 0 exactly where a_ji != 0
             u += (Rational(1, 2) * pi.log_canonical_coefficient(i, j)) * (M.x_gen(i) * M.p_gen(i));
         Poly um = M.x_gen(j);
         for (std::size_t m = 1; m <= D; ++m) {

@@ -2,6 +2,7 @@
 
 #include <flint/fmpq.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -23,6 +24,28 @@ Poly absolute_coefficients(const Poly& f) {
     return a;
 }
 
+namespace {
+
+// The pattern of d f_i / d v_l over the variables v_l = vars[l]: the variables each f_i holds.
+SparsePattern derivative_pattern(const std::vector<std::vector<std::size_t>>& used, const std::vector<std::size_t>& vars) {
+    std::vector<int> column_of(vars.empty() ? 0 : *std::max_element(vars.begin(), vars.end()) + 1, -1);
+    for (std::size_t l = 0; l < vars.size(); ++l) column_of[vars[l]] = static_cast<int>(l);
+    std::vector<std::vector<int>> columns(vars.size());
+    for (std::size_t i = 0; i < used.size(); ++i)
+        for (std::size_t v : used[i])
+            if (v < column_of.size() && column_of[v] >= 0) columns[std::size_t(column_of[v])].push_back(static_cast<int>(i));
+    return SparsePattern::from_columns(used.size(), std::move(columns));
+}
+
+// d f_i / d vars[l] for every entry (i, l) of the pattern, in pattern order.
+void push_derivatives(const std::vector<Poly>& f, const SparsePattern& pattern, const std::vector<std::size_t>& vars,
+                      std::vector<Poly>& out) {
+    for (std::size_t l = 0; l < pattern.cols; ++l)
+        for (int k = pattern.outer[l]; k < pattern.outer[l + 1]; ++k) out.push_back(derivative(f[std::size_t(pattern.inner[std::size_t(k)])], vars[l]));
+}
+
+}  // namespace
+
 RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi, const Realisation& r,
                                                       const std::vector<Poly>& neglected) {
     const PhaseSpace& M = pi.phase_space();
@@ -32,19 +55,26 @@ RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi
         alpha.push_back(r.alpha[i].sum());
         delta.push_back(r.beta[i].sum() - alpha.back());  // the odd part, times -2: its own expression
     }
-    std::vector<Poly> outputs = alpha;
-    outputs.insert(outputs.end(), delta.begin(), delta.end());
-    // derivative blocks, column-major like Eigen: entry (i, l) at l * n + i
-    for (const auto* f : {&alpha, &delta})
-        for (bool wrt_p : {false, true})
-            for (std::size_t l = 0; l < n; ++l)
-                for (std::size_t i = 0; i < n; ++i) outputs.push_back(derivative((*f)[i], wrt_p ? M.p(l) : M.x(l)));
-    std::vector<std::size_t> inputs;
-    for (std::size_t i = 0; i < n; ++i) inputs.push_back(M.x(i));
-    for (std::size_t i = 0; i < n; ++i) inputs.push_back(M.p(i));
+    std::vector<std::size_t> xs, ps, inputs;
+    for (std::size_t i = 0; i < n; ++i) xs.push_back(M.x(i)), ps.push_back(M.p(i));
+    inputs = xs;
+    inputs.insert(inputs.end(), ps.begin(), ps.end());
+    // the derivatives only where a component holds the variable: alpha_i and delta_i together
+    std::vector<std::vector<std::size_t>> used(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        used[i] = used_variables(alpha[i]);
+        const auto d = used_variables(delta[i]);
+        used[i].insert(used[i].end(), d.begin(), d.end());
+    }
     RealisationEvaluator e;
     e.n_ = n;
     e.form_ = Form::polynomial;
+    e.pattern_x_ = derivative_pattern(used, xs);
+    e.pattern_p_ = derivative_pattern(used, ps);
+    std::vector<Poly> outputs = alpha;
+    outputs.insert(outputs.end(), delta.begin(), delta.end());
+    for (const auto* f : {&alpha, &delta}) push_derivatives(*f, e.pattern_x_, xs, outputs);
+    for (const auto* f : {&alpha, &delta}) push_derivatives(*f, e.pattern_p_, ps, outputs);
     e.map_ = CompiledMap::build(outputs, inputs);
     std::vector<Poly> values = alpha, sizes;
     values.insert(values.end(), delta.begin(), delta.end());
@@ -59,14 +89,29 @@ RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi
 
 RealisationEvaluator RealisationEvaluator::log_canonical(const PoissonStructure& pi) {
     RealisationEvaluator e;
-    const auto n = static_cast<Eigen::Index>(pi.dim());
-    e.n_ = pi.dim();
+    const std::size_t n = pi.dim();
+    e.n_ = n;
     e.form_ = Form::log_canonical;
-    e.a_.resize(n, n);
-    for (Eigen::Index i = 0; i < n; ++i)
-        for (Eigen::Index j = 0; j < n; ++j)
-            e.a_(i, j) = pi.log_canonical_coefficient(static_cast<std::size_t>(i), static_cast<std::size_t>(j)).to_double();
-    e.u_.resize(n);
+    // a_lj != 0 exactly where pi_jl != 0: the structure's pattern, symmetric
+    std::vector<std::vector<int>> columns(n), with_diagonal(n);
+    for (std::size_t j = 0; j < n; ++j) {
+        for (std::size_t l : pi.row_support(j)) columns[j].push_back(static_cast<int>(l));
+        with_diagonal[j] = columns[j];
+        with_diagonal[j].push_back(static_cast<int>(j));
+    }
+    e.a_pattern_ = SparsePattern::from_columns(n, columns);
+    e.pattern_p_ = e.a_pattern_;  // entry (j, l) of alpha_p: a_lj != 0, the same symmetric pattern
+    e.pattern_x_ = SparsePattern::from_columns(n, std::move(with_diagonal));
+    for (std::size_t j = 0; j < n; ++j) {
+        e.diagonal_x_.push_back(static_cast<int>(e.pattern_x_.find(int(j), int(j))));
+        for (int k = e.a_pattern_.outer[j]; k < e.a_pattern_.outer[j + 1]; ++k) {
+            const int l = e.a_pattern_.inner[std::size_t(k)];
+            e.a_values_.push_back(pi.log_canonical_coefficient(std::size_t(l), j).to_double());
+            e.a_to_x_.push_back(static_cast<int>(e.pattern_x_.find(int(j), l)));
+            e.a_to_p_.push_back(static_cast<int>(e.pattern_p_.find(int(j), l)));
+        }
+    }
+    e.u_.resize(static_cast<Eigen::Index>(n));
     return e;
 }
 
@@ -136,6 +181,8 @@ RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& p
         M->resize(n, n);
     e.dQ_.assign(static_cast<std::size_t>(2 * n), Eigen::MatrixXd(n, n));  // dQ/dp_j, then d(Z^2)/dp_j
     e.lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(n);
+    e.pattern_x_ = e.pattern_p_ = SparsePattern::dense(e.n_, e.n_);
+    e.dense_ = RealisationValues(e.n_);
     return e;
 }
 
@@ -165,13 +212,15 @@ RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) 
     e.C_ = structure_matrices(pi);
     // the even Bernoulli coefficients b_2j = B_2j/(2j)!, j = 1..20, for h(s) near s = 0
     for (std::size_t j = 1; j <= 20; ++j) e.b_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
+    e.pattern_x_ = e.pattern_p_ = SparsePattern::dense(3, 3);
+    e.dense_ = RealisationValues(3);
     return e;
 }
 
-std::size_t RealisationEvaluator::cost() const {
+std::size_t RealisationEvaluator::cost(bool sparse) const {
     const std::size_t n = n_;
     switch (form_) {
-        case Form::log_canonical: return 6 * n * n + 20 * n;
+        case Form::log_canonical: return sparse ? 12 * a_pattern_.nonzeros() + 20 * n : 6 * n * n + 20 * n;
         case Form::lie_poisson: return b_.size() * (2 * n * n * n + 3 * n * n);
         case Form::rotation: return 150;
         case Form::polynomial: break;
@@ -192,11 +241,12 @@ void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd&
     map_.eval(in_.data(), out_.data());
     v.alpha = out_.segment(0, n);
     v.delta = out_.segment(n, n);
-    const Eigen::Index nn = n * n;
-    v.alpha_x = Eigen::Map<const Eigen::MatrixXd>(out_.data() + 2 * n, n, n);
-    v.alpha_p = Eigen::Map<const Eigen::MatrixXd>(out_.data() + 2 * n + nn, n, n);
-    v.delta_x = Eigen::Map<const Eigen::MatrixXd>(out_.data() + 2 * n + 2 * nn, n, n);
-    v.delta_p = Eigen::Map<const Eigen::MatrixXd>(out_.data() + 2 * n + 3 * nn, n, n);
+    const double* d = out_.data() + 2 * n;
+    const std::size_t nx = pattern_x_.nonzeros(), np = pattern_p_.nonzeros();
+    pattern_x_.scatter(d, v.alpha_x);
+    pattern_x_.scatter(d + nx, v.delta_x);
+    pattern_p_.scatter(d + 2 * nx, v.alpha_p);
+    pattern_p_.scatter(d + 2 * nx + np, v.delta_p);
 }
 
 namespace {
@@ -389,33 +439,6 @@ void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::
     v.delta_x = L;
 }
 
-void RealisationEvaluator::eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
-    const auto n = static_cast<Eigen::Index>(n_);
-    {
-        // u_j = (1/2) sum_i a_ij x_i p_i; alpha_j = x_j e^{u_j}; delta_j = x_j (e^{-u_j} - e^{u_j}) = -2 x_j sinh u_j
-        for (Eigen::Index j = 0; j < n; ++j) {
-            double u = 0;
-            for (Eigen::Index i = 0; i < n; ++i) u += a_(i, j) * x[i] * p[i];
-            u_[j] = 0.5 * u;
-        }
-        for (Eigen::Index j = 0; j < n; ++j) {
-            // one transcendental: e^u - 1 keeps sinh u accurate for small u
-            const double em1 = std::expm1(u_[j]), e = 1.0 + em1;
-            const double s = -(em1 + em1 / e), c = -(e + 1.0 / e);  // -2 sinh u, -2 cosh u
-            v.alpha[j] = x[j] * e;
-            v.delta[j] = x[j] * s;
-            for (Eigen::Index l = 0; l < n; ++l) {
-                // du_j/dx_l = a_lj p_l / 2, du_j/dp_l = a_lj x_l / 2
-                const double ux = 0.5 * a_(l, j) * p[l], up = 0.5 * a_(l, j) * x[l];
-                v.alpha_x(j, l) = x[j] * e * ux + (j == l ? e : 0.0);
-                v.alpha_p(j, l) = x[j] * e * up;
-                v.delta_x(j, l) = x[j] * c * ux + (j == l ? s : 0.0);
-                v.delta_p(j, l) = x[j] * c * up;
-            }
-        }
-    }
-}
-
 void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const {
     const auto n = static_cast<Eigen::Index>(n_);
     c.neglected = 0;
@@ -475,7 +498,11 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             // its terms' sizes w_j) enters alpha_j multiplied by |alpha_j|
             for (Eigen::Index j = 0; j < n; ++j) {
                 double u = 0, w = 0;
-                for (Eigen::Index i = 0; i < n; ++i) u += a_(i, j) * x[i] * p[i], w += std::abs(a_(i, j) * x[i] * p[i]);
+                for (int k = a_pattern_.outer[std::size_t(j)]; k < a_pattern_.outer[std::size_t(j) + 1]; ++k) {
+                    const int l = a_pattern_.inner[std::size_t(k)];
+                    const double term = a_values_[std::size_t(k)] * x[l] * p[l];
+                    u += term, w += std::abs(term);
+                }
                 const double em1 = std::expm1(0.5 * u), e = 1.0 + em1;
                 c.alpha[j] = x[j] * e;
                 c.delta[j] = -x[j] * (em1 + em1 / e);

@@ -1,6 +1,7 @@
 #pragma once
 // RealisationEvaluator: alpha, beta - alpha and their first derivatives at a point (x, p), in double.
 #include "poisson/realisation.hpp"
+#include "poisson/sparse_pattern.hpp"
 #include "series/compile.hpp"
 
 #include <Eigen/Dense>
@@ -12,6 +13,13 @@ struct RealisationValues {
     Eigen::VectorXd alpha, delta;                        // alpha(x, p) and delta = beta - alpha
     Eigen::MatrixXd alpha_x, alpha_p, delta_x, delta_p;  // d/dx and d/dp of each (row i: component i)
     explicit RealisationValues(std::size_t n = 0);
+};
+
+/// The same on the evaluator's fixed patterns (pattern_x() for alpha_x and delta_x, pattern_p() for alpha_p
+/// and delta_p, values in pattern order): what the sparse Newton path reads, O(pattern) per evaluation.
+struct SparseRealisationValues {
+    Eigen::VectorXd alpha, delta;
+    std::vector<double> alpha_x, delta_x, alpha_p, delta_p;
 };
 
 /// What the step's acceptance test reads at the solution (no derivatives): alpha, delta, the size of
@@ -49,11 +57,21 @@ public:
     static bool has_rotation_form(const PoissonStructure& pi);
     static RealisationEvaluator rotation(const PoissonStructure& pi);
 
-    /// One evaluation's cost in multiply-adds, roughly (transcendentals counted as 20): for cost models.
-    std::size_t cost() const;
+    /// One evaluation's cost in multiply-adds, roughly (transcendentals counted as 20): for cost models;
+    /// sparse: of the evaluation on the patterns.
+    std::size_t cost(bool sparse = false) const;
 
     /// Writes every block of v. Allocates nothing.
     void eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
+    /// Where the derivatives by x (alpha_x, delta_x) and by p (alpha_p, delta_p) can be non-zero: the
+    /// structure's pattern (and the diagonal) for the log-canonical form, the variables each compiled component
+    /// holds for the polynomial form, every entry for the Lie-Poisson forms.
+    const SparsePattern& pattern_x() const { return pattern_x_; }
+    const SparsePattern& pattern_p() const { return pattern_p_; }
+    /// Values sized for eval(x, p, SparseRealisationValues&).
+    SparseRealisationValues sparse_values() const;
+    /// Writes every block of v on the patterns (poisson/realisation_eval_sparse.cpp). Allocates nothing.
+    void eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, SparseRealisationValues& v) const;
     /// Writes every field of c (alpha and delta as eval writes them). Allocates nothing.
     void check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const;
     /// Lie-Poisson: the largest |L(p)|_inf at which the truncated series is used (beyond: scaling and squaring).
@@ -65,6 +83,9 @@ public:
 private:
     enum class Form { polynomial, log_canonical, lie_poisson, rotation };
     void eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
+    template <class Put>
+    void log_canonical_derivatives(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha,
+                                   Eigen::VectorXd& delta, Put put) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void form_L(const Eigen::VectorXd& p) const;
@@ -73,12 +94,17 @@ private:
 
     std::size_t n_ = 0;
     Form form_ = Form::polynomial;
-    Eigen::MatrixXd a_;                 // log-canonical: a_ij
+    SparsePattern a_pattern_;           // log-canonical: column j holds the l with a_lj != 0 ...
+    std::vector<double> a_values_;      // ... and a_lj, in pattern order
+    std::vector<int> a_to_x_, a_to_p_;  // ... and where entry (j, l) of the derivatives sits in pattern_x_, pattern_p_
+    std::vector<int> diagonal_x_;       // log-canonical: where (j, j) sits in pattern_x_
+    SparsePattern pattern_x_, pattern_p_;
+    mutable RealisationValues dense_;   // Lie-Poisson forms: evaluated dense, then gathered on the (full) patterns
     std::vector<Eigen::MatrixXd> C_;    // Lie-Poisson: C_[j](i, k) = c_ij^k = dL(p)/dp_j
     std::vector<double> b_;             // Lie-Poisson: B_m / m!, m = 0..D; rotation: B_2j / (2j)!, j = 1..20
     std::vector<double> q_;             // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
     double radius_ = 0;                 // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off
-    CompiledMap map_;                   // polynomial: alpha, delta, alpha_x, alpha_p, delta_x, delta_p
+    CompiledMap map_;                   // polynomial: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
     CompiledMap values_map_;            // polynomial: alpha, delta, then the neglected parts
     CompiledMap size_map_;              // polynomial: alpha with every coefficient replaced by its absolute value
     mutable Eigen::VectorXd in_, out_, u_, v_prev_, v_next_;

@@ -1,6 +1,7 @@
 #pragma once
 // The step's options and what its build chose (docs/math.md 6), shared by the truncation degree, the
 // predictor and Newton.
+#include "poisson/newton_matrix.hpp"
 #include "poisson/realisation.hpp"
 
 #include <string>
@@ -16,6 +17,7 @@ struct StepOptions {
     double newton_tol = 1e-9;             // try the acceptance test once |dx| <= tol max(|x|, |xb|): the next correction is ~|dx|^2
     double truncation_bound = 1e-12;      // a truncated realisation's neglected terms at the solution, relative to |x|
     std::size_t predictor_order = 0;      // P of the base point's series; 0 chooses it by cost, up to max(k + 1, 8)
+    NewtonSolverChoice solver = NewtonSolverChoice::automatic;  // the Newton matrix dense or sparse (NewtonMatrix::choose)
 };
 
 /// How the step was built: the realisation's method and degree, and the size of the neglected
@@ -26,6 +28,7 @@ struct StepInfo {
     bool exact_realisation = false;
     double truncation_estimate = 0;       // max_{m > D} |A_m(x, grad S_dt(x))|_inf / |x|_inf at the typical state (probed degrees)
     std::size_t predictor_order = 0;      // the base point is predicted by its exact series in dt to this order
+    NewtonSolver solver = NewtonSolver::dense;  // sparse: J, Hess S_dt and the realisation's derivatives on their patterns
 };
 
 }  // namespace pgi

@@ -3,7 +3,9 @@
 #include "poisson/phase_space.hpp"
 
 #include <array>
+#include <map>
 #include <optional>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -31,13 +33,20 @@ public:
     /// pi[j][i] = -pi[i][j]: std::invalid_argument names the first (i, j) where this fails.
     /// The Jacobi identity is not required here: check it with jacobi_failure().
     PoissonStructure(PhaseSpace M, std::vector<std::vector<Poly>> pi);
+    /// The same from the entries pi_ij (i, j) alone, both orders of each pair (absent ones are 0): no n x n of
+    /// polynomials (a 1000-site lattice has 2000 entries, not 10^6).
+    PoissonStructure(PhaseSpace M, std::map<std::pair<std::size_t, std::size_t>, Poly> entries);
 
     const PhaseSpace& phase_space() const { return M_; }
     std::size_t dim() const { return M_.dim(); }
-    const Poly& operator()(std::size_t i, std::size_t j) const { return pi_[i][j]; }
+    /// pi_ij (a zero polynomial where the structure has no entry).
+    const Poly& operator()(std::size_t i, std::size_t j) const;
     StructureClass structure_class() const { return class_; }
     /// For a log-canonical structure, a_ij with pi_ij = a_ij x_i x_j.
     Rational log_canonical_coefficient(std::size_t i, std::size_t j) const;
+
+    /// The j with pi_ij != 0, increasing (pi_ji != 0 too, by skew-symmetry): the structure's pattern.
+    std::vector<std::size_t> row_support(std::size_t i) const;
 
     /// {f, g} = grad f^T pi grad g.
     Poly bracket(const Poly& f, const Poly& g) const;
@@ -57,12 +66,14 @@ public:
 
 private:
     PhaseSpace M_;
-    std::vector<std::vector<Poly>> pi_;
-    // The non-zero entries of each row i: j (increasing) and the coordinates x_l that pi_ij holds.
+    // Only the non-zero entries are kept (O(brackets), not n^2 polynomials): for each row i, j (increasing),
+    // pi_ij and the coordinates x_l it holds.
     struct Entry {
         std::size_t j;
         std::vector<std::size_t> vars;
+        Poly value;
     };
+    Poly zero_;
     std::vector<std::vector<Entry>> rows_;
     const std::vector<std::size_t>& entry_vars(std::size_t i, std::size_t j) const;
     StructureClass class_;

@@ -102,10 +102,10 @@ std::vector<Poly> neglected_parts(const Realisation& probe, std::size_t D) {
 
 std::size_t step_degree_min(std::size_t k) { return std::max<std::size_t>(realisation_degree_for_order(k), 1); }
 
-std::size_t probe_degree(RealisationForm form, const StepOptions& opt) {
+std::size_t probe_degree(RealisationForm form, const StepOptions& opt, std::size_t n) {
     const std::size_t D_min = step_degree_min(opt.k);
     if (form == RealisationForm::radial) return std::max(D_min + 2, opt.predictor_order);  // two measured degrees to fit
-    return std::max(D_min, predictor_limit(opt)) + 2;
+    return std::max(D_min, n < shallow_probe_from ? predictor_limit(opt) : predictor_first_pass(opt)) + 2;
 }
 
 StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, Realisation& probe,

@@ -1,5 +1,6 @@
 #include "scheme/input.hpp"
 
+#include <map>
 #include <optional>
 #include <tuple>
 
@@ -52,8 +53,7 @@ Poly parse_polynomial(const PhaseSpace& M, const std::string& key, const std::st
 }
 
 PoissonStructure structure_from_brackets(const PhaseSpace& M, const std::vector<std::pair<std::string, std::string>>& brackets) {
-    const std::size_t n = M.dim();
-    std::vector<std::vector<std::optional<Poly>>> given(n, std::vector<std::optional<Poly>>(n));
+    std::map<std::pair<std::size_t, std::size_t>, Poly> given;  // only the pairs given: no n x n
     for (const auto& [k, v] : brackets) {
         const std::string key = "brackets.\"" + k + "\"";
         auto [i, j] = bracket_pair(key, k, M);
@@ -64,17 +64,14 @@ PoissonStructure structure_from_brackets(const PhaseSpace& M, const std::vector<
         }
         // {a,b} given as f means pi_ab = f and pi_ba = -f
         for (auto [a, b, value] : {std::tuple{i, j, f}, std::tuple{j, i, -f}}) {
-            if (given[a][b] && !(*given[a][b] == value))
+            const auto it = given.find({a, b});
+            if (it != given.end() && !(it->second == value))
                 throw InputError(key, "contradicts an earlier bracket: {" + M.coordinates()[a] + "," + M.coordinates()[b] +
-                                          "} was " + given[a][b]->to_string() + ", now " + value.to_string());
-            given[a][b] = value;
+                                          "} was " + it->second.to_string() + ", now " + value.to_string());
+            given.insert_or_assign({a, b}, value);
         }
     }
-    std::vector<std::vector<Poly>> pi(n, std::vector<Poly>(n, Poly(M.ring())));
-    for (std::size_t a = 0; a < n; ++a)
-        for (std::size_t b = 0; b < n; ++b)
-            if (given[a][b]) pi[a][b] = *given[a][b];
-    return PoissonStructure(M, std::move(pi));
+    return PoissonStructure(M, std::move(given));
 }
 
 std::size_t check_order(const std::string& key, long k) {

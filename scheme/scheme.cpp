@@ -23,7 +23,7 @@ struct StepperEntry {
     NewtonStepper stepper;
     std::uint64_t used;
     bool serves(const StepOptions& o, double x_scale) const {
-        return o.dt <= options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order &&
+        return o.dt <= options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order && o.solver == options.solver &&
                o.max_degree == options.max_degree && o.newton_max_iter == options.newton_max_iter &&
                o.newton_tol == options.newton_tol && o.truncation_bound == options.truncation_bound;
     }
@@ -44,9 +44,10 @@ struct Scheme::Cache {
     SchemeStats stats;
 };
 
-Scheme::Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order, RealisationChoice choice)
+Scheme::Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order, RealisationChoice choice,
+               bool trust_jacobi)
     : pi_(std::move(pi)), H_(std::move(H)), casimirs_(std::move(casimirs)), k_(check_order("order", long(order))),
-      choice_(choice), cache_(std::make_unique<Cache>()) {
+      choice_(choice), trust_jacobi_(trust_jacobi), cache_(std::make_unique<Cache>()) {
     if (H_.ring() != phase_space().ring()) throw InputError("hamiltonian.H", "not a polynomial of the scheme's phase space");
     for (std::size_t i = 0; i < casimirs_.size(); ++i)
         if (casimirs_[i].ring() != phase_space().ring())
@@ -72,10 +73,11 @@ Scheme Scheme::from_values(const SchemeValues& v) {
     } catch (const std::invalid_argument& e) {
         throw InputError("realisation", e.what());
     }
-    return Scheme(std::move(pi), std::move(H), std::move(casimirs), check_order("order", v.order), choice);
+    return Scheme(std::move(pi), std::move(H), std::move(casimirs), check_order("order", v.order), choice, v.trust_jacobi);
 }
 
-Scheme::Scheme(const Scheme& o) : pi_(o.pi_), H_(o.H_), casimirs_(o.casimirs_), k_(o.k_), choice_(o.choice_), cache_(std::make_unique<Cache>()) {}
+Scheme::Scheme(const Scheme& o)
+    : pi_(o.pi_), H_(o.H_), casimirs_(o.casimirs_), k_(o.k_), choice_(o.choice_), trust_jacobi_(o.trust_jacobi_), cache_(std::make_unique<Cache>()) {}
 Scheme& Scheme::operator=(const Scheme& o) {
     if (this != &o) *this = Scheme(o);
     return *this;
@@ -91,7 +93,8 @@ const SchemeChecks& Scheme::structure_checks_locked() const {
     if (!cache_->checks) {
         SchemeChecks c;
         c.structure_class = pi_.structure_class();
-        c.jacobi = pi_.jacobi_failure();
+        c.jacobi_checked = !trust_jacobi_;
+        if (c.jacobi_checked) c.jacobi = pi_.jacobi_failure();
         for (const auto& C : casimirs_) c.casimirs.push_back(pi_.casimir_failure(C));
         cache_->checks = std::move(c);
     }
@@ -142,7 +145,7 @@ Realisation Scheme::realisation_locked(std::size_t D) const {
             StepOptions opt;
             opt.k = k_;
             opt.realisation = choice_;
-            build = std::max(D, probe_degree(realisation_form(), opt));
+            build = std::max(D, probe_degree(realisation_form(), opt, pi_.dim()));
         }
         deepest = build_realisation(pi_, choice_, build);
         ++cache_->stats.realisation_builds;

@@ -26,12 +26,14 @@ struct SchemeValues {
     long order = 2;                                              // k, the Hamilton-Jacobi order
     std::string realisation = "auto";                            // "auto" | "closed-form" | "radial"
     std::size_t max_terms = Ring::default_max_terms;             // bound on every product of the exact phase
+    bool trust_jacobi = false;                                   // skip the Jacobi check: the caller vouches for pi
 };
 
 /// The verdicts of the exact checks (docs/math.md sections 1 and 2).
 struct SchemeChecks {
     StructureClass structure_class = StructureClass::general;
-    std::optional<JacobiFailure> jacobi;                    // the first failing triple, if any
+    bool jacobi_checked = true;                             // false when the scheme trusts pi (trust_jacobi)
+    std::optional<JacobiFailure> jacobi;                    // the first failing triple, if any (checked only)
     std::vector<std::optional<CasimirFailure>> casimirs;    // one per listed Casimir
     /// The realisation identities, checked (only when Jacobi holds) in every p-degree below
     /// realisation_checked_below_degree = k: S_1..S_k read alpha through degree k - 1.
@@ -52,8 +54,10 @@ class Scheme {
 public:
     /// Requires casimirs and H in pi's phase space and k >= 1 (InputError otherwise); throws InputError
     /// for closed_form on a general structure. Computes nothing else.
+    /// trust_jacobi: the caller vouches for the Jacobi identity of pi, which is then not checked (checks() says
+    /// so in jacobi_checked); every other check still runs.
     Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order,
-           RealisationChoice choice = RealisationChoice::automatic);
+           RealisationChoice choice = RealisationChoice::automatic, bool trust_jacobi = false);
     /// From strings; InputError names the entry at fault ("brackets.\"x1,x2\"", "hamiltonian.H", ...).
     static Scheme from_values(const SchemeValues& values);
     explicit Scheme(const SchemeValues& values) : Scheme(from_values(values)) {}
@@ -74,12 +78,13 @@ public:
     std::size_t method_order() const { return 2 * ((k_ + 1) / 2); }         // 2 ceil(k/2)
     RealisationChoice realisation_choice() const { return choice_; }
     RealisationForm realisation_form() const;
+    bool jacobi_trusted() const { return trust_jacobi_; }
 
     // The artefacts, each computed once, on first use (thread-safe).
     /// Class, Jacobi, the Casimirs and (when Jacobi holds) the realisation identities below degree k.
     const SchemeChecks& checks() const;
-    /// Throws InputError naming the triple and jacobiator if Jacobi fails, or the Casimir and the
-    /// non-zero component of pi grad C. Checks only Jacobi and the Casimirs (not the realisation).
+    /// Throws InputError naming the triple and jacobiator if Jacobi fails (unless trusted), or the Casimir and
+    /// the non-zero component of pi grad C. Checks only Jacobi and the Casimirs (not the realisation).
     void require_valid() const;
     /// alpha and beta through p-degree D: built once at the deepest degree asked so far, truncated for
     /// smaller requests (a deeper request rebuilds).
@@ -115,6 +120,7 @@ private:
     std::vector<Poly> casimirs_;
     std::size_t k_;
     RealisationChoice choice_;
+    bool trust_jacobi_ = false;
     std::unique_ptr<Cache> cache_;
 };
 

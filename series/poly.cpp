@@ -183,6 +183,9 @@ Poly derivative(const Poly& f, std::size_t var) {
     if (var >= f.ring()->size()) throw std::out_of_range("pgi::derivative: variable index out of range");
     Poly r(f.ring());
     fmpq_mpoly_derivative(r.get_mut(), f.get(), static_cast<slong>(var), f.ctx());
+    // FLINT sizes the result for every term of f: give back what the derivative does not hold, or the n
+    // partial derivatives of a polynomial of O(n) terms keep O(n^2) of memory (the gradient of S_dt)
+    fmpq_mpoly_realloc(r.get_mut(), static_cast<slong>(r.length()), f.ctx());
     return accounted(std::move(r), "a derivative");
 }
 

@@ -1,7 +1,9 @@
 #include "series/series.hpp"
 
+#include <cstdint>
 #include <map>
 #include <stdexcept>
+#include <utility>
 
 namespace pgi {
 
@@ -80,6 +82,10 @@ Series mul_trunc(const Series& a, const Series& b) {
 
 namespace {
 
+// The exponents of the substituted variables in a monomial, as (variable, exponent > 0) by increasing variable:
+// O(variables held), where a dense exponent vector costs O(ring size) (2n on a lattice of n sites) per monomial.
+using SparseExponents = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
+
 // Products prod_v images[v]^{e_v} over the substituted variables, memoised by exponent vector and computed
 // coefficient by coefficient, on demand: coefficient d of a product from a monomial of one degree less,
 // reading the images' coefficients through d only (so images may still be completed above d).
@@ -88,21 +94,19 @@ public:
     MonomialProducts(const RingPtr& r, const std::vector<std::optional<Series>>& images) : ring_(r), images_(images) {}
 
     // The coefficients 0..d of the product for e.
-    const std::vector<Poly>& through(const std::vector<unsigned long>& e, std::size_t d) {
+    const std::vector<Poly>& through(const SparseExponents& e, std::size_t d) {
         auto [it, fresh] = cache_.try_emplace(e);
         std::vector<Poly>& c = it->second;
-        std::size_t v = 0;
-        while (v < e.size() && e[v] == 0) ++v;
-        if (v == e.size()) {  // the constant 1
+        if (e.empty()) {  // the constant 1
             if (c.empty()) c.push_back(Poly::constant(ring_, 1));
             while (c.size() <= d) c.emplace_back(ring_);
             return c;
         }
         if (c.size() > d) return c;
-        std::vector<unsigned long> lower = e;
-        --lower[v];
+        SparseExponents lower = e;
+        if (--lower.front().second == 0) lower.erase(lower.begin());
         const std::vector<Poly>& low = through(lower, d);
-        const Series& image = *images_[v];
+        const Series& image = *images_[e.front().first];
         for (std::size_t k = c.size(); k <= d; ++k) {
             Poly r(ring_);
             for (std::size_t i = 0; i <= k; ++i)
@@ -115,24 +119,41 @@ public:
 private:
     RingPtr ring_;
     const std::vector<std::optional<Series>>& images_;
-    std::map<std::vector<unsigned long>, std::vector<Poly>> cache_;
+    std::map<SparseExponents, std::vector<Poly>> cache_;
 };
 
 // f = sum_e c_e(kept variables) * prod_{v substituted} v^{e_v}: the terms grouped by e.
-std::map<std::vector<unsigned long>, Poly> substitution_groups(const Poly& f, const std::vector<std::optional<Series>>& images) {
+std::map<SparseExponents, Poly> substitution_groups(const Poly& f, const std::vector<std::optional<Series>>& images) {
     const RingPtr& ring = f.ring();
-    std::map<std::vector<unsigned long>, Poly> groups;
+    std::map<SparseExponents, Poly> groups;
+    std::vector<ulong> e(static_cast<std::size_t>(f.ctx()->zctx->minfo->nvars));
     for (std::size_t t = 0; t < f.length(); ++t) {
-        auto e = f.term_exponents(t);
+        fmpq_mpoly_get_term_exp_ui(e.data(), f.get(), static_cast<slong>(t), f.ctx());
         Poly kept = Poly::constant(ring, f.term_coeff(t));
+        SparseExponents key;
         for (std::size_t v = 0; v < ring->size(); ++v) {
-            if (images[v]) continue;
-            if (e[v] > 0) kept = kept * pow(Poly::gen(ring, v), e[v]);
-            e[v] = 0;
+            if (e[v] == 0) continue;
+            if (images[v])
+                key.emplace_back(static_cast<std::uint32_t>(v), static_cast<std::uint32_t>(e[v]));
+            else
+                kept = kept * pow(Poly::gen(ring, v), e[v]);
         }
-        groups.try_emplace(std::move(e), ring).first->second += kept;
+        groups.try_emplace(std::move(key), ring).first->second += kept;
     }
     return groups;
+}
+
+// The sum of the pieces, added in pairs: each term is copied O(log count) times, where adding them one by one
+// into a growing result copies it count times (quadratic for H = x_1 + ... + x_n composed with a lattice's images).
+Poly balanced_sum(std::vector<Poly> pieces, const RingPtr& ring) {
+    if (pieces.empty()) return Poly(ring);
+    while (pieces.size() > 1) {
+        std::size_t kept = 0;
+        for (std::size_t i = 0; i < pieces.size(); i += 2, ++kept)
+            pieces[kept] = i + 1 < pieces.size() ? pieces[i] + pieces[i + 1] : std::move(pieces[i]);
+        pieces.erase(pieces.begin() + std::ptrdiff_t(kept), pieces.end());
+    }
+    return std::move(pieces.front());
 }
 
 void check_images(std::size_t nvars, const std::vector<std::optional<Series>>& images, std::size_t N) {
@@ -152,12 +173,14 @@ std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::
     MonomialProducts products(ring, images);
     for (const Poly& f : fs) {
         Series result(ring, N);
+        std::vector<std::vector<Poly>> pieces(N);
         if (N > 0)
             for (const auto& [e, kept] : substitution_groups(f, images)) {
                 const auto& product = products.through(e, N - 1);
                 for (std::size_t m = 0; m < N; ++m)
-                    if (!product[m].is_zero()) result[m] += kept * product[m];
+                    if (!product[m].is_zero()) pieces[m].push_back(kept * product[m]);
             }
+        for (std::size_t m = 0; m < N; ++m) result[m] = balanced_sum(std::move(pieces[m]), ring);
         out.push_back(std::move(result));
     }
     return out;
@@ -199,7 +222,7 @@ std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const st
     // v <- -u(id + v) recomputed every lower order at every sweep, ~N times the work).
     std::vector<std::optional<Series>> images(ring->size());
     for (std::size_t i = 0; i < vars.size(); ++i) images[vars[i]] = Series::constant(Poly::gen(ring, vars[i]), N);
-    std::vector<std::vector<std::map<std::vector<unsigned long>, Poly>>> groups(u.size());  // [i][m]: u_i's e^m part
+    std::vector<std::vector<std::map<SparseExponents, Poly>>> groups(u.size());  // [i][m]: u_i's e^m part
     for (std::size_t i = 0; i < u.size(); ++i)
         for (std::size_t m = 0; m < N; ++m) groups[i].push_back(substitution_groups(u[i][m], images));
     MonomialProducts products(ring, images);

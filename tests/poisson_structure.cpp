@@ -134,3 +134,31 @@ TEST_CASE("issue 11.10: the Jacobi check examines only the triples the brackets 
         CHECK(*first == std::array<std::size_t, 3>{f->i, f->j, f->k});
     }
 }
+
+TEST_CASE("structure: built from its entries alone it equals the one from the full matrix; a non-skew pair is named") {
+    PhaseSpace M({"x1", "x2", "x3", "x4"});
+    std::map<std::pair<std::size_t, std::size_t>, Poly> entries;
+    std::vector<std::vector<Poly>> matrix(4, std::vector<Poly>(4, Poly(M.ring())));
+    for (std::size_t i = 0; i < 4; ++i) {  // the periodic Volterra lattice, n = 4
+        const std::size_t j = (i + 1) % 4;
+        const Poly f = M.x_gen(i) * M.x_gen(j);
+        entries.insert_or_assign({i, j}, f);
+        entries.insert_or_assign({j, i}, -f);
+        matrix[i][j] = f, matrix[j][i] = -f;
+    }
+    entries.insert_or_assign({0, 2}, Poly(M.ring()));  // a zero entry is no entry
+    const PoissonStructure a(M, entries), b(M, matrix);
+    CHECK(a.structure_class() == StructureClass::log_canonical);
+    CHECK(a.structure_class() == b.structure_class());
+    for (std::size_t i = 0; i < 4; ++i) {
+        CHECK(a.row_support(i) == b.row_support(i));
+        CHECK(a.row_support(i).size() == 2);
+        for (std::size_t j = 0; j < 4; ++j) CHECK(a(i, j) == b(i, j));
+    }
+    CHECK(a.jacobi_support() == b.jacobi_support());
+    CHECK_FALSE(a.jacobi_failure().has_value());
+    // {x2, x1} missing: not skew at (x1, x2), named with both values
+    std::map<std::pair<std::size_t, std::size_t>, Poly> one_sided{{{0, 1}, M.x_gen(2)}};
+    CHECK_THROWS_WITH_AS(PoissonStructure(M, one_sided), "pi is not skew-symmetric at (x1, x2): {x1,x2} = x3 but {x2,x1} = 0",
+                         std::invalid_argument);
+}

@@ -573,6 +573,38 @@ TEST_CASE("issue 11.8: names with control characters are refused; what can be ch
     CHECK_MESSAGE(rc == 0, slurp(dir.path / "r.log"));
 }
 
+TEST_CASE("issue 13: --trust-jacobi skips the Jacobi check and says so; without it a non-Jacobi structure is refused") {
+    const std::string bad = (fs::path(PGI_SCENES_DIR) / "../../tests/bad_scenes/jacobi_failure.toml").string();
+    const std::string note = "the Jacobi identity is not checked (--trust-jacobi";
+    // refused without the option, before any work
+    Run refused = pgi_run({"terms", bad, "--json"});
+    CHECK(refused.exit_code == 2);
+    CHECK(refused.out.empty());
+    CHECK(refused.err.find("the Jacobi identity fails at (x1, x2, x3)") != std::string::npos);
+    // with it the structure is taken on trust: the command runs, stderr and the JSON document say so
+    Run trusted = pgi_run({"terms", bad, "--json", "--trust-jacobi"});
+    CHECK(trusted.exit_code == 0);
+    CHECK(trusted.err.find(note) != std::string::npos);
+    CHECK(nlohmann::json::parse(trusted.out)["jacobi_checked"] == false);
+    // check reports the verdict as skipped, not as holding, and the other checks still run
+    Run check = pgi_run({"check", test::scene_path("rigid_body"), "--json", "--trust-jacobi"});
+    CHECK(check.exit_code == 0);
+    CHECK(check.err.find(note) != std::string::npos);
+    const auto j = nlohmann::json::parse(check.out);
+    CHECK(j["jacobi"]["holds"].is_null());
+    CHECK(j["jacobi"]["skipped"] == "--trust-jacobi");
+    CHECK(j["casimirs"][0]["holds"] == true);
+    CHECK(j["realisation"]["holds"] == true);
+    Run text = pgi_run({"check", test::scene_path("rigid_body"), "--trust-jacobi"});
+    CHECK(text.out.find("Jacobi identity: not checked (--trust-jacobi)") != std::string::npos);
+    // a checked run says nothing of the kind
+    Run checked = pgi_run({"terms", test::scene_path("rigid_body"), "--json"});
+    CHECK(checked.err.find(note) == std::string::npos);
+    CHECK_FALSE(nlohmann::json::parse(checked.out).contains("jacobi_checked"));
+    // report does not take it (its document states the verdict): an unknown option, exit 2
+    CHECK(pgi_run({"report", test::scene_path("rigid_body"), "--trust-jacobi"}).exit_code == 2);
+}
+
 TEST_CASE("--plot: gnuplot failing after the run is an output failure (exit 6), nothing left behind") {
     // (the figures themselves are tested in tools_report.cpp)
     const std::string rb = test::scene_path("rigid_body");

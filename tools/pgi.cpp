@@ -69,7 +69,7 @@ void print(const std::string& text) {
 
 // The options a subcommand reads, and only those: each flag of Use says which of the scene's values it uses.
 namespace use {
-enum : unsigned { json = 1, order = 2, dt = 4, realisation = 8, x0 = 16, t_end = 32 };
+enum : unsigned { json = 1, order = 2, dt = 4, realisation = 8, x0 = 16, t_end = 32, trust = 64 };
 }
 
 void scene_options(CLI::App* cmd, Options& o, unsigned uses) {
@@ -80,6 +80,9 @@ void scene_options(CLI::App* cmd, Options& o, unsigned uses) {
     if (uses & use::realisation) cmd->add_option("--realisation", o.overrides.realisation, "auto | closed-form | radial");
     if (uses & use::x0) cmd->add_option("--x0", o.overrides.x0, "initial state, comma-separated");
     if (uses & use::t_end) cmd->add_option("--t-end", o.overrides.t_end, "final time");
+    if (uses & use::trust)
+        cmd->add_flag("--trust-jacobi", o.overrides.trust_jacobi,
+                      "do not check the Jacobi identity: you vouch for the structure (reported on stderr and in JSON)");
     cmd->add_option("--max-terms", o.max_terms, "bound on the terms of any product of the exact phase (default 2e7)");
     cmd->add_option("--max-memory-mb", o.max_memory_mb,
                     "memory budget of the exact phase in MB (default: half the physical memory, at most 3/4 of ulimit -v)");
@@ -121,6 +124,12 @@ void throw_on_allocation_failure() {
 }
 
 void emit(const Options& o, const nlohmann::json& report, const std::function<std::string(const nlohmann::json&)>& text) {
+    if (o.json && o.overrides.trust_jacobi && report.is_object()) {
+        nlohmann::json marked = report;
+        marked["jacobi_checked"] = false;  // --trust-jacobi: the document says the structure was taken on trust
+        print(marked.dump(2) + "\n");
+        return;
+    }
     print(o.json ? report.dump(2) + "\n" : text(report));
 }
 
@@ -140,6 +149,8 @@ int run_command(const std::string& name, Options o) {
     if (!o.quiet && ::isatty(2)) o.overrides.progress = [](const std::string& line) { std::cerr << "pgi: " << line << std::endl; };
     pgi::Scene scene = pgi::load_scene(o.scene, o.overrides);
     check_before_work(name, o, scene);
+    if (o.overrides.trust_jacobi)
+        std::cerr << "pgi: " << o.scene << ": the Jacobi identity is not checked (--trust-jacobi: the structure is taken on trust)\n";
     if (name == "ensemble") {
         auto eo = o.ensemble;
         eo.x0_given = o.overrides.x0.has_value();
@@ -242,17 +253,17 @@ int main(int argc, char** argv) {
     auto* modified = app.add_subcommand("modified", "the modified Hamiltonian of the order-k scheme");
     auto* report = app.add_subcommand("report", "one document: structure, checks, S_1..S_k, modified Hamiltonian, a run");
     auto* ensemble = app.add_subcommand("ensemble", "many initial states (a file or a sampler) integrated on every core");
-    scene_options(check, o, use::json | use::order | use::realisation);
-    scene_options(terms, o, use::json | use::order | use::realisation);
-    scene_options(realisation, o, use::json | use::realisation);
-    scene_options(step, o, use::json | use::order | use::dt | use::realisation | use::x0);
-    scene_options(integrate, o, use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);
-    scene_options(run, o, use::order | use::dt | use::realisation | use::x0 | use::t_end);  // text only: its parts have --json
-    scene_options(magnus, o, use::json);
-    scene_options(modified, o, use::json | use::order | use::realisation);
+    scene_options(check, o, use::trust | use::json | use::order | use::realisation);
+    scene_options(terms, o, use::trust | use::json | use::order | use::realisation);
+    scene_options(realisation, o, use::trust | use::json | use::realisation);
+    scene_options(step, o, use::trust | use::json | use::order | use::dt | use::realisation | use::x0);
+    scene_options(integrate, o, use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);
+    scene_options(run, o, use::trust | use::order | use::dt | use::realisation | use::x0 | use::t_end);  // text only: its parts have --json
+    scene_options(magnus, o, use::trust | use::json);
+    scene_options(modified, o, use::trust | use::json | use::order | use::realisation);
     scene_options(report, o, use::order | use::dt | use::realisation | use::x0 | use::t_end);  // --format json
     auto* section = app.add_subcommand("section", "the crossings of an event polynomial along the run (a Poincare section)");
-    scene_options(section, o, use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);
+    scene_options(section, o, use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);
     section->add_option("--event", o.section.event, "the polynomial g whose zeros are reported")->required();
     section->add_option("--direction", o.section.direction, "1: g rising through 0, -1: falling, 0: both (default)")
         ->check(CLI::IsMember({-1, 0, 1}));

@@ -33,6 +33,7 @@ struct SceneOverrides {
     std::size_t max_memory_mb = 0;                      // --max-memory-mb: its memory (0: default_memory_budget())
     double max_seconds = BudgetLimits::default_max_seconds;  // --max-seconds: its algebra's time (none; pgi: 60)
     Budget::ProgressSink progress;                      // progress lines of a long exact phase
+    bool trust_jacobi = false;                          // --trust-jacobi: the Jacobi identity is not checked
 };
 
 struct Scene {

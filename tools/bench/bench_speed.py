@@ -14,9 +14,11 @@ Usage: /usr/bin/python3 tools/bench/bench_speed.py [--build build] [--json FILE]
     exact phase (setup) is excluded from the times and printed apart. Ratio = rk8pd time / pgi time.
 (b) Periodic Volterra lattice ({x_i, x_i+1} = x_i x_i+1, H = sum x_i, no Casimirs declared), k = 4,
     dt = 1/20, n = 50..1000: one child `pgi_peers --suite --peers rk8pd` per n (scene checks, exact phase,
-    a short pgi run and an rk8pd run at tolerance 1e-10 over the same interval) under a wall-clock timeout
+    200 pgi steps and an rk8pd run at tolerance 1e-10 over the same interval) under a wall-clock timeout
     and an address-space limit; its peak RSS (wait4's ru_maxrss) is the peak memory of checks + exact
-    phase + steps. Then the whole `pgi integrate` at n = 1000 (checks, exact phase, 1000 steps), timed.
+    phase + steps; then `pgi step` on the same scene (checks, exact phase, one step): its peak RSS is the
+    exact phase's memory, also printed per site relative to the first n (1.00 everywhere = linear in n).
+    Then the whole `pgi integrate` at n = 1000 (checks, exact phase, 1000 steps), timed.
 (c) The rigid body against the discrete Moser-Veselov peer (tools/bench/dmv_bench): see that program.
 
 Every row goes into the JSON file; the tables are printed in Markdown on stdout.
@@ -154,7 +156,7 @@ def lattice(build, sizes, timeout, workdir):
         path = os.path.join(workdir, f"volterra_{n}.toml")
         with open(path, "w") as f:
             f.write(lattice_scene(n))
-        steps = 100 if n <= 100 else 20
+        steps = 200  # the same count at every n: one step at n = 1000 is well under a millisecond now
         t_end = steps / 20
         argv = [os.path.join(build, "pgi_peers"), path, "--suite", "--peers", "rk8pd", "--tol", "1e-10", "--t-end", repr(t_end)]
         code, out, err, wall, rss = run_child(argv, timeout, MEMORY_LIMIT)
@@ -171,7 +173,11 @@ def lattice(build, sizes, timeout, workdir):
                         "pgi_ns_per_step_site": 1e9 * p["seconds"] / max(p["steps"], 1) / n,
                         "rk8pd_steps": q["steps"], "rk8pd_seconds": q["seconds"],
                         "rk8pd_ns_per_step_site": 1e9 * q["seconds"] / max(q["steps"], 1) / n})
-        print(f"lattice n = {n}: {row['status']}, {wall:.1f} s, {rss:.0f} MiB", file=sys.stderr, flush=True)
+        # the exact phase's memory: `pgi step` is the checks, the exact phase and one step
+        code, out, err, wall_step, rss_step = run_child([os.path.join(build, "pgi"), "step", path, "--json"], timeout, MEMORY_LIMIT)
+        row.update({"exact_phase_rss_mib": rss_step if code == 0 else None, "step_command_seconds": wall_step})
+        print(f"lattice n = {n}: {row['status']}, {wall:.1f} s, {rss:.0f} MiB; pgi step {wall_step:.1f} s, {rss_step:.0f} MiB",
+              file=sys.stderr, flush=True)
         rows.append(row)
     return rows
 
@@ -193,16 +199,19 @@ def lattice_table(rows, whole):
     def f(v, spec):
         return "-" if v is None else format(v, spec)
     base = next((r.get("pgi_ns_per_step_site") for r in rows if r.get("pgi_ns_per_step_site")), None)
-    lines = ["| n | status | exact phase s | rest of child s | pgi ns/step/site | vs first n | rk8pd ns/step/site | pgi / rk8pd per step "
-             "| peak RSS MiB | child wall s |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    first = next((r for r in rows if r.get("exact_phase_rss_mib")), None)
+    lines = [f"| n | status | exact phase s | rest of child s | pgi ns/step/site | vs n = {rows[0]['n'] if rows else '-'} | rk8pd ns/step/site "
+             "| pgi / rk8pd per step | peak RSS MiB | exact-phase RSS MiB (pgi step) | its MiB per site vs first n | child wall s |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         p, q = r.get("pgi_ns_per_step_site"), r.get("rk8pd_ns_per_step_site")
         # the child's wall time less the exact phase and both runs: scene checks (Jacobi), compilations, start-up
         rest = (r["wall_seconds"] - r["exact_phase_seconds"] - r["pgi_seconds"] - r["rk8pd_seconds"]) if "pgi_seconds" in r else None
+        m = r.get("exact_phase_rss_mib")
+        per_site = (m / r["n"]) / (first["exact_phase_rss_mib"] / first["n"]) if (m and first) else None
         lines.append(f"| {r['n']} | {r['status']} | {f(r.get('exact_phase_seconds'), '.2f')} | {f(rest, '.1f')} | {f(p, '.0f')} | "
-                     f"{f(p / base if (p and base) else None, '.1f')} | {f(q, '.1f')} | {f(p / q if (p and q) else None, '.0f')} | "
-                     f"{r['peak_rss_mib']:.0f} | {r['wall_seconds']:.1f} |")
+                     f"{f(p / base if (p and base) else None, '.2f')} | {f(q, '.1f')} | {f(p / q if (p and q) else None, '.1f')} | "
+                     f"{r['peak_rss_mib']:.0f} | {f(m, '.0f')} | {f(per_site, '.2f')} | {r['wall_seconds']:.1f} |")
     if whole:
         lines.append("")
         lines.append(f"Whole `pgi integrate` at n = {whole['n']} (checks, exact phase, 1000 steps): {whole['status']}, "
