@@ -1,6 +1,7 @@
-// RealisationEvaluator's sparse evaluation: alpha, delta and their derivatives on the evaluator's fixed
+// RealisationEvaluator's evaluation on patterns: alpha, delta and their derivatives on the evaluator's fixed
 // patterns, O(pattern) per evaluation (the log-canonical closed form, the compiled polynomial form), for the
-// Newton path of large sparse systems. The Lie-Poisson forms are dense: they evaluate dense and gather.
+// Newton path of large sparse systems; the log-canonical derivatives are written once here for both the
+// dense blocks and the patterns. The Lie-Poisson forms are dense: they evaluate dense and gather.
 #include "poisson/realisation_eval.hpp"
 
 #include <algorithm>
