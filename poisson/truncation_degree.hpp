@@ -17,7 +17,8 @@ using RealisationSource = std::function<Realisation(std::size_t)>;
 std::size_t step_degree_min(std::size_t k);
 /// The degree the step's build first asks its source for (the probe): for the radial recursion two degrees
 /// past step_degree_min to fit the decay (deepened only where D needs it: the exact recursion is the costly
-/// part); for a closed form, enough for the predictor's longest series (predictor_limit) and two more.
+/// part); for a closed form, enough for the predictor's longest series (predictor_limit), two more for the
+/// constant form (whose D is measured).
 std::size_t probe_degree(RealisationForm form, const StepOptions& opt);
 
 /// The evaluator of alpha and beta - alpha, and what was chosen.
