@@ -419,24 +419,28 @@ std::pair<double, double> rotation_coefficient(double s, const std::vector<doubl
 // L(p) skew 3 x 3, so L^3 = -s L with s = |L|_F^2 / 2, and g(L) = I - L/2 + h(s) L^2 exactly (docs/math.md 3,
 // g(z) = z / (e^z - 1) = 1 - z/2 + sum_j b_2j z^2j; its even part at z = i t is (t/2) cot(t/2)).
 void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
-    const auto C_j = [this](std::size_t j) { return Eigen::Map<const Eigen::Matrix3d>(C_[j].data()); };
-    const Eigen::Matrix3d L = p[0] * C_j(0) + p[1] * C_j(1) + p[2] * C_j(2);
-    const double s = 0.5 * L.squaredNorm();
+    // L(p) is skew: L v = w x v with w = sum_j p_j c_j, c_j the axial vector of C_j (C_j v = c_j x v), so
+    // s = |L|_F^2 / 2 = |w|^2, L^2 = w w^T - s I and ds/dp_j = <L, C_j>_F = 2 w . c_j
+    const auto axial = [this](std::size_t j) { return Eigen::Vector3d(C_[j](2, 1), C_[j](0, 2), C_[j](1, 0)); };
+    const Eigen::Vector3d c[3] = {axial(0), axial(1), axial(2)};
+    const Eigen::Vector3d w = p[0] * c[0] + p[1] * c[1] + p[2] * c[2];
+    const double s = w.squaredNorm();
     const auto [h, dh] = rotation_coefficient(s, b_);
-    const Eigen::Vector3d X = x, Lx = L * X, L2x = L * Lx;
-    const Eigen::Matrix3d L2 = L * L;
-    v.alpha = X - 0.5 * Lx + h * L2x;
-    v.alpha_x = Eigen::Matrix3d::Identity() - 0.5 * L + h * L2;
+    const Eigen::Vector3d X = x, Lx = w.cross(X), L2x = w.cross(Lx);
+    Eigen::Matrix3d L;
+    L << 0, -w[2], w[1], w[2], 0, -w[0], -w[1], w[0], 0;
+    Eigen::Map<Eigen::Vector3d>(v.alpha.data()) = X - 0.5 * Lx + h * L2x;
+    Eigen::Map<Eigen::Matrix3d>(v.alpha_x.data()) = (1 - h * s) * Eigen::Matrix3d::Identity() - 0.5 * L + h * (w * w.transpose());
+    Eigen::Map<Eigen::Matrix3d> ap(v.alpha_p.data()), dp(v.delta_p.data());
     for (Eigen::Index j = 0; j < 3; ++j) {
-        const auto C = C_j(static_cast<std::size_t>(j));
-        const Eigen::Vector3d Cx = C * X;
-        const double ds = (L.array() * C.array()).sum();  // d s / d p_j
-        v.alpha_p.col(j) = -0.5 * Cx + h * (C * Lx + L * Cx) + dh * ds * L2x;
-        v.delta_p.col(j) = Cx;
+        const Eigen::Vector3d& cj = c[j];
+        const Eigen::Vector3d Cx = cj.cross(X);
+        ap.col(j) = -0.5 * Cx + h * (cj.cross(Lx) + w.cross(Cx)) + dh * (2 * w.dot(cj)) * L2x;
+        dp.col(j) = Cx;
     }
     // delta = beta - alpha = L(p) x, as in the series form
-    v.delta = Lx;
-    v.delta_x = L;
+    Eigen::Map<Eigen::Vector3d>(v.delta.data()) = Lx;
+    Eigen::Map<Eigen::Matrix3d>(v.delta_x.data()) = L;
 }
 
 void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const {

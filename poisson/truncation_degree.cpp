@@ -105,7 +105,10 @@ std::size_t step_degree_min(std::size_t k) { return std::max<std::size_t>(realis
 std::size_t probe_degree(RealisationForm form, const StepOptions& opt, std::size_t n) {
     const std::size_t D_min = step_degree_min(opt.k);
     if (form == RealisationForm::radial) return std::max(D_min + 2, opt.predictor_order);  // two measured degrees to fit
-    return std::max(D_min, n < shallow_probe_from ? predictor_limit(opt) : predictor_first_pass(opt)) + 2;
+    // the constant form's degree is chosen by choose_degree too (two measured degrees past D); the others
+    // are evaluated in closed form and the probe serves the predictor only (its first pass on a lattice)
+    const std::size_t predictor = n < shallow_probe_from ? predictor_limit(opt) : predictor_first_pass(opt);
+    return std::max(D_min, predictor) + (form == RealisationForm::constant ? 2 : 0);
 }
 
 StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, Realisation& probe,

@@ -18,8 +18,9 @@ std::size_t step_degree_min(std::size_t k);
 /// The degree the step's build first asks its source for (the probe): for the radial recursion two degrees
 /// past step_degree_min to fit the decay (deepened only where D needs it: the exact recursion is the costly
 /// part); for a closed form on fewer than shallow_probe_from coordinates, enough for the predictor's longest
-/// series (predictor_limit) and two more, built at once; from there on (lattices: every degree holds O(n) terms
-/// of O(n) words each) enough for its first pass (predictor_first_pass), deepened only if its choice goes on.
+/// series (predictor_limit), built at once; from there on (lattices: every degree holds O(n) terms of O(n)
+/// words each) enough for its first pass (predictor_first_pass), deepened only if its choice goes on; two
+/// more for the constant form (whose D is measured).
 std::size_t probe_degree(RealisationForm form, const StepOptions& opt, std::size_t n);
 inline constexpr std::size_t shallow_probe_from = 40;
 
