@@ -46,11 +46,26 @@ void DtSeriesMap::set_factors(double dt) const {
 }
 
 // Horner from the highest power down: acc = f_top; acc = acc dt^(j - j') + f_j' for the next lower j'; and
-// a last factor dt^(lowest j). The factors are computed once per dt.
+// a last factor dt^(lowest j). The factors are computed once per dt. stacked holds block b's output o of
+// point j at stacked[(b w + o) stride + j] and out[o stride + j] (stride 1 for one point: eval).
+void DtSeriesMap::horner(const double* stacked, std::size_t stride, double* out) const {
+    const std::size_t w = width_ * stride;
+    std::size_t b = powers_.size() - 1;
+    const double* top = stacked + b * w;
+    std::copy(top, top + w, out);
+    while (b > 0) {
+        const double f = factors_[b - 1];
+        --b;
+        const double* block = stacked + b * w;
+        for (std::size_t o = 0; o < w; ++o) out[o] = out[o] * f + block[o];
+    }
+    const double f = factors_.back();
+    for (std::size_t o = 0; o < w; ++o) out[o] *= f;
+}
+
 void DtSeriesMap::eval(const double* in, double dt, double* out) const {
-    const std::size_t w = width_;
     if (powers_.empty()) {
-        std::fill(out, out + w, 0.0);
+        std::fill(out, out + width_, 0.0);
         return;
     }
     if (planned_dt_ != 0 && dt == planned_dt_) {
@@ -59,17 +74,24 @@ void DtSeriesMap::eval(const double* in, double dt, double* out) const {
     }
     map_.eval(in, stacked_.data());
     if (!(dt == factors_dt_)) set_factors(dt);
-    std::size_t b = powers_.size() - 1;
-    const double* top = stacked_.data() + b * w;
-    std::copy(top, top + w, out);
-    while (b > 0) {
-        const double f = factors_[b - 1];
-        --b;
-        const double* block = stacked_.data() + b * w;
-        for (std::size_t o = 0; o < w; ++o) out[o] = out[o] * f + block[o];
+    horner(stacked_.data(), 1, out);
+}
+
+// The same operations on each point as eval's (CompiledMap::eval_batch gives eval's bits, Horner is
+// elementwise), so each point's outputs are eval's.
+void DtSeriesMap::eval_batch(const double* in, double dt, double* out, std::size_t m, BatchScratch& scratch) const {
+    if (powers_.empty()) {
+        std::fill(out, out + width_ * m, 0.0);
+        return;
     }
-    const double f = factors_.back();
-    for (std::size_t o = 0; o < w; ++o) out[o] *= f;
+    if (planned_dt_ != 0 && dt == planned_dt_) {
+        planned_.eval_batch(in, out, m, scratch.map);
+        return;
+    }
+    if (scratch.stacked.size() < map_.num_outputs() * m) scratch.stacked.resize(map_.num_outputs() * m);
+    map_.eval_batch(in, scratch.stacked.data(), m, scratch.map);
+    if (!(dt == factors_dt_)) set_factors(dt);
+    horner(scratch.stacked.data(), m, out);
 }
 
 }  // namespace pgi

@@ -11,6 +11,11 @@
 
 namespace pgi {
 
+/// The caller's scratch of DtSeriesMap::eval_batch: the stacked blocks of m points and CompiledMap's.
+struct BatchScratch {
+    std::vector<double> stacked, map;
+};
+
 class DtSeriesMap {
 public:
     DtSeriesMap() = default;
@@ -29,6 +34,10 @@ public:
 
     /// out[o] = sum_j dt^j f_j[o](in). Allocates nothing. Not thread-safe (scratch): each copy is one caller's.
     void eval(const double* in, double dt, double* out) const;
+    /// m points at once in structure of arrays (CompiledMap::eval_batch's layout: in[v m + j], out[o m + j]),
+    /// each point's outputs bit for bit eval()'s. scratch is resized when too small (reused, it allocates
+    /// nothing). Not thread-safe (the cached powers of dt), as eval.
+    void eval_batch(const double* in, double dt, double* out, std::size_t m, BatchScratch& scratch) const;
 
 private:
     CompiledMap map_;
@@ -40,6 +49,7 @@ private:
     mutable std::vector<double> factors_;   // dt^(powers_[b+1] - powers_[b]), then dt^(powers_[0]), for factors_dt_
     mutable double factors_dt_ = 0;
     void set_factors(double dt) const;
+    void horner(const double* stacked, std::size_t stride, double* out) const;
 };
 
 }  // namespace pgi

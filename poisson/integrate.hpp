@@ -15,21 +15,34 @@ struct IntegrationSummary {
 /// t = n dt, and stop = observe(...) returning true ends the run early (still ok). The increments
 /// are added with Kahan compensation, so the round-off of long runs does not grow like N eps.
 /// Stops at the first step that fails; the summary says which (steps) and why (status).
+/// x += increment with Kahan's compensation c: y = increment - c; s = x + y; c = (s - x) - y; x = s.
+class CompensatedSum {
+public:
+    explicit CompensatedSum(Eigen::Index n) : compensation_(Eigen::VectorXd::Zero(n)), y_(compensation_), sum_(compensation_) {}
+    void reset() { compensation_.setZero(); }
+    void add(Eigen::VectorXd& x, const Eigen::VectorXd& increment) {
+        y_ = increment - compensation_;
+        sum_ = x + y_;
+        compensation_ = (sum_ - x) - y_;
+        x = sum_;
+    }
+
+private:
+    Eigen::VectorXd compensation_, y_, sum_;
+};
+
 template <class Observer>
 IntegrationSummary integrate_steps(NewtonStepper& stepper, Eigen::VectorXd& x, std::size_t N, Observer&& observe) {
     IntegrationSummary summary;
-    Eigen::VectorXd increment = Eigen::VectorXd::Zero(x.size()), compensation = increment, y = increment, sum = increment;
+    Eigen::VectorXd increment = Eigen::VectorXd::Zero(x.size());
+    CompensatedSum sum(x.size());
     long iterations = 0;
     if (observe(std::size_t{0}, 0.0, x)) return summary;
     for (std::size_t n = 1; n <= N; ++n) {
         summary.status = stepper.step(x, increment);
         iterations += stepper.last_iterations();
         if (summary.status != StepStatus::ok) break;
-        // Kahan: y = increment - c; s = x + y; c = (s - x) - y; x = s
-        y = increment - compensation;
-        sum = x + y;
-        compensation = (sum - x) - y;
-        x = sum;
+        sum.add(x, increment);
         summary.steps = n;
         summary.mean_iterations = double(iterations) / double(n);
         if (!x.allFinite()) {

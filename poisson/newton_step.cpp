@@ -108,8 +108,14 @@ void NewtonStepper::size_scratch(std::size_t n) {
 }
 
 void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
-    const auto n = xb.size();
     gradient_.with_hessian.eval(xb.data(), step_dt_, gh_.data());
+    take_gradient_at(xb);
+}
+
+// The rest of evaluate_at once gh_ holds grad S_dt(xb) and Hess S_dt(xb): p, the Hessian's dense copy, the
+// realisation and its derivatives.
+void NewtonStepper::take_gradient_at(const Eigen::VectorXd& xb) {
+    const auto n = xb.size();
     p_ = gh_.head(n);
     if (sparse_) {
         realisation_.eval(xb, p_, sparse_values_);
@@ -229,7 +235,7 @@ bool NewtonStepper::solve(bool again) {
 // acceptance test's own evaluation, no Hessian, no derivatives of alpha) and the last Jacobian's LU, which
 // contracts like Newton there (the error e0 e1 after e1: the Jacobian is off by O(e0)); a correction that
 // does not halve brings the full Newton iteration back. The increment is delta at the accepted base point.
-StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
+StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated) {
     double previous = std::numeric_limits<double>::infinity(), previous_residual = previous, good_residual = previous, lambda = 1;
     const double x_norm = x.lpNorm<Eigen::Infinity>();
     bool simplified = false;
@@ -248,8 +254,12 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
             previous = correction_, previous_residual = residual_;
             continue;
         }
-        // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt
-        evaluate_at(xb_);
+        // r = alpha(xb, grad S_dt(xb)) - x;  J = alpha_x + alpha_p Hess S_dt (grad and Hess S_dt at the
+        // predicted xb already in gh_ when evaluated: the batch step's)
+        if (evaluated)
+            take_gradient_at(xb_), evaluated = false;
+        else
+            evaluate_at(xb_);
         assemble();
         r_ = evaluated_alpha() - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
@@ -282,17 +292,36 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
 }
 
 StepStatus NewtonStepper::step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment) {
+    if (!begin_step(x, dt)) return StepStatus::non_finite;
+    predictor_.eval(x, dt, xb_);
+    return solve_from_prediction(x, increment, false);
+}
+
+StepStatus NewtonStepper::step_predicted(const Eigen::VectorXd& x, double dt, const double* xb, const double* gh, std::size_t stride,
+                                         Eigen::VectorXd& increment) {
+    if (!begin_step(x, dt)) return StepStatus::non_finite;
+    for (Eigen::Index i = 0; i < xb_.size(); ++i) xb_[i] = xb[std::size_t(i) * stride];
+    for (Eigen::Index i = 0; i < gh_.size(); ++i) gh_[i] = gh[std::size_t(i) * stride];
+    return solve_from_prediction(x, increment, true);
+}
+
+bool NewtonStepper::begin_step(const Eigen::VectorXd& x, double dt) {
     iterations_ = 0;
     residual_ = tolerance_ = ratio_ = truncation_ = 0;
-    if (!x.allFinite() || !std::isfinite(dt)) return StepStatus::non_finite;
+    if (!x.allFinite() || !std::isfinite(dt)) return false;
     step_dt_ = dt;
-    predictor_.eval(x, dt, xb_);
-    const StepStatus first = newton(x, increment);
+    return true;
+}
+
+// Newton from the predicted xb_ (with grad and Hess S_dt there in gh_ when evaluated), and once more from xb = x
+// if that fails.
+StepStatus NewtonStepper::solve_from_prediction(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated) {
+    const StepStatus first = newton(x, increment, evaluated);
     if (first == StepStatus::ok || first == StepStatus::truncation_above_bound || info_.predictor_order == 0) return first;
     // NOTE: far outside the predictor's range (stiff steps), Newton may still converge from xb = x.
     const int spent = iterations_;
     xb_ = x;
-    const StepStatus second = newton(x, increment);
+    const StepStatus second = newton(x, increment, false);
     iterations_ += spent;
     return second;
 }

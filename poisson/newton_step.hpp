@@ -48,6 +48,14 @@ public:
     [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment);
     /// The same at dt().
     [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, Eigen::VectorXd& increment) { return step(x, dt_, increment); }
+    /// step(x, dt, increment) with its first two evaluations given, as the batch step (poisson/batch_step) makes
+    /// them for many states at once: xb[i stride] the predictor's xb at (x, dt), gh[i stride] with_hessian()'s
+    /// output i at (xb, dt). The same status, increment and statistics as step(), bit for bit.
+    [[nodiscard]] StepStatus step_predicted(const Eigen::VectorXd& x, double dt, const double* xb, const double* gh, std::size_t stride,
+                                            Eigen::VectorXd& increment);
+    /// What step_predicted is given: the predictor, and grad S_dt with Hess S_dt on its pattern (width() outputs).
+    const Predictor& predictor() const { return predictor_; }
+    const DtSeriesMap& with_hessian() const { return gradient_.with_hessian; }
     /// Dphi_dt(x) by implicit differentiation: I + (delta_x + delta_p Hess S) J^{-1} at the solution.
     Eigen::MatrixXd tangent_map(const Eigen::VectorXd& x);
 
@@ -80,7 +88,10 @@ public:
     const StepInfo& info() const { return info_; }
 
 private:
-    StepStatus newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment);
+    bool begin_step(const Eigen::VectorXd& x, double dt);  // false when x or dt is not finite
+    StepStatus solve_from_prediction(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated);
+    StepStatus newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated);
+    void take_gradient_at(const Eigen::VectorXd& xb);
     const Eigen::MatrixXd& jacobian_at(const Eigen::VectorXd& xb);  // at step_dt_
     void evaluate_at(const Eigen::VectorXd& xb);
     bool accept_check(const Eigen::VectorXd& x, bool small_correction);

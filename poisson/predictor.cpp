@@ -99,6 +99,7 @@ NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, doubl
 Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u, double planned_dt) {
     Predictor p;
     p.order_ = u.size();
+    p.dim_ = M.dim();
     p.map_ = DtSeriesMap::build(u, M.coordinate_vars(), planned_dt);
     return p;
 }
@@ -133,6 +134,16 @@ void Predictor::eval(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& xb) c
     }
     map_.eval(x.data(), dt, xb.data());
     xb += x;
+}
+
+void Predictor::eval_batch(const double* X, double dt, double* XB, std::size_t m, BatchScratch& scratch) const {
+    const std::size_t size = dim_ * m;
+    if (order_ == 0) {
+        std::copy(X, X + size, XB);
+        return;
+    }
+    map_.eval_batch(X, dt, XB, m, scratch);
+    for (std::size_t i = 0; i < size; ++i) XB[i] += X[i];
 }
 
 }  // namespace pgi

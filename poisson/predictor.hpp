@@ -45,10 +45,13 @@ public:
     std::size_t order() const { return order_; }
     /// xb = x + sum_m dt^m u_m(x). Allocates nothing.
     void eval(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& xb) const;
+    /// m states at once, structure of arrays (X[v m + j], XB likewise), each bit for bit eval()'s.
+    void eval_batch(const double* X, double dt, double* XB, std::size_t m, BatchScratch& scratch) const;
 
 private:
     DtSeriesMap map_;
     std::size_t order_ = 0;
+    std::size_t dim_ = 0;
 };
 
 }  // namespace pgi

@@ -2,6 +2,7 @@
 
 #include "scheme/input.hpp"
 #include "scheme/run_loop.hpp"
+#include "poisson/batch_step.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -43,14 +44,19 @@ namespace {
 
 // What one worker owns: its copy of the compiled step (reset from the prototype before each trajectory, so
 // a trajectory starts from the state a single run's fresh stepper has), of the run loop (its compiled
-// invariants and scratch), and the state.
+// invariants and scratch), and the state; with batches, the batch step and one run per lane.
+struct LaneRun;
 struct Worker {
     const NewtonStepper* prototype;
     NewtonStepper stepper;
     RunLoop loop;
     Eigen::VectorXd x;
+    std::optional<BatchStepper> batch;
+    std::vector<LaneRun> lanes;
+    std::vector<double> X, increments;  // the batch's states and increments, structure of arrays
+    std::vector<StepStatus> status;
 
-    Worker(const NewtonStepper& p, const RunLoop& l) : prototype(&p), stepper(p), loop(l), x(Eigen::Index(p.dim())) {}
+    Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes);
 };
 
 TrajectoryStatus status_of(StepStatus s) {
@@ -68,33 +74,153 @@ void end_non_finite_start(const Eigen::Ref<const RowMatrix>& X0, Eigen::Index i,
     r.casimir_error.row(i).setConstant(nan);
 }
 
-// One trajectory: the run loop of pgi::integrate (scheme/run_loop.hpp) with an observer that keeps nothing
-// (the loop leaves x at the last state observed).
-void run_one(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, double dt, Eigen::Index i, EnsembleResult& r) {
-    if (!X0.row(i).allFinite()) return end_non_finite_start(X0, i, r);
+// Row i's results: the final (last observed) state x, how the run ended, the invariants' largest errors.
+void record(const Eigen::VectorXd& x, const RunEnd& end, const RunLoop& loop, double residual, double dt, Eigen::Index i,
+            EnsembleResult& r) {
     EnsembleMember& m = r.members[std::size_t(i)];
-    w.stepper = *w.prototype;
-    w.x = X0.row(i).transpose();
-    const RunEnd end = w.loop.run(w.stepper, w.x, N, [](const RunPoint&) { return false; });
-    r.x.row(i) = w.x.transpose();
+    r.x.row(i) = x.transpose();
     m.status = status_of(end.status);
     m.steps = end.steps;
     m.newton_iterations_mean = end.mean_iterations;
     m.newton_iterations_max = end.max_iterations;
-    r.energy_error(i) = w.loop.error_max()[0];
-    for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c) r.casimir_error(i, c) = w.loop.error_max()[std::size_t(1 + c)];
+    r.energy_error(i) = loop.error_max()[0];
+    for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c) r.casimir_error(i, c) = loop.error_max()[std::size_t(1 + c)];
     if (!end.ok()) {
         m.failed_step = end.started ? end.steps + 1 : 0;
         m.failed_t = double(end.steps) * dt;
-        m.residual = w.stepper.last_residual();
+        m.residual = residual;
     }
 }
 
-// The one place that advances a chunk of trajectories (a batch step would go here).
+// One trajectory: the run loop of pgi::integrate (scheme/run_loop.hpp) with an observer that keeps nothing
+// (the loop leaves x at the last state observed).
+void run_one(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, double dt, Eigen::Index i, EnsembleResult& r) {
+    if (!X0.row(i).allFinite()) return end_non_finite_start(X0, i, r);
+    w.stepper = *w.prototype;
+    w.x = X0.row(i).transpose();
+    const RunEnd end = w.loop.run(w.stepper, w.x, N, [](const RunPoint&) { return false; });
+    record(w.x, end, w.loop, w.stepper.last_residual(), dt, i, r);
+}
+
+// One trajectory of a batch, stepped by the batch: RunLoop::run's bookkeeping without events (integrate_steps'
+// compensated sum, its statistics, the invariants at every state), so its numbers are run_one's bit for bit.
+struct LaneRun {
+    Eigen::Index row = -1;
+    RunLoop loop;
+    Eigen::VectorXd x, last, increment;
+    CompensatedSum sum;
+    RunEnd end;
+    std::size_t steps = 0;   // steps taken (end.steps: those observed)
+    long iterations = 0;     // over the steps that succeeded
+    double residual = 0;     // the last step's Newton residual
+
+    LaneRun(const RunLoop& l, Eigen::Index n) : loop(l), x(n), last(n), increment(n), sum(n) {}
+
+    // Starts row i at x0 (finite) for N steps; false when the run ends there (N = 0, an invariant not finite).
+    bool begin(Eigen::Index i, const Eigen::VectorXd& x0, std::size_t N, double prototype_residual) {
+        row = i;
+        x = last = x0;
+        sum.reset();
+        end = RunEnd{};
+        steps = 0, iterations = 0, residual = prototype_residual;
+        loop.begin(x0);
+        if (!loop.observe(x0, true)) return stop(StepStatus::non_finite);
+        end.started = true;
+        return N > 0;
+    }
+    // After one more step that ended with status s, its Newton iterations and residual, its increment at
+    // inc[v stride]: false when the run ends (step N, a failed step, a state or an invariant not finite).
+    bool advance(StepStatus s, int step_iterations, double step_residual, const double* inc, std::size_t stride, std::size_t N) {
+        residual = step_residual;
+        iterations += step_iterations;
+        if (s != StepStatus::ok) return stop(s);
+        for (Eigen::Index v = 0; v < increment.size(); ++v) increment[v] = inc[std::size_t(v) * stride];
+        sum.add(x, increment);
+        ++steps;
+        end.mean_iterations = double(iterations) / double(steps);
+        if (!x.allFinite() || !loop.observe(x, false)) return stop(StepStatus::non_finite);
+        end.max_iterations = std::max(end.max_iterations, step_iterations);
+        end.steps = steps;
+        last = x;
+        return steps < N;
+    }
+    bool stop(StepStatus s) {
+        end.status = s;
+        x = last;
+        return false;
+    }
+};
+
+Worker::Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes) : prototype(&p), stepper(p), loop(l), x(Eigen::Index(p.dim())) {
+    if (batch_lanes <= 1) return;
+    batch.emplace(p, batch_lanes);
+    lanes.assign(batch_lanes, LaneRun(l, Eigen::Index(p.dim())));
+    X.resize(batch_lanes * p.dim());
+    increments.resize(X.size());
+    status.resize(batch_lanes);
+}
+
+// The trajectories begin..end-1 in a batch: each free lane takes the next row, the batch steps every busy
+// lane at once (packed: X holds the busy lanes only), a lane whose run ends is recorded and freed.
+void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, double dt, std::size_t begin, std::size_t end,
+                 EnsembleResult& r) {
+    const std::size_t n = w.prototype->dim();
+    std::vector<LaneRun*> busy;  // (at most lanes() pointers: reserved once per chunk)
+    busy.reserve(w.lanes.size());
+    std::vector<LaneRun*> free;
+    free.reserve(w.lanes.size());
+    for (auto& lane : w.lanes) free.push_back(&lane);
+    std::size_t next = begin;
+    const auto fill = [&] {
+        while (!free.empty() && next < end) {
+            const auto i = Eigen::Index(next++);
+            if (!X0.row(i).allFinite()) {
+                end_non_finite_start(X0, i, r);
+                continue;
+            }
+            LaneRun* lane = free.back();
+            w.x = X0.row(i).transpose();
+            if (lane->begin(i, w.x, N, w.prototype->last_residual())) {
+                free.pop_back();
+                busy.push_back(lane);
+            } else {
+                record(lane->x, lane->end, lane->loop, lane->residual, dt, i, r);
+            }
+        }
+    };
+    fill();
+    while (!busy.empty()) {
+        const std::size_t m = busy.size();
+        for (std::size_t j = 0; j < m; ++j)
+            for (std::size_t v = 0; v < n; ++v) w.X[v * m + j] = busy[j]->x[Eigen::Index(v)];
+        w.batch->step(w.X.data(), m, dt, w.increments.data(), w.status.data());
+        std::size_t kept = 0;
+        for (std::size_t j = 0; j < m; ++j) {
+            LaneRun* lane = busy[j];
+            const NewtonStepper& s = w.batch->lane(j);
+            if (lane->advance(w.status[j], s.last_iterations(), s.last_residual(), w.increments.data() + j, m, N)) {
+                busy[kept++] = lane;
+            } else {
+                record(lane->x, lane->end, lane->loop, lane->residual, dt, lane->row, r);
+                free.push_back(lane);
+            }
+        }
+        busy.resize(kept);
+        fill();
+    }
+}
+
+// The one place that advances a chunk of trajectories.
 void run_chunk(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, double dt, std::size_t begin,
                std::size_t end, EnsembleResult& r) {
+    if (w.batch) return run_batched(w, X0, N, dt, begin, end, r);
     for (std::size_t i = begin; i < end; ++i) run_one(w, X0, N, dt, Eigen::Index(i), r);
 }
+
+// Lanes per batch when the options leave it open: 16 (two of CompiledMap's 8-lane blocks, measured best on
+// the rigid body, tools/bench/bench_ensemble.py), and none from 40 coordinates on (a lattice's step is its
+// sparse Newton, not the compiled polynomials, and each lane holds a copy of the step).
+std::size_t default_batch(std::size_t n) { return n < 40 ? 16 : 1; }
 
 void check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
                      const EnsembleOptions& options) {
@@ -134,7 +260,8 @@ EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const R
     const RunLoop loop(scheme);
     const std::size_t N = steps_to_reach(t_end, dt);
     const std::size_t chunk = options.chunk ? options.chunk : std::max<std::size_t>(1, std::size_t(m) / (8 * r.threads));
-    tbb::enumerable_thread_specific<Worker> workers([&] { return Worker(prototype, loop); });
+    const std::size_t lanes = options.batch ? options.batch : default_batch(std::size_t(n));
+    tbb::enumerable_thread_specific<Worker> workers([&] { return Worker(prototype, loop, lanes); });
     std::optional<tbb::global_control> allow;  // more workers than cores when asked (TBB's limit is the cores)
     if (r.threads > std::size_t(tbb::info::default_concurrency()))
         allow.emplace(tbb::global_control::max_allowed_parallelism, r.threads);

@@ -7,8 +7,9 @@
 // whatever the thread count and the chunking. A row that is not finite, or a step that fails, ends that
 // trajectory with its status; the others finish.
 //
-// Room for a batch step: run_chunk() (ensemble.cpp) is the one place that advances a chunk of trajectories;
-// a structure-of-arrays step over the chunk with masked Newton would replace its loop over rows there.
+// Within a chunk, trajectories are stepped in batches (poisson/batch_step: the predictor and grad, Hess S_dt
+// of all lanes evaluated at once in structure of arrays, then Newton lane by lane); a lane whose trajectory
+// ends takes the next row. The numbers stay the single run's bit for bit, whatever the batch size.
 #include "scheme/scheme.hpp"
 
 #include <Eigen/Dense>
@@ -34,6 +35,7 @@ std::string to_string(TrajectoryStatus s);
 struct EnsembleOptions {
     std::size_t threads = 0;   // workers; 0: every core (TBB's default concurrency); at most max(256, 4 per core)
     std::size_t chunk = 0;     // trajectories per task; 0: about 8 tasks per worker
+    std::size_t batch = 0;     // trajectories stepped together (lanes); 1: one at a time; 0: 16 below 40 coordinates, else 1
     /// The state the compiled step is built for (its realisation degree and predictor are chosen there).
     /// Default: typical_state(X0), the finite row of largest norm.
     std::optional<Eigen::VectorXd> x_typical;

@@ -64,6 +64,17 @@ public:
     RunEnd run(NewtonStepper& stepper, Eigen::VectorXd& x, std::size_t N, OnState&& on_state, EventDetector* events = nullptr,
                OnCrossing&& on_crossing = {});
 
+    /// run()'s bookkeeping for a driver that steps by itself (the batch ensemble, one RunLoop per trajectory):
+    /// begin(x0), then observe(x, first) at the start (first) and after each step. observe is false when an
+    /// invariant at x is not finite (non_finite() names it; the state is not counted), as run() stops there.
+    void begin(const Eigen::VectorXd& x0) { start(x0); }
+    bool observe(const Eigen::VectorXd& x, bool first) {
+        if (!evaluate(x)) return false;
+        commit(first);
+        return true;
+    }
+    const std::string& non_finite() const { return non_finite_; }
+
     /// The invariants at the state observed last: H, the Casimirs, the extras.
     const std::vector<double>& values() const { return values_; }
     /// relative_error of invariant i there (against its value at the start, on its scale at the start).

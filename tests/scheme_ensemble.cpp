@@ -23,10 +23,11 @@ RowMatrix rigid_body_states(Eigen::Index m) {
     return X;
 }
 
-EnsembleOptions with(std::size_t threads, std::size_t chunk = 0, std::optional<Eigen::VectorXd> typical = std::nullopt) {
+EnsembleOptions with(std::size_t threads, std::size_t chunk = 0, std::optional<Eigen::VectorXd> typical = std::nullopt, std::size_t batch = 0) {
     EnsembleOptions o;
     o.threads = threads;
     o.chunk = chunk;
+    o.batch = batch;
     o.x_typical = std::move(typical);
     return o;
 }
@@ -51,7 +52,7 @@ void require_single_run(const Scheme& scheme, const RowMatrix& X0, const Ensembl
 
 }  // namespace
 
-TEST_CASE("Ensemble: each trajectory equals its single run bit for bit, whatever the threads and the chunks") {
+TEST_CASE("Ensemble: each trajectory equals its single run bit for bit, whatever the threads, chunks and batches") {
     const Scene s = test::bundled("rigid_body");
     const Scheme& scheme = *s.scheme;
     const RowMatrix X0 = rigid_body_states(13);
@@ -61,20 +62,23 @@ TEST_CASE("Ensemble: each trajectory equals its single run bit for bit, whatever
     X0.rowwise().squaredNorm().maxCoeff(&largest);
     CHECK(one.x_typical == Eigen::VectorXd(X0.row(largest).transpose()));
     for (Eigen::Index i = 0; i < X0.rows(); ++i) require_single_run(scheme, X0, one, i, dt, t_end);
-    for (std::size_t threads : {2, 3})
-        for (std::size_t chunk : {1, 4, 0}) {
-            CAPTURE(threads);
-            CAPTURE(chunk);
-            const EnsembleResult r = integrate_ensemble(scheme, X0, dt, t_end, with(threads, chunk));
-            CHECK(r.threads == threads);
-            CHECK(r.x == one.x);
-            CHECK(r.energy_error == one.energy_error);
-            CHECK(r.casimir_error == one.casimir_error);
-            for (std::size_t i = 0; i < r.members.size(); ++i) {
-                CHECK(r.members[i].steps == one.members[i].steps);
-                CHECK(r.members[i].newton_iterations_mean == one.members[i].newton_iterations_mean);
+    for (std::size_t threads : {1, 2, 3})
+        for (std::size_t chunk : {1, 4, 0})
+            for (std::size_t batch : {1, 3, 16}) {
+                CAPTURE(threads);
+                CAPTURE(chunk);
+                CAPTURE(batch);
+                const EnsembleResult r = integrate_ensemble(scheme, X0, dt, t_end, with(threads, chunk, std::nullopt, batch));
+                CHECK(r.threads == threads);
+                CHECK(r.x == one.x);
+                CHECK(r.energy_error == one.energy_error);
+                CHECK(r.casimir_error == one.casimir_error);
+                for (std::size_t i = 0; i < r.members.size(); ++i) {
+                    CHECK(r.members[i].steps == one.members[i].steps);
+                    CHECK(r.members[i].newton_iterations_mean == one.members[i].newton_iterations_mean);
+                    CHECK(r.members[i].newton_iterations_max == one.members[i].newton_iterations_max);
+                }
             }
-        }
     // the steps moved the states, and the Casimir is kept to round-off
     CHECK((one.x - X0).cwiseAbs().maxCoeff() > 0.1);
     CHECK(one.casimir_error.maxCoeff() < 1e-14);
@@ -131,14 +135,17 @@ TEST_CASE("Ensemble: a trajectory whose step fails ends alone, with the failed s
     X0.row(3) *= 1e4;  // |x| ~ 1e4: dt |x| ~ 1e3, far beyond what the step built at x_typical solves
     const Eigen::VectorXd typical = X0.row(0).transpose();
     const double dt = 0.1, t_end = 3;
-    const EnsembleResult r = integrate_ensemble(scheme, X0, dt, t_end, with(2, 1, typical));
-    const EnsembleMember& bad = r.members[3];
-    CHECK(bad.status != TrajectoryStatus::ok);
-    CHECK(bad.failed_step == bad.steps + 1);
-    CHECK(bad.failed_t == double(bad.steps) * dt);
-    CHECK(r.x.row(3).allFinite());  // the last state reached, not the overflowed one
-    for (Eigen::Index i = 0; i < 5; ++i) {
-        if (i != 3) CHECK(r.members[std::size_t(i)].status == TrajectoryStatus::ok);
-        require_single_run(scheme, X0, r, i, dt, t_end);
+    for (std::size_t batch : {1, 4}) {
+        CAPTURE(batch);
+        const EnsembleResult r = integrate_ensemble(scheme, X0, dt, t_end, with(2, 5, typical, batch));
+        const EnsembleMember& bad = r.members[3];
+        CHECK(bad.status != TrajectoryStatus::ok);
+        CHECK(bad.failed_step == bad.steps + 1);
+        CHECK(bad.failed_t == double(bad.steps) * dt);
+        CHECK(r.x.row(3).allFinite());  // the last state reached, not the overflowed one
+        for (Eigen::Index i = 0; i < 5; ++i) {
+            if (i != 3) CHECK(r.members[std::size_t(i)].status == TrajectoryStatus::ok);
+            require_single_run(scheme, X0, r, i, dt, t_end);
+        }
     }
 }

@@ -1,0 +1,87 @@
+// The batch step: every lane's increment, status and Newton statistics are the single step's bit for bit,
+// whatever the number of lanes and states, at the build's dt (its exact planned sum) and at others (the
+// Horner path), with failing and non-finite states in the batch.
+#include "poisson/batch_step.hpp"
+#include "test_util.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace pgi;
+
+namespace {
+
+// m states around x0: scaled by 0.5..1.5 and turned (coordinates rotated by i), deterministic
+std::vector<Eigen::VectorXd> states_around(const Eigen::VectorXd& x0, std::size_t m) {
+    std::vector<Eigen::VectorXd> X;
+    for (std::size_t i = 0; i < m; ++i) {
+        Eigen::VectorXd x = x0;
+        for (Eigen::Index v = 0; v < x.size(); ++v) x[v] = x0[(v + Eigen::Index(i)) % x.size()] * (0.5 + double(i) / double(m));
+        X.push_back(x);
+    }
+    return X;
+}
+
+// Steps the states with the batch and one by one with a copy of stepper; every number must be equal.
+void require_lanes_equal_single(const NewtonStepper& stepper, std::size_t lanes, const std::vector<Eigen::VectorXd>& states, double dt) {
+    const std::size_t n = stepper.dim(), m = states.size();
+    BatchStepper batch(stepper, lanes);
+    std::vector<double> X(n * m), increments(n * m);
+    for (std::size_t j = 0; j < m; ++j)
+        for (std::size_t v = 0; v < n; ++v) X[v * m + j] = states[j][Eigen::Index(v)];
+    std::vector<StepStatus> status(m);
+    batch.step(X.data(), m, dt, increments.data(), status.data());
+    NewtonStepper single = stepper;
+    Eigen::VectorXd increment = Eigen::VectorXd::Zero(Eigen::Index(n));
+    for (std::size_t j = 0; j < m; ++j) {
+        CAPTURE(j);
+        const StepStatus s = single.step(states[j], dt, increment);
+        CHECK(status[j] == s);
+        CHECK(batch.lane(j).last_iterations() == single.last_iterations());
+        CHECK(batch.lane(j).last_residual() == single.last_residual());
+        if (s != StepStatus::ok) continue;
+        for (std::size_t v = 0; v < n; ++v) CHECK(increments[v * m + j] == increment[Eigen::Index(v)]);
+    }
+}
+
+}  // namespace
+
+TEST_CASE("BatchStepper: each lane is the single step bit for bit, on every bundled scene, at the build's dt and at others") {
+    for (const std::string& name : test::bundled_names()) {
+        CAPTURE(name);
+        const Scene s = test::bundled(name);
+        if (!s.x0) continue;  // (a scene for pgi magnus only)
+        const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
+        const double dt = s.dt;
+        const NewtonStepper stepper = s.scheme->stepper(dt, x0);
+        for (const double h : {dt, dt / 2, 0.7 * dt}) {
+            CAPTURE(h);
+            for (const std::size_t m : {1, 5, 8, 13}) {
+                CAPTURE(m);
+                require_lanes_equal_single(stepper, 16, states_around(x0, m), h);
+            }
+        }
+    }
+}
+
+TEST_CASE("BatchStepper: a failing and a non-finite state fail alone, with the single step's status") {
+    const Scene s = test::bundled("rigid_body");
+    const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), 3);
+    const NewtonStepper stepper = s.scheme->stepper(0.1, x0);
+    auto states = states_around(x0, 9);
+    states[2] *= 1e4;  // dt |x| ~ 1e3: far beyond what the step built at x0 solves
+    states[6][1] = std::numeric_limits<double>::quiet_NaN();
+    require_lanes_equal_single(stepper, 9, states, 0.1);
+    BatchStepper batch(stepper, 9);
+    std::vector<double> X(27), increments(27);
+    for (std::size_t j = 0; j < 9; ++j)
+        for (std::size_t v = 0; v < 3; ++v) X[v * 9 + j] = states[j][Eigen::Index(v)];
+    std::vector<StepStatus> status(9);
+    batch.step(X.data(), 9, 0.1, increments.data(), status.data());
+    CHECK(status[2] != StepStatus::ok);
+    CHECK(status[6] == StepStatus::non_finite);
+    for (std::size_t j : {0, 1, 3, 4, 5, 7, 8}) CHECK(status[j] == StepStatus::ok);
+    CHECK_THROWS_AS(batch.step(X.data(), 10, 0.1, increments.data(), status.data()), std::invalid_argument);  // more states than lanes
+}
