@@ -261,7 +261,7 @@ Eigen::Map<const pgi::RowMatrix> as_matrix(const py::array_t<double, py::array::
 
 py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::optional<double> dt_in,
                             std::optional<double> t_end_in, std::size_t threads, std::size_t chunk,
-                            std::optional<Eigen::VectorXd> x_typical) {
+                            std::optional<Eigen::VectorXd> x_typical, std::size_t batch) {
     const auto X0 = ensemble_states(s, X0_in);
     const double dt = s.step_size(dt_in);
     const double t_end = run_length(s, t_end_in);
@@ -269,6 +269,7 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
     pgi::EnsembleOptions options;
     options.threads = threads;
     options.chunk = chunk;
+    options.batch = batch;
     options.x_typical = x_typical;
     pgi::EnsembleResult r;
     {
@@ -350,7 +351,7 @@ PYBIND11_MODULE(_pgi, m) {
         .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
              "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{}, "event_samples"_a = 1)
         .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),
-             "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none())
+             "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none(), "batch"_a = 0)
         .def("_typical_state", [](const PyScheme& s, const py::object& X0) {
                  return pgi::typical_state(as_matrix(ensemble_states(s, X0)));
              }, "X0"_a);

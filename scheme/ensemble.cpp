@@ -221,6 +221,8 @@ void run_chunk(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, 
 // the rigid body, tools/bench/bench_ensemble.py), and none from 40 coordinates on (a lattice's step is its
 // sparse Newton, not the compiled polynomials, and each lane holds a copy of the step).
 std::size_t default_batch(std::size_t n) { return n < 40 ? 16 : 1; }
+// Each lane holds a copy of the step: bounded.
+constexpr std::size_t max_batch = 1024;
 
 void check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
                      const EnsembleOptions& options) {
@@ -232,6 +234,8 @@ void check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0
     const std::size_t most = std::max<std::size_t>(256, 4 * std::size_t(tbb::info::default_concurrency()));
     if (options.threads > most)
         throw InputError("threads", std::to_string(options.threads) + " is above the limit of " + std::to_string(most) + " (4 per core, at least 256)");
+    if (options.batch > max_batch)
+        throw InputError("batch", std::to_string(options.batch) + " is above the limit of " + std::to_string(max_batch) + " trajectories stepped together");
     if (const auto& xt = options.x_typical) {
         if (xt->size() != n) throw InputError("x_typical", "must have " + std::to_string(n) + " values, got " + std::to_string(xt->size()));
         if (!xt->allFinite()) throw InputError("x_typical", "must be finite");
@@ -259,8 +263,9 @@ EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const R
     const NewtonStepper prototype = scheme.stepper(dt, *typical);
     const RunLoop loop(scheme);
     const std::size_t N = steps_to_reach(t_end, dt);
-    const std::size_t chunk = options.chunk ? options.chunk : std::max<std::size_t>(1, std::size_t(m) / (8 * r.threads));
-    const std::size_t lanes = options.batch ? options.batch : default_batch(std::size_t(n));
+    const std::size_t batch = options.batch ? options.batch : default_batch(std::size_t(n));
+    const std::size_t chunk = options.chunk ? options.chunk : std::max(batch, std::size_t(m) / (8 * r.threads));
+    const std::size_t lanes = std::min(batch, chunk);
     tbb::enumerable_thread_specific<Worker> workers([&] { return Worker(prototype, loop, lanes); });
     std::optional<tbb::global_control> allow;  // more workers than cores when asked (TBB's limit is the cores)
     if (r.threads > std::size_t(tbb::info::default_concurrency()))

@@ -34,8 +34,8 @@ std::string to_string(TrajectoryStatus s);
 
 struct EnsembleOptions {
     std::size_t threads = 0;   // workers; 0: every core (TBB's default concurrency); at most max(256, 4 per core)
-    std::size_t chunk = 0;     // trajectories per task; 0: about 8 tasks per worker
-    std::size_t batch = 0;     // trajectories stepped together (lanes); 1: one at a time; 0: 16 below 40 coordinates, else 1
+    std::size_t chunk = 0;     // trajectories per task; 0: about 8 tasks per worker, at least one batch each
+    std::size_t batch = 0;     // trajectories stepped together (lanes, at most 1024); 1: one at a time; 0: 16 below 40 coordinates, else 1
     /// The state the compiled step is built for (its realisation degree and predictor are chosen there).
     /// Default: typical_state(X0), the finite row of largest norm.
     std::optional<Eigen::VectorXd> x_typical;
@@ -69,7 +69,7 @@ std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& 
 
 /// Integrates every row of X0 (m x n) over steps_to_reach(t_end, dt) steps of the step built once at
 /// options.x_typical. Throws InputError before any work on X0 without n columns, dt <= 0, t_end < 0 or
-/// not finite, a non-finite x_typical or one of the wrong length, threads above the limit. Rows that are not finite are not
+/// not finite, a non-finite x_typical or one of the wrong length, threads or batch above their limits. Rows that are not finite are not
 /// an error: they end with status non_finite_start.
 EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
                                   const EnsembleOptions& options = {});

@@ -94,6 +94,8 @@ TEST_CASE("Ensemble: wrong shapes and values are refused before any work") {
     CHECK_THROWS_WITH_AS(integrate_ensemble(scheme, X0, 0.1, -1), "t_end: must be finite and not negative", InputError);
     CHECK_THROWS_AS(integrate_ensemble(scheme, X0, 0.1, 1, with(1, 0, Eigen::VectorXd::Ones(2))), InputError);
     CHECK_THROWS_AS(integrate_ensemble(scheme, X0, 0.1, 1, with(100000)), InputError);  // bounded threads
+    CHECK_THROWS_WITH_AS(integrate_ensemble(scheme, X0, 0.1, 1, with(1, 0, std::nullopt, 5000)),
+                         "batch: 5000 is above the limit of 1024 trajectories stepped together", InputError);
     CHECK(scheme.stats().stepper_builds == 0);  // nothing was built
     // no rows: an empty result, still nothing built
     const EnsembleResult empty = integrate_ensemble(scheme, RowMatrix(0, 3), 0.1, 1);

@@ -27,6 +27,8 @@ void add_ensemble_options(CLI::App* cmd, EnsembleCommandOptions& o) {
     cmd->add_option("--box", o.box, "lo,hi or lo1,hi1,...,lon,hin: the sampler's box")->needs(sample);
     cmd->add_option("--threads", o.threads, "worker threads (default: every core)")->check(CLI::PositiveNumber);
     cmd->add_option("--chunk", o.chunk, "trajectories per task (default: about 8 tasks per thread)")->check(CLI::PositiveNumber);
+    cmd->add_option("--batch", o.batch, "trajectories stepped together (default 16 below 40 coordinates, else 1: one at a time)")
+        ->check(CLI::PositiveNumber);
     cmd->add_option("--out", o.out, "write PREFIX.x0.npy, PREFIX.x.npy, PREFIX.errors.npy and PREFIX.csv")->required();
 }
 
@@ -134,6 +136,7 @@ int ensemble_command(const Scene& scene, const EnsembleCommandOptions& o, bool j
     EnsembleOptions options;
     options.threads = o.threads;
     options.chunk = o.chunk;
+    options.batch = o.batch;
     const auto start = std::chrono::steady_clock::now();
     const EnsembleResult r = integrate_ensemble(*scene.scheme, X0, scene.dt, *scene.t_end, options);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

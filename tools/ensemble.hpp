@@ -17,12 +17,12 @@ struct EnsembleCommandOptions {
     std::string sample, box;     // --sample grid|box|casimir, --box lo,hi
     std::size_t count = 0;       // --count N
     std::uint64_t seed = 0;      // --seed S
-    std::size_t threads = 0, chunk = 0;
+    std::size_t threads = 0, chunk = 0, batch = 0;
     std::string out;             // --out PREFIX
     bool x0_given = false;       // --x0 was given (read only by --sample casimir)
 };
 
-/// --states, --sample, --count, --seed, --box, --threads, --chunk, --out on cmd.
+/// --states, --sample, --count, --seed, --box, --threads, --chunk, --batch, --out on cmd.
 void add_ensemble_options(CLI::App* cmd, EnsembleCommandOptions& o);
 /// Reads or samples the states and opens the outputs (bad input: InputError, before any work), runs, writes
 /// PREFIX.x0.npy, PREFIX.x.npy, PREFIX.errors.npy and PREFIX.csv, and prints a summary (JSON with json).

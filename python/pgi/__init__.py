@@ -213,19 +213,21 @@ class Scheme:
             raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
         return r
 
-    def integrate_ensemble(self, X0, dt=None, t_end=None, threads=None, chunk=None, x_typical=None):
+    def integrate_ensemble(self, X0, dt=None, t_end=None, threads=None, chunk=None, x_typical=None, batch=None):
         """Every row of X0 (an (m, n) float64 numpy array; nested lists are converted) over ceil(t_end/dt)
         steps, on `threads` cores (default: all), the GIL released; returns an EnsembleResult. Each row's
         numbers equal integrate(row, dt, t_end, x_typical=result.x_typical) bit for bit, whatever threads and
-        chunk (trajectories per task). The step is built once, at x_typical (default: the finite row of largest
+        chunk (trajectories per task) and batch (trajectories stepped together, structure of arrays; 1: one
+        at a time; default 16 below 40 coordinates, else 1). The step is built once, at x_typical (default: the finite row of largest
         norm). A row that is not finite or a step that fails ends that trajectory with its status; nothing is
         raised for it. Raises ValueError (before any work) for X0 of the wrong shape or dtype."""
         X0 = _states(X0)
-        for name, v in (("threads", threads), ("chunk", chunk)):
+        for name, v in (("threads", threads), ("chunk", chunk), ("batch", batch)):
             if v is not None and (not isinstance(v, (int, _np.integer)) or v < 1):
                 raise InputError(f"{name}: must be a positive integer, got {v!r}")
         return EnsembleResult(self._core._integrate_ensemble(
-            X0, dt, t_end, threads or 0, chunk or 0, None if x_typical is None else _np.asarray(x_typical, dtype=float)))
+            X0, dt, t_end, threads or 0, chunk or 0, None if x_typical is None else _np.asarray(x_typical, dtype=float),
+            batch or 0))
 
     def typical_state(self, X0):
         """The row integrate_ensemble builds its step at by default: the finite row of largest norm (None if none)."""

@@ -15,7 +15,7 @@ def states(m, seed=1):
     return rng.uniform(-1.5, 1.5, size=(m, 3))
 
 
-def test_each_row_equals_its_single_run_whatever_the_threads():
+def test_each_row_equals_its_single_run_whatever_the_threads_and_batches():
     s = pgi.Scheme(**RIGID_BODY)
     X0 = states(9)
     one = s.integrate_ensemble(X0, dt=0.1, t_end=3, threads=1)
@@ -27,9 +27,10 @@ def test_each_row_equals_its_single_run_whatever_the_threads():
         assert r.x[-1].tolist() == one.x[i].tolist()
         assert r.energy_error_max == one.energy_error[i] and r.casimir_error_max[0] == one.casimir_error[i, 0]
         assert r.steps == one.steps[i] == 30 and r.newton_iterations_mean == one.newton_iterations_mean[i]
-    for threads, chunk in [(2, 1), (2, None), (3, 2)]:
-        e = s.integrate_ensemble(X0, dt=0.1, t_end=3, threads=threads, chunk=chunk)
+    for threads, chunk, batch in [(2, 1, None), (2, None, None), (3, 2, None), (1, None, 1), (2, 5, 4), (1, 9, 9)]:
+        e = s.integrate_ensemble(X0, dt=0.1, t_end=3, threads=threads, chunk=chunk, batch=batch)
         assert e.threads == threads
+        assert e.newton_iterations_mean.tolist() == one.newton_iterations_mean.tolist()
         assert np.array_equal(e.x, one.x) and np.array_equal(e.energy_error, one.energy_error)
         assert np.array_equal(e.casimir_error, one.casimir_error)
 
@@ -48,6 +49,10 @@ def test_bad_X0_is_a_value_error_before_any_work():
         s.integrate_ensemble(np.zeros((4, 3)), t_end=1)
     with pytest.raises(ValueError, match="threads: must be a positive integer"):
         s.integrate_ensemble(np.zeros((4, 3)), dt=0.1, t_end=1, threads=0)
+    with pytest.raises(ValueError, match="batch: must be a positive integer"):
+        s.integrate_ensemble(np.zeros((4, 3)), dt=0.1, t_end=1, batch=0)
+    with pytest.raises(ValueError, match="batch: 5000 is above the limit of 1024"):
+        s.integrate_ensemble(np.zeros((4, 3)), dt=0.1, t_end=1, batch=5000)
     # a Fortran-ordered array is read as the same rows
     X0 = states(4)
     assert np.array_equal(s.integrate_ensemble(np.asfortranarray(X0), dt=0.1, t_end=1).x,
