@@ -19,8 +19,8 @@ def test_npy_and_csv_states_give_the_python_ensemble_bit_for_bit(tmp_path):
     np.savetxt(tmp_path / "X0.csv", X0, delimiter=",", fmt="%.17g", header="x1,x2,x3", comments="")
     s = pgi.Scheme.from_toml(RB)
     py = s.integrate_ensemble(X0, t_end=3)
-    for name in ("X0.npy", "X0.csv"):
-        cli("ensemble", RB, "--states", tmp_path / name, "--t-end", 3, "--threads", 2, "--out", tmp_path / name)
+    for name, batch in (("X0.npy", []), ("X0.csv", ["--batch", 5])):
+        cli("ensemble", RB, "--states", tmp_path / name, "--t-end", 3, "--threads", 2, *batch, "--out", tmp_path / name)
         assert np.array_equal(np.load(tmp_path / f"{name}.x0.npy"), X0)
         assert np.array_equal(np.load(tmp_path / f"{name}.x.npy"), py.x)
         errors = np.load(tmp_path / f"{name}.errors.npy")
@@ -82,6 +82,8 @@ def test_bad_npy_exits_2_before_any_work_with_nothing_written(tmp_path, kind, me
     (["--states", "{d}/short.csv", "--x0", "1,0,0"], "--x0: is read only by --sample casimir"),
     (["--sample", "box", "--count", "4", "--box", "-1,1", "--out", "{d}/no/such/dir/r"], "does not exist"),
     ([], "give the initial states"),
+    (["--sample", "box", "--count", "4", "--box", "-1,1", "--batch", "0"], "--batch"),
+    (["--sample", "box", "--count", "4", "--box", "-1,1", "--batch", "2000"], "batch: 2000 is above the limit of 1024"),
 ])
 def test_bad_options_exit_2_with_nothing_written(tmp_path, args, message):
     (tmp_path / "X0.csv").write_text("x1,x2,x3\n1,2,3\n1,abc,3\n")
