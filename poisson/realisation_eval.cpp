@@ -228,6 +228,17 @@ std::size_t RealisationEvaluator::cost(bool sparse) const {
     return map_.num_terms() + map_.num_monomials();
 }
 
+const double* RealisationEvaluator::eval_polynomial(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha,
+                                                   Eigen::VectorXd& delta) const {
+    const auto n = static_cast<Eigen::Index>(n_);
+    in_.head(n) = x;
+    in_.tail(n) = p;
+    map_.eval(in_.data(), out_.data());
+    alpha = out_.segment(0, n);
+    delta = out_.segment(n, n);
+    return out_.data() + 2 * n;
+}
+
 void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
     switch (form_) {
         case Form::log_canonical: eval_log_canonical(x, p, v); return;
@@ -235,13 +246,7 @@ void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd&
         case Form::rotation: eval_rotation(x, p, v); return;
         case Form::polynomial: break;
     }
-    const auto n = static_cast<Eigen::Index>(n_);
-    in_.head(n) = x;
-    in_.tail(n) = p;
-    map_.eval(in_.data(), out_.data());
-    v.alpha = out_.segment(0, n);
-    v.delta = out_.segment(n, n);
-    const double* d = out_.data() + 2 * n;
+    const double* d = eval_polynomial(x, p, v.alpha, v.delta);
     const std::size_t nx = pattern_x_.nonzeros(), np = pattern_p_.nonzeros();
     pattern_x_.scatter(d, v.alpha_x);
     pattern_x_.scatter(d + nx, v.delta_x);

@@ -88,6 +88,9 @@ private:
                                    Eigen::VectorXd& delta, Put put) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
+    /// The compiled polynomial form at (x, p): alpha and delta written, the derivatives' values returned
+    /// (alpha_x, delta_x on pattern_x_, then alpha_p, delta_p on pattern_p_, in pattern order).
+    const double* eval_polynomial(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha, Eigen::VectorXd& delta) const;
     void form_L(const Eigen::VectorXd& p) const;
     void coth_form(bool derivatives) const;
     void alpha_sizes(const Eigen::VectorXd& x, const Eigen::MatrixXd& ax, RealisationCheck& c) const;

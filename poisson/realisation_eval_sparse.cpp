@@ -100,13 +100,7 @@ void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd&
             return;
         case Form::polynomial: break;
     }
-    const auto n = static_cast<Eigen::Index>(n_);
-    in_.head(n) = x;
-    in_.tail(n) = p;
-    map_.eval(in_.data(), out_.data());
-    v.alpha = out_.segment(0, n);
-    v.delta = out_.segment(n, n);
-    const double* d = out_.data() + 2 * n;
+    const double* d = eval_polynomial(x, p, v.alpha, v.delta);
     const std::size_t nx = pattern_x_.nonzeros(), np = pattern_p_.nonzeros();
     std::copy(d, d + nx, v.alpha_x.begin());
     std::copy(d + nx, d + 2 * nx, v.delta_x.begin());
