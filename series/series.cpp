@@ -149,8 +149,10 @@ Poly balanced_sum(std::vector<Poly> pieces, const RingPtr& ring) {
     if (pieces.empty()) return Poly(ring);
     while (pieces.size() > 1) {
         std::size_t kept = 0;
-        for (std::size_t i = 0; i < pieces.size(); i += 2, ++kept)
-            pieces[kept] = i + 1 < pieces.size() ? pieces[i] + pieces[i + 1] : std::move(pieces[i]);
+        for (std::size_t i = 0; i < pieces.size(); i += 2, ++kept) {
+            if (i + 1 < pieces.size()) pieces[i] += pieces[i + 1];  // in place: no third polynomial
+            if (kept != i) pieces[kept] = std::move(pieces[i]);
+        }
         pieces.erase(pieces.begin() + std::ptrdiff_t(kept), pieces.end());
     }
     return std::move(pieces.front());
