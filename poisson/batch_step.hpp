@@ -18,7 +18,7 @@ public:
     BatchStepper(const NewtonStepper& prototype, std::size_t lanes);
 
     std::size_t lanes() const { return lanes_.size(); }
-    std::size_t dim() const { return prototype_.dim(); }
+    std::size_t dim() const { return lanes_.front().dim(); }
     /// The states X[v m + j] (coordinate v of state j, m <= lanes()) one step of dt further:
     /// increments[v m + j] = phi_dt(x_j) - x_j and status[j], each NewtonStepper::step(x_j, dt)'s bit for bit.
     /// Allocates nothing once it has stepped m states (on the dense path).
@@ -27,8 +27,7 @@ public:
     const NewtonStepper& lane(std::size_t j) const { return lanes_[j]; }
 
 private:
-    NewtonStepper prototype_;             // the compiled maps evaluated for the whole batch
-    std::vector<NewtonStepper> lanes_;
+    std::vector<NewtonStepper> lanes_;    // lane 0's compiled maps also serve the whole batch
     std::vector<double> xb_, gh_;         // the predicted base points, grad and Hess S_dt there (structure of arrays)
     BatchScratch scratch_;
     Eigen::VectorXd x_, increment_;
