@@ -5,6 +5,7 @@
 #include "magnus/magnus.hpp"
 #include "magnus/modified_hamiltonian.hpp"
 #include "poisson/hamilton_jacobi.hpp"
+#include "poisson/batch_step.hpp"
 #include "poisson/integrate.hpp"
 #include "poisson/newton_step.hpp"
 #include "poisson/realisation.hpp"
