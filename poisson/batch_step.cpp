@@ -6,13 +6,53 @@
 namespace pgi {
 
 BatchStepper::BatchStepper(const NewtonStepper& prototype, std::size_t lanes)
-    : lanes_(std::max<std::size_t>(lanes, 1), prototype), x_(Eigen::Index(prototype.dim())), increment_(x_) {
+    : capacity_(lanes), iterations_(lanes, 0), residuals_(lanes, 0.0), x_(Eigen::Index(prototype.dim())), increment_(x_) {
     if (lanes == 0) throw std::invalid_argument("BatchStepper: at least one lane");
+    switch (prototype.lane_dimension()) {
+        case 2: lane_.emplace<LaneStep<2, Pack>>(prototype); break;
+        case 3: lane_.emplace<LaneStep<3, Pack>>(prototype); break;
+        case 4: lane_.emplace<LaneStep<4, Pack>>(prototype); break;
+        case 6: lane_.emplace<LaneStep<6, Pack>>(prototype); break;
+        default: break;
+    }
+    stepper_.assign(lane_.index() == 0 ? lanes : 1, prototype);
 }
 
 void BatchStepper::step(const double* X, std::size_t m, double dt, double* increments, StepStatus* status) {
-    if (m > lanes_.size()) throw std::invalid_argument("BatchStepper::step: more states than lanes");
-    const NewtonStepper& maps = lanes_.front();
+    if (m > capacity_) throw std::invalid_argument("BatchStepper::step: more states than lanes");
+    std::visit([&](auto& lane) {
+        if constexpr (std::is_same_v<std::decay_t<decltype(lane)>, std::monostate>)
+            step_predicted(X, m, dt, increments, status);
+        else
+            step_lanes(lane, X, m, dt, increments, status);
+    }, lane_);
+}
+
+// lanes::width states at a time, the last pack padded with copies of its last state (their results dropped).
+template <int N>
+void BatchStepper::step_lanes(LaneStep<N, Pack>& lane, const double* X, std::size_t m, double dt, double* increments, StepStatus* status) {
+    constexpr std::size_t W = lanes::width;
+    for (std::size_t j = 0; j < m; j += W) {
+        const std::size_t count = std::min(W, m - j);
+        Pack x[N], increment[N];
+        StepStatus st[W];
+        for (std::size_t v = 0; v < std::size_t(N); ++v) {
+            for (std::size_t w = 0; w < W; ++w) lanes::set_lane(x[v], w, X[v * m + j + std::min(w, count - 1)]);
+            increment[v] = Pack{};
+        }
+        lane.step(stepper_.front(), x, dt, increment, st);
+        for (std::size_t w = 0; w < count; ++w) {
+            status[j + w] = st[w];
+            iterations_[j + w] = lane.iterations(w);
+            residuals_[j + w] = lane.residual(w);
+            for (std::size_t v = 0; v < std::size_t(N); ++v) increments[v * m + j + w] = lanes::lane(increment[v], w);
+        }
+    }
+}
+
+// The predictor and grad and Hess S_dt at the predicted points for all states at once, then Newton state by state.
+void BatchStepper::step_predicted(const double* X, std::size_t m, double dt, double* increments, StepStatus* status) {
+    const NewtonStepper& maps = stepper_.front();
     const std::size_t n = dim(), width = maps.with_hessian().width();
     if (xb_.size() < n * m) xb_.resize(n * m);
     if (gh_.size() < width * m) gh_.resize(width * m);
@@ -20,7 +60,9 @@ void BatchStepper::step(const double* X, std::size_t m, double dt, double* incre
     maps.with_hessian().eval_batch(xb_.data(), dt, gh_.data(), m, scratch_);
     for (std::size_t j = 0; j < m; ++j) {
         for (std::size_t v = 0; v < n; ++v) x_[Eigen::Index(v)] = X[v * m + j];
-        status[j] = lanes_[j].step_predicted(x_, dt, xb_.data() + j, gh_.data() + j, m, increment_);
+        status[j] = stepper_[j].step_predicted(x_, dt, xb_.data() + j, gh_.data() + j, m, increment_);
+        iterations_[j] = stepper_[j].last_iterations();
+        residuals_[j] = stepper_[j].last_residual();
         for (std::size_t v = 0; v < n; ++v) increments[v * m + j] = increment_[Eigen::Index(v)];
     }
 }

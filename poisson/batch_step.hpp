@@ -1,34 +1,45 @@
 #pragma once
-// BatchStepper: one compiled step advancing m states together (heyoka's batch mode). On a small system most
-// of a step is compiled polynomials (the predictor's series, grad and Hess S_dt: about 60% of a rigid body
-// step at k = 10); the batch evaluates them for all m states at once, structure of arrays, the loops over
-// the states innermost, which the compiler vectorises (CompiledMap::eval_batch). Newton then goes on lane by
-// lane, each to its own acceptance (the mask: a lane that has converged is not touched by the others'
-// iterations). Each lane's result is its single step's bit for bit: eval_batch gives eval's bits, and the
-// rest is NewtonStepper's own code (step_predicted).
+// BatchStepper: one compiled step advancing m states together (heyoka's batch mode). Where the step has a lane
+// form (NewtonStepper::lane_dimension(): the dense step at N = 2, 3, 4, 6 with the so(3) or the compiled
+// polynomial realisation) the states go lanes::width at a time through LaneStep<N, Pack>: the predictor, the
+// evaluations, the Jacobian and its LU, the acceptance test all act on the lanes together (SIMD), each lane
+// with its own Newton control as masks. Otherwise the predictor and the first grad and Hess S_dt are evaluated
+// for all states at once (CompiledMap::eval_batch) and Newton goes on state by state (step_predicted). Either
+// way each state's result is its single step's bit for bit.
 #include "poisson/newton_step.hpp"
 
+#include <variant>
 #include <vector>
 
 namespace pgi {
 
 class BatchStepper {
 public:
-    /// Up to lanes states per step, each lane a copy of prototype (its scratch, its statistics).
+    /// Up to lanes states per step, stepped as prototype steps one.
     BatchStepper(const NewtonStepper& prototype, std::size_t lanes);
 
-    std::size_t lanes() const { return lanes_.size(); }
-    std::size_t dim() const { return lanes_.front().dim(); }
+    std::size_t lanes() const { return capacity_; }
+    std::size_t dim() const { return stepper_.front().dim(); }
     /// The states X[v m + j] (coordinate v of state j, m <= lanes()) one step of dt further:
     /// increments[v m + j] = phi_dt(x_j) - x_j and status[j], each NewtonStepper::step(x_j, dt)'s bit for bit.
     /// Allocates nothing once it has stepped m states (on the dense path).
     void step(const double* X, std::size_t m, double dt, double* increments, StepStatus* status);
-    /// Lane j's stepper after the last step: last_iterations(), last_residual() of state j.
-    const NewtonStepper& lane(std::size_t j) const { return lanes_[j]; }
+    /// State j's Newton statistics after the last step, as NewtonStepper's.
+    int last_iterations(std::size_t j) const { return iterations_[j]; }
+    double last_residual(std::size_t j) const { return residuals_[j]; }
 
 private:
-    std::vector<NewtonStepper> lanes_;    // lane 0's compiled maps also serve the whole batch
-    std::vector<double> xb_, gh_;         // the predicted base points, grad and Hess S_dt there (structure of arrays)
+    using Pack = lanes::Pack;
+    template <int N>
+    void step_lanes(LaneStep<N, Pack>& lane, const double* X, std::size_t m, double dt, double* increments, StepStatus* status);
+    void step_predicted(const double* X, std::size_t m, double dt, double* increments, StepStatus* status);
+
+    std::size_t capacity_ = 0;
+    std::vector<NewtonStepper> stepper_;  // the lane form: one (its maps); otherwise one per state, the first's maps serving all
+    std::variant<std::monostate, LaneStep<2, Pack>, LaneStep<3, Pack>, LaneStep<4, Pack>, LaneStep<6, Pack>> lane_;
+    std::vector<int> iterations_;
+    std::vector<double> residuals_;
+    std::vector<double> xb_, gh_;         // state by state: the predicted base points, grad and Hess S_dt there
     BatchScratch scratch_;
     Eigen::VectorXd x_, increment_;
 };

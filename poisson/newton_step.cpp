@@ -71,6 +71,15 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.predictor_ = Predictor::choose(M, probe, S, opt, cost, x_typical, closed ? realisation : RealisationSource{});
     s.info_.predictor_order = s.predictor_.order();
     s.size_scratch(n);
+    if (!s.sparse_ && s.realisation_.has_lane_form()) {
+        switch (n) {
+            case 2: s.lane_.emplace<LaneStep<2, double>>(s); break;
+            case 3: s.lane_.emplace<LaneStep<3, double>>(s); break;
+            case 4: s.lane_.emplace<LaneStep<4, double>>(s); break;
+            case 6: s.lane_.emplace<LaneStep<6, double>>(s); break;
+            default: break;
+        }
+    }
     return s;
 }
 
@@ -292,6 +301,7 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
 }
 
 StepStatus NewtonStepper::step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment) {
+    if (lane_.index() != 0) return lane_step(x, dt, increment);
     if (!begin_step(x, dt)) return StepStatus::non_finite;
     predictor_.eval(x, dt, xb_);
     return solve_from_prediction(x, increment, false);
@@ -303,6 +313,23 @@ StepStatus NewtonStepper::step_predicted(const Eigen::VectorXd& x, double dt, co
     for (Eigen::Index i = 0; i < xb_.size(); ++i) xb_[i] = xb[std::size_t(i) * stride];
     for (Eigen::Index i = 0; i < gh_.size(); ++i) gh_[i] = gh[std::size_t(i) * stride];
     return solve_from_prediction(x, increment, true);
+}
+
+// The step as LaneStep<N, double> takes it, its statistics copied to the stepper's.
+StepStatus NewtonStepper::lane_step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment) {
+    StepStatus status = StepStatus::non_finite;
+    if (increment.size() != x.size()) increment.resize(x.size());
+    std::visit([&](auto& lane) {
+        if constexpr (!std::is_same_v<std::decay_t<decltype(lane)>, std::monostate>) {
+            lane.step(*this, x.data(), dt, increment.data(), &status);
+            iterations_ = lane.iterations(0);
+            residual_ = lane.residual(0), tolerance_ = lane.tolerance(0), ratio_ = lane.ratio(0);
+            truncation_ = lane.truncation(0), correction_ = lane.correction(0);
+            for (Eigen::Index i = 0; i < xb_.size(); ++i) xb_[i] = lane.base_point(std::size_t(i), 0);
+            if (std::isfinite(dt)) step_dt_ = dt;
+        }
+    }, lane_);
+    return status;
 }
 
 bool NewtonStepper::begin_step(const Eigen::VectorXd& x, double dt) {

@@ -5,6 +5,7 @@
 // predictor (poisson/predictor), and here Newton with the acceptance test. dt is a run-time argument.
 #include "poisson/dense_algebra.hpp"
 #include "poisson/hamilton_jacobi.hpp"
+#include "poisson/lane_step.hpp"
 #include "poisson/newton_matrix.hpp"
 #include "poisson/predictor.hpp"
 #include "poisson/sparse_hessian.hpp"
@@ -14,6 +15,7 @@
 #include <Eigen/Dense>
 
 #include <string>
+#include <variant>
 
 namespace pgi {
 
@@ -86,8 +88,14 @@ public:
     double built_dt() const { return opt_.dt; }
     std::size_t dim() const { return static_cast<std::size_t>(xb_.size()); }
     const StepInfo& info() const { return info_; }
+    /// N when the step is LaneStep<N, double> (the dense step at N = 2, 3, 4, 6 with the so(3) or the compiled
+    /// polynomial realisation), which BatchStepper runs on lanes::width states at once; 0 otherwise.
+    std::size_t lane_dimension() const { return lane_.index() == 0 ? 0 : dim(); }
 
 private:
+    template <int, class>
+    friend class LaneStep;
+    StepStatus lane_step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment);
     bool begin_step(const Eigen::VectorXd& x, double dt);  // false when x or dt is not finite
     StepStatus solve_from_prediction(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated);
     StepStatus newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated);
@@ -122,6 +130,8 @@ private:
     Eigen::VectorXd xb_, xb_good_, p_, r_, dx_, gh_;
     Eigen::MatrixXd hess_, J_, D_;
     DenseAlgebra algebra_;                // the dense path's J, LU and products
+    // the same step over lanes, where it exists (then step() is its one-lane instantiation)
+    std::variant<std::monostate, LaneStep<2, double>, LaneStep<3, double>, LaneStep<4, double>, LaneStep<6, double>> lane_;
     int iterations_ = 0;
     double residual_ = 0, correction_ = 0, tolerance_ = 0, ratio_ = 0, truncation_ = 0;
 };

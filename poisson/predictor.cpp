@@ -127,13 +127,13 @@ Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const
     return build(M, u, opt.dt);
 }
 
-void Predictor::eval(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& xb) const {
+void Predictor::eval(const double* x, double dt, double* xb) const {
     if (order_ == 0) {
-        xb = x;
+        std::copy(x, x + dim_, xb);
         return;
     }
-    map_.eval(x.data(), dt, xb.data());
-    xb += x;
+    map_.eval(x, dt, xb);
+    for (std::size_t i = 0; i < dim_; ++i) xb[i] += x[i];
 }
 
 void Predictor::eval_batch(const double* X, double dt, double* XB, std::size_t m, BatchScratch& scratch) const {

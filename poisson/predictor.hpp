@@ -44,7 +44,9 @@ public:
 
     std::size_t order() const { return order_; }
     /// xb = x + sum_m dt^m u_m(x). Allocates nothing.
-    void eval(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& xb) const;
+    void eval(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& xb) const { eval(x.data(), dt, xb.data()); }
+    /// The same on dim() values (xb and x do not overlap).
+    void eval(const double* x, double dt, double* xb) const;
     /// m states at once, structure of arrays (X[v m + j], XB likewise), each bit for bit eval()'s.
     void eval_batch(const double* X, double dt, double* XB, std::size_t m, BatchScratch& scratch) const;
 

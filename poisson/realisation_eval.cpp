@@ -394,58 +394,18 @@ void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eige
     for (Eigen::Index j = 0; j < n; ++j) matvec<0>(C_[static_cast<std::size_t>(j)].data(), x.data(), v.delta_p.col(j).data(), n);
 }
 
-namespace {
-
-// h(s) = sum_{j>=1} b_2j (-s)^(j-1) = (1 - (t/2) cot(t/2)) / s with s = t^2, and dh/ds: by the series
-// (b = b_2, b_4, ...) for s <= 4, where its terms fall like (s / 4 pi^2)^j (by 10x or more a term), summed
-// until the next terms of h and dh are below 2^-56 of the sums (the tail past them is smaller still); in
-// closed form beyond.
-std::pair<double, double> rotation_coefficient(double s, const std::vector<double>& b) {
-    if (s <= 4.0) {
-        constexpr double negligible = 0x1p-56;
-        double h = b[0], dh = 0, power = 1;  // power = (-s)^(j-1) for the term j + 1
-        for (std::size_t j = 1; j < b.size(); ++j) {
-            const double dterm = -static_cast<double>(j) * b[j] * power;  // d/ds (-s)^j = -j (-s)^(j-1)
-            power *= -s;
-            const double term = b[j] * power;
-            h += term, dh += dterm;
-            if (std::abs(term) <= negligible * std::abs(h) && std::abs(dterm) <= negligible * std::abs(dh)) break;
-        }
-        return {h, dh};
-    }
-    const double t = std::sqrt(s), half = t / 2, cot = std::cos(half) / std::sin(half);
-    const double q = half * cot, dq_dt = cot / 2 - half / (2 * std::sin(half) * std::sin(half));
-    const double h = (1 - q) / s;
-    return {h, (-dq_dt / (2 * t) - h) / s};
-}
-
-}  // namespace
-
-// L(p) skew 3 x 3, so L^3 = -s L with s = |L|_F^2 / 2, and g(L) = I - L/2 + h(s) L^2 exactly (docs/math.md 3,
-// g(z) = z / (e^z - 1) = 1 - z/2 + sum_j b_2j z^2j; its even part at z = i t is (t/2) cot(t/2)).
+// The so(3) closed form (poisson/realisation_lanes.cpp, one lane) and delta's derivatives: delta = L(p) x, so
+// delta_x = L(p) and delta_p e_j = C_j x.
 void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
-    // L(p) is skew: L v = w x v with w = sum_j p_j c_j, c_j the axial vector of C_j (C_j v = c_j x v), so
-    // s = |L|_F^2 / 2 = |w|^2, L^2 = w w^T - s I and ds/dp_j = <L, C_j>_F = 2 w . c_j
-    const auto axial = [this](std::size_t j) { return Eigen::Vector3d(C_[j](2, 1), C_[j](0, 2), C_[j](1, 0)); };
-    const Eigen::Vector3d c[3] = {axial(0), axial(1), axial(2)};
-    const Eigen::Vector3d w = p[0] * c[0] + p[1] * c[1] + p[2] * c[2];
-    const double s = w.squaredNorm();
-    const auto [h, dh] = rotation_coefficient(s, b_);
-    const Eigen::Vector3d X = x, Lx = w.cross(X), L2x = w.cross(Lx);
-    Eigen::Matrix3d L;
-    L << 0, -w[2], w[1], w[2], 0, -w[0], -w[1], w[0], 0;
-    Eigen::Map<Eigen::Vector3d>(v.alpha.data()) = X - 0.5 * Lx + h * L2x;
-    Eigen::Map<Eigen::Matrix3d>(v.alpha_x.data()) = (1 - h * s) * Eigen::Matrix3d::Identity() - 0.5 * L + h * (w * w.transpose());
-    Eigen::Map<Eigen::Matrix3d> ap(v.alpha_p.data()), dp(v.delta_p.data());
-    for (Eigen::Index j = 0; j < 3; ++j) {
-        const Eigen::Vector3d& cj = c[j];
-        const Eigen::Vector3d Cx = cj.cross(X);
-        ap.col(j) = -0.5 * Cx + h * (cj.cross(Lx) + w.cross(Cx)) + dh * (2 * w.dot(cj)) * L2x;
-        dp.col(j) = Cx;
-    }
-    // delta = beta - alpha = L(p) x, as in the series form
-    Eigen::Map<Eigen::Vector3d>(v.delta.data()) = Lx;
-    Eigen::Map<Eigen::Matrix3d>(v.delta_x.data()) = L;
+    LaneRealisation<3, double> r;
+    LaneMapScratch<double> unused;
+    eval_lanes<3>(x.data(), p.data(), r, unused);
+    v.alpha = Eigen::Map<const Eigen::Vector3d>(r.alpha);
+    v.delta = Eigen::Map<const Eigen::Vector3d>(r.delta);
+    v.alpha_x = Eigen::Map<const Eigen::Matrix3d>(r.alpha_x);
+    v.alpha_p = Eigen::Map<const Eigen::Matrix3d>(r.alpha_p);
+    v.delta_x = p[0] * C_[0] + p[1] * C_[1] + p[2] * C_[2];
+    for (Eigen::Index j = 0; j < 3; ++j) v.delta_p.col(j) = C_[std::size_t(j)] * x;
 }
 
 void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const {
@@ -493,13 +453,12 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             return;
         }
         case Form::rotation: {
-            // alpha = x - L x / 2 + h(s) L^2 x: its three terms bound the sizes
-            const Eigen::Matrix3d L = p[0] * C_[0] + p[1] * C_[1] + p[2] * C_[2];
-            const double h = rotation_coefficient(0.5 * L.squaredNorm(), b_).first;
-            const Eigen::Vector3d X = x, Lx = L * X, L2x = L * Lx;
-            c.alpha = X - 0.5 * Lx + h * L2x;
-            c.delta = Lx;
-            c.size = X.cwiseAbs() + 0.5 * Lx.cwiseAbs() + std::abs(h) * L2x.cwiseAbs();
+            LaneCheck<3, double> r;
+            LaneMapScratch<double> unused;
+            check_lanes<3>(x.data(), p.data(), r, unused);
+            c.alpha = Eigen::Map<const Eigen::Vector3d>(r.alpha);
+            c.delta = Eigen::Map<const Eigen::Vector3d>(r.delta);
+            c.size = Eigen::Map<const Eigen::Vector3d>(r.size);
             return;
         }
         case Form::log_canonical: {

@@ -31,6 +31,24 @@ struct RealisationCheck {
     explicit RealisationCheck(std::size_t n = 0);
 };
 
+/// What the Newton step reads of one evaluation, over lanes (poisson/lanes.hpp: T = double for one state, a
+/// Pack for several) at a fixed dimension N: alpha, delta, alpha_x and alpha_p (column-major N x N).
+template <int N, class T>
+struct LaneRealisation {
+    T alpha[N], delta[N], alpha_x[N * N], alpha_p[N * N];
+};
+/// RealisationCheck over lanes.
+template <int N, class T>
+struct LaneCheck {
+    T alpha[N], delta[N], size[N], neglected;
+};
+/// The compiled polynomial form's inputs and outputs over lanes, and CompiledMap::eval_batch's scratch.
+template <class T>
+struct LaneMapScratch {
+    std::vector<T> in, out;
+    std::vector<double> map;
+};
+
 /// f with every coefficient replaced by its absolute value: at (|x|, |p|) the sum of the sizes of its terms.
 Poly absolute_coefficients(const Poly& f);
 
@@ -74,6 +92,16 @@ public:
     void eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, SparseRealisationValues& v) const;
     /// Writes every field of c (alpha and delta as eval writes them). Allocates nothing.
     void check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const;
+    /// Whether eval_lanes and check_lanes serve this form: the so(3) closed form and the compiled polynomial
+    /// one (the Lie-Poisson series and the log-canonical form have none yet).
+    bool has_lane_form() const { return form_ == Form::rotation || form_ == Form::polynomial; }
+    /// eval's alpha, delta, alpha_x and alpha_p (and check's values) at N = dim() states at once or one
+    /// (poisson/realisation_lanes.cpp): each lane's numbers are those of the double instantiation on it, bit for bit.
+    /// Allocates nothing once s has been sized by a first call. Requires has_lane_form().
+    template <int N, class T>
+    void eval_lanes(const T* x, const T* p, LaneRealisation<N, T>& v, LaneMapScratch<T>& s) const;
+    template <int N, class T>
+    void check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s) const;
     /// Lie-Poisson: the largest |L(p)|_inf at which the truncated series is used (beyond: scaling and squaring).
     double series_radius() const { return radius_; }
     /// Lie-Poisson: |L(p)|_inf, and the smallest D in [D_min, D_max] whose series is used at that norm (D_max if none).

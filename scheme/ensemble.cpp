@@ -197,8 +197,7 @@ void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N
         std::size_t kept = 0;
         for (std::size_t j = 0; j < m; ++j) {
             LaneRun* lane = busy[j];
-            const NewtonStepper& s = w.batch->lane(j);
-            if (lane->advance(w.status[j], s.last_iterations(), s.last_residual(), w.increments.data() + j, m, N)) {
+            if (lane->advance(w.status[j], w.batch->last_iterations(j), w.batch->last_residual(j), w.increments.data() + j, m, N)) {
                 busy[kept++] = lane;
             } else {
                 record(lane->x, lane->end, lane->loop, lane->residual, dt, lane->row, r);

@@ -39,8 +39,8 @@ void require_lanes_equal_single(const NewtonStepper& stepper, std::size_t lanes,
         CAPTURE(j);
         const StepStatus s = single.step(states[j], dt, increment);
         CHECK(status[j] == s);
-        CHECK(batch.lane(j).last_iterations() == single.last_iterations());
-        CHECK(batch.lane(j).last_residual() == single.last_residual());
+        CHECK(batch.last_iterations(j) == single.last_iterations());
+        CHECK(batch.last_residual(j) == single.last_residual());
         if (s != StepStatus::ok) continue;
         for (std::size_t v = 0; v < n; ++v) CHECK(increments[v * m + j] == increment[Eigen::Index(v)]);
     }

@@ -1,0 +1,68 @@
+#pragma once
+// LaneStep: NewtonStepper's dense step at a small fixed dimension N (2, 3, 4, 6), written once over lanes
+// (poisson/lanes.hpp). T = double steps one state: it is NewtonStepper::step there. T = lanes::Pack steps
+// lanes::width states together (BatchStepper): every evaluation, the Jacobian, its LU and the acceptance test
+// run on all lanes at once, and each lane keeps its own Newton control (its iteration, backtracking,
+// simplified Newton, second attempt from xb = x) as masks. A lane's operations are the double instantiation's
+// in the same order, so its increment, status and statistics are the single step's bit for bit.
+// The algorithm is NewtonStepper::newton's (docs/math.md 6); the linear algebra is written out here
+// (Eigen's fixed-size kernels differ between a 3 x 3 and 8 lanes of one).
+#include "poisson/dt_series.hpp"
+#include "poisson/lanes.hpp"
+#include "poisson/realisation_eval.hpp"
+
+#include <vector>
+
+namespace pgi {
+
+class NewtonStepper;
+enum class StepStatus;
+
+template <int N, class T>
+class LaneStep {
+public:
+    static constexpr std::size_t lanes = lanes::lanes_of<T>;
+    using Mask = lanes::mask_t<T>;
+
+    /// Scratch sized for stepper's maps.
+    explicit LaneStep(const NewtonStepper& stepper);
+    /// x (N values over lanes) one step of dt further with stepper's maps and options: increment[i] (lane w)
+    /// = phi_dt(x) - x and status[w], each as NewtonStepper::step's; a lane whose step fails keeps its increment.
+    void step(const NewtonStepper& stepper, const T* x, double dt, T* increment, StepStatus* status);
+
+    /// Lane w's statistics after the last step (NewtonStepper's last_* accessors).
+    int iterations(std::size_t w) const { return static_cast<int>(lanes::lane(iterations_, w)); }
+    double residual(std::size_t w) const { return lanes::lane(residual_, w); }
+    double tolerance(std::size_t w) const { return lanes::lane(tolerance_, w); }
+    double ratio(std::size_t w) const { return lanes::lane(ratio_, w); }
+    double truncation(std::size_t w) const { return lanes::lane(truncation_, w); }
+    double correction(std::size_t w) const { return lanes::lane(correction_, w); }
+    double base_point(std::size_t i, std::size_t w) const { return lanes::lane(xb_[i], w); }
+
+private:
+    void round(const NewtonStepper& s, T* increment);
+    void evaluate(const NewtonStepper& s, Mask F, T* J);
+    Mask accept_check(const NewtonStepper& s, Mask C, Mask small);
+    void finish(const NewtonStepper& s, Mask E, T* increment);
+    void factor(Mask F, const T* J);
+    void solve_kept(const T* b, T* d) const;
+    void restart(std::size_t w);
+    void end(Mask E, StepStatus st);
+    void close_round(const NewtonStepper& s, StepStatus* status);
+
+    double dt_ = 0;
+    T x_[N], xb_[N], good_[N], p_[N], r_[N], dx_[N], H_[N * N], lu_[N * N];
+    Mask swaps_[N * (N - 1) / 2 + 1];  // the LU's row exchanges, as masks, in the order it made them
+    LaneRealisation<N, T> values_;
+    LaneCheck<N, T> check_;
+    std::vector<T> gh_, scratch_;      // grad and Hess S_dt on its pattern; grad S_dt or its sizes
+    LaneMapScratch<T> maps_;
+    BatchScratch dt_maps_;
+    // each lane's Newton: its statistics, its control (NewtonStepper::newton's locals) and whether it runs
+    T iterations_{}, residual_{}, tolerance_{}, ratio_{}, truncation_{}, correction_{};
+    T previous_{}, previous_residual_{}, good_residual_{}, lambda_{}, x_norm_{}, it_{}, spent_{};
+    Mask running_{}, simplified_{}, second_{}, ended_{};
+    StepStatus ended_status_[lanes];  // what newton returned in this round, for the lanes in ended_
+};
+
+}  // namespace pgi

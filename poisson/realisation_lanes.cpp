@@ -1,0 +1,202 @@
+// The realisation's forms the Newton step evaluates over lanes (poisson/lanes.hpp): the so(3) closed form and
+// the compiled polynomial form, written once over T (double: one state; Pack: lanes::width states), so the
+// batch step's lanes carry the single step's bits.
+#include "poisson/lanes.hpp"
+#include "poisson/realisation_eval.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pgi {
+
+namespace {
+
+using lanes::Pack;
+
+// The compiled map at one state (eval) or at lanes::width (eval_batch, structure of arrays: a Pack array is
+// input v of lane w at v width + w): eval_batch gives each lane eval's bits.
+void eval_map(const CompiledMap& map, const double* in, double* out, std::vector<double>&) { map.eval(in, out); }
+void eval_map(const CompiledMap& map, const Pack* in, Pack* out, std::vector<double>& scratch) {
+    map.eval_batch(reinterpret_cast<const double*>(in), reinterpret_cast<double*>(out), lanes::width, scratch);
+}
+
+// h(s) = (1 - (t/2) cot(t/2)) / s, s = t^2, and dh/ds in closed form: for s > 4, where the series below is slow.
+// One lane at a time, the same libm calls in both instantiations.
+[[gnu::noinline]] void rotation_closed(double s, double& h, double& dh) {
+    const double t = std::sqrt(s), half = t / 2, sine = std::sin(half), cot = std::cos(half) / sine;
+    const double q = half * cot, dq_dt = cot / 2 - half / (2 * sine * sine);
+    h = (1 - q) / s;
+    dh = (-dq_dt / (2 * t) - h) / s;
+}
+
+// sum_{j<J} b[j] (-s)^j and its derivative in s, by Horner.
+template <class T>
+PGI_LANE_INLINE void bernoulli_horner(const std::vector<double>& b, std::size_t J, const T& s, T& h, T& dh) {
+    const T minus_s = -s;
+    h = lanes::splat<T>(b[J - 1]);
+    dh = lanes::splat<T>(-double(J - 1) * b[J - 1]);
+    for (std::size_t j = J - 1; j-- > 0;) {
+        h = h * minus_s + b[j];
+        if (j > 0) dh = dh * minus_s + (-double(j) * b[j]);
+    }
+}
+
+// h(s) = sum_{j>=1} b_2j (-s)^(j-1) and dh/ds (b = b_2, b_4, ..., b_40): its terms fall like (s / 4 pi^2)^j, so
+// for s <= 1/4 ten terms leave tails below 2^-58 of h and of dh, and for s <= 4 twenty do; in closed form beyond.
+// A polynomial of fixed degree on each interval, chosen by each lane's own s (the longer one evaluated only
+// when some lane needs it).
+template <class T>
+void rotation_coefficient(T s, const std::vector<double>& b, T& h, T& dh) {
+    constexpr std::size_t short_terms = 10;
+    bernoulli_horner(b, short_terms, s, h, dh);
+    const auto longer = lanes::both(s > 0.25, s <= 4.0);
+    if (lanes::any(longer)) {
+        T hl, dhl;
+        bernoulli_horner(b, b.size(), s, hl, dhl);
+        h = lanes::select(longer, hl, h);
+        dh = lanes::select(longer, dhl, dh);
+    }
+    const auto closed = lanes::negate(s <= 4.0);
+    if (!lanes::any(closed)) return;
+    for (std::size_t w = 0; w < lanes::lanes_of<T>; ++w) {
+        if (!lanes::lane(closed, w)) continue;
+        double hw, dhw;
+        rotation_closed(lanes::lane(s, w), hw, dhw);
+        lanes::set_lane(h, w, hw);
+        lanes::set_lane(dh, w, dhw);
+    }
+}
+
+template <class T>
+struct Vec3 {
+    T v[3];
+};
+template <class T>
+PGI_LANE_INLINE Vec3<T> cross(const double* c, const Vec3<T>& a) {  // c x a, c constant
+    return {{c[1] * a.v[2] - c[2] * a.v[1], c[2] * a.v[0] - c[0] * a.v[2], c[0] * a.v[1] - c[1] * a.v[0]}};
+}
+template <class T>
+PGI_LANE_INLINE Vec3<T> cross(const Vec3<T>& b, const Vec3<T>& a) {  // b x a
+    return {{b.v[1] * a.v[2] - b.v[2] * a.v[1], b.v[2] * a.v[0] - b.v[0] * a.v[2], b.v[0] * a.v[1] - b.v[1] * a.v[0]}};
+}
+
+// The so(3) form's common part at (x, p): L(p) v = w x v with w = sum_j p_j c_j (c_j the axial vector of C_j),
+// s = |w|^2 = |L|_F^2 / 2, and L x, L^2 x.
+template <class T>
+struct RotationAt {
+    Vec3<T> w, X, Lx, L2x;
+    T s;
+    [[gnu::always_inline]] RotationAt(const double (*c)[3], const T* x, const T* p) {
+        for (int i = 0; i < 3; ++i) w.v[i] = (p[0] * c[0][i] + p[1] * c[1][i]) + p[2] * c[2][i];
+        s = (w.v[0] * w.v[0] + w.v[1] * w.v[1]) + w.v[2] * w.v[2];
+        X = {{x[0], x[1], x[2]}};
+        Lx = cross(w, X);
+        L2x = cross(w, Lx);
+    }
+};
+
+}  // namespace
+
+// The axial vectors c_j of the so(3) form's C_j (C_j v = c_j x v).
+static void axial_vectors(const std::vector<Eigen::MatrixXd>& C, double (*c)[3]) {
+    for (int j = 0; j < 3; ++j) {
+        c[j][0] = C[std::size_t(j)](2, 1);
+        c[j][1] = C[std::size_t(j)](0, 2);
+        c[j][2] = C[std::size_t(j)](1, 0);
+    }
+}
+
+// so(3): alpha = x - L x / 2 + h(s) L^2 x (docs/math.md 3), alpha_x = (1 - h s) I - L/2 + h w w^T (L^2 = w w^T - s I),
+// alpha_p e_j = -C_j x / 2 + h (c_j x L x + w x C_j x) + dh (2 w . c_j) L^2 x (ds/dp_j = 2 w . c_j), delta = L x.
+// Polynomial: the compiled map's outputs, the derivatives scattered from their patterns.
+template <int N, class T>
+void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N, T>& v, LaneMapScratch<T>& s) const {
+    if constexpr (N == 3) {
+        if (form_ == Form::rotation) {
+            double c[3][3];
+            axial_vectors(C_, c);
+            const RotationAt<T> r(c, x, p);
+            T h, dh;
+            rotation_coefficient(r.s, b_, h, dh);
+            const T diagonal = 1.0 - h * r.s;
+            for (int i = 0; i < 3; ++i) {
+                v.alpha[i] = (r.X.v[i] - 0.5 * r.Lx.v[i]) + h * r.L2x.v[i];
+                v.delta[i] = r.Lx.v[i];
+                for (int k = 0; k < 3; ++k) {
+                    // L(i, k) = (w x e_k)_i: -w_m on the cycle (0,1), (1,2), (2,0), +w_m off it, m the third index
+                    const T L_ik = i == k ? T{} : ((i + 1) % 3 == k ? -r.w.v[3 - i - k] : r.w.v[3 - i - k]);
+                    v.alpha_x[i + 3 * k] = ((i == k ? diagonal : T{}) - 0.5 * L_ik) + h * (r.w.v[i] * r.w.v[k]);
+                }
+            }
+            for (int j = 0; j < 3; ++j) {
+                const Vec3<T> Cx = cross(c[j], r.X), a = cross(c[j], r.Lx), b = cross(r.w, Cx);
+                const T slope = dh * (2.0 * ((r.w.v[0] * c[j][0] + r.w.v[1] * c[j][1]) + r.w.v[2] * c[j][2]));
+                for (int i = 0; i < 3; ++i) v.alpha_p[i + 3 * j] = (-0.5 * Cx.v[i] + h * (a.v[i] + b.v[i])) + slope * r.L2x.v[i];
+            }
+            return;
+        }
+    }
+    // the compiled polynomial form: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
+    s.in.resize(2 * N);
+    s.out.resize(map_.num_outputs());
+    for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
+    eval_map(map_, s.in.data(), s.out.data(), s.map);
+    const T* o = s.out.data();
+    for (int i = 0; i < N; ++i) v.alpha[i] = o[i], v.delta[i] = o[N + i];
+    for (auto& e : v.alpha_x) e = T{};
+    for (auto& e : v.alpha_p) e = T{};
+    const std::size_t nx = pattern_x_.nonzeros();
+    const T* ax = o + 2 * N;
+    const T* ap = ax + 2 * nx;
+    for (std::size_t col = 0; col < std::size_t(N); ++col) {
+        for (int k = pattern_x_.outer[col]; k < pattern_x_.outer[col + 1]; ++k) v.alpha_x[std::size_t(pattern_x_.inner[std::size_t(k)]) + N * col] = ax[k];
+        for (int k = pattern_p_.outer[col]; k < pattern_p_.outer[col + 1]; ++k) v.alpha_p[std::size_t(pattern_p_.inner[std::size_t(k)]) + N * col] = ap[k];
+    }
+}
+
+// so(3): alpha and delta as eval_lanes, the sizes of alpha's three terms. Polynomial: the compiled values (alpha,
+// delta, the neglected parts: their largest |value| in `neglected`) and the sizes (every coefficient made
+// positive, at (|x|, |p|)) plus |x|.
+template <int N, class T>
+void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s) const {
+    c.neglected = T{};
+    if constexpr (N == 3) {
+        if (form_ == Form::rotation) {
+            double axial[3][3];
+            axial_vectors(C_, axial);
+            const RotationAt<T> r(axial, x, p);
+            T h, dh;
+            rotation_coefficient(r.s, b_, h, dh);
+            for (int i = 0; i < 3; ++i) {
+                c.alpha[i] = (r.X.v[i] - 0.5 * r.Lx.v[i]) + h * r.L2x.v[i];
+                c.delta[i] = r.Lx.v[i];
+                c.size[i] = (lanes::abs(r.X.v[i]) + 0.5 * lanes::abs(r.Lx.v[i])) + lanes::abs(h) * lanes::abs(r.L2x.v[i]);
+            }
+            return;
+        }
+    }
+    s.in.resize(2 * N);
+    s.out.resize(std::max(values_map_.num_outputs(), std::size_t(N)));
+    for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
+    eval_map(values_map_, s.in.data(), s.out.data(), s.map);
+    for (int i = 0; i < N; ++i) c.alpha[i] = s.out[std::size_t(i)], c.delta[i] = s.out[std::size_t(N + i)];
+    for (std::size_t o = 2 * N; o < values_map_.num_outputs(); ++o) c.neglected = lanes::max(c.neglected, lanes::abs(s.out[o]));
+    for (auto& e : s.in) e = lanes::abs(e);
+    eval_map(size_map_, s.in.data(), c.size, s.map);
+    for (int i = 0; i < N; ++i) c.size[i] = c.size[i] + lanes::abs(x[i]);
+}
+
+#define PGI_LANE_FORMS(N, T)                                                                                                       \
+    template void RealisationEvaluator::eval_lanes<N, T>(const T*, const T*, LaneRealisation<N, T>&, LaneMapScratch<T>&) const; \
+    template void RealisationEvaluator::check_lanes<N, T>(const T*, const T*, LaneCheck<N, T>&, LaneMapScratch<T>&) const;
+PGI_LANE_FORMS(2, double)
+PGI_LANE_FORMS(3, double)
+PGI_LANE_FORMS(4, double)
+PGI_LANE_FORMS(6, double)
+PGI_LANE_FORMS(2, Pack)
+PGI_LANE_FORMS(3, Pack)
+PGI_LANE_FORMS(4, Pack)
+PGI_LANE_FORMS(6, Pack)
+#undef PGI_LANE_FORMS
+
+}  // namespace pgi
