@@ -55,7 +55,7 @@ PGI_LANE_INLINE void commit(lanes::mask_t<T> m, const T* from, T* to) {
 
 template <int N, class T>
 LaneStep<N, T>::LaneStep(const NewtonStepper& s)
-    : gh_(s.with_hessian().width(), T{}), scratch_(N, T{}) {
+    : gh_(s.with_hessian().width(), T{}), scratch_(N, T{}), maps_(s.realisation_.lane_scratch<T>()) {
     for (auto& e : H_) e = T{};
     for (auto& e : lu_) e = T{};
     for (auto* v : {x_, xb_, good_, p_, r_, dx_})

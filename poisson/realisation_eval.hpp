@@ -97,7 +97,9 @@ public:
     bool has_lane_form() const { return form_ == Form::rotation || form_ == Form::polynomial; }
     /// eval's alpha, delta, alpha_x and alpha_p (and check's values) at N = dim() states at once or one
     /// (poisson/realisation_lanes.cpp): each lane's numbers are those of the double instantiation on it, bit for bit.
-    /// Allocates nothing once s has been sized by a first call. Requires has_lane_form().
+    /// Allocates nothing with s from lane_scratch<T>(). Requires has_lane_form().
+    template <class T>
+    LaneMapScratch<T> lane_scratch() const;
     template <int N, class T>
     void eval_lanes(const T* x, const T* p, LaneRealisation<N, T>& v, LaneMapScratch<T>& s) const;
     template <int N, class T>

@@ -106,6 +106,23 @@ static void axial_vectors(const std::vector<Eigen::MatrixXd>& C, double (*c)[3])
     }
 }
 
+// Sized for both maps of the polynomial form (and for CompiledMap::eval_batch's blocks of a Pack).
+template <class T>
+LaneMapScratch<T> RealisationEvaluator::lane_scratch() const {
+    LaneMapScratch<T> s;
+    s.in.resize(2 * n_);
+    s.out.resize(std::max({map_.num_outputs(), values_map_.num_outputs(), n_}));
+    if constexpr (!std::is_same_v<T, double>) {
+        std::size_t block = 0;
+        for (const CompiledMap* m : {&map_, &values_map_, &size_map_})
+            block = std::max(block, m->num_monomials() + m->num_inputs() + m->num_outputs());
+        s.map.resize(block * CompiledMap::batch_lanes);
+    }
+    return s;
+}
+template LaneMapScratch<double> RealisationEvaluator::lane_scratch<double>() const;
+template LaneMapScratch<Pack> RealisationEvaluator::lane_scratch<Pack>() const;
+
 // so(3): alpha = x - L x / 2 + h(s) L^2 x (docs/math.md 3), alpha_x = (1 - h s) I - L/2 + h w w^T (L^2 = w w^T - s I),
 // alpha_p e_j = -C_j x / 2 + h (c_j x L x + w x C_j x) + dh (2 w . c_j) L^2 x (ds/dp_j = 2 w . c_j), delta = L x.
 // Polynomial: the compiled map's outputs, the derivatives scattered from their patterns.
@@ -137,8 +154,6 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
         }
     }
     // the compiled polynomial form: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
-    s.in.resize(2 * N);
-    s.out.resize(map_.num_outputs());
     for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
     eval_map(map_, s.in.data(), s.out.data(), s.map);
     const T* o = s.out.data();
@@ -175,8 +190,6 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
             return;
         }
     }
-    s.in.resize(2 * N);
-    s.out.resize(std::max(values_map_.num_outputs(), std::size_t(N)));
     for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
     eval_map(values_map_, s.in.data(), s.out.data(), s.map);
     for (int i = 0; i < N; ++i) c.alpha[i] = s.out[std::size_t(i)], c.delta[i] = s.out[std::size_t(N + i)];
