@@ -5,15 +5,35 @@
 
 namespace pgi {
 
-BatchStepper::BatchStepper(const NewtonStepper& prototype, std::size_t lanes)
+bool processor_has_avx2() { return __builtin_cpu_supports("avx2"); }
+
+namespace {
+
+template <class Pack, class Variant>
+void emplace_lanes(Variant& lane, const NewtonStepper& prototype) {
+    switch (prototype.lane_dimension()) {
+        case 2: lane.template emplace<LaneStep<2, Pack>>(prototype); break;
+        case 3: lane.template emplace<LaneStep<3, Pack>>(prototype); break;
+        case 4: lane.template emplace<LaneStep<4, Pack>>(prototype); break;
+        case 6: lane.template emplace<LaneStep<6, Pack>>(prototype); break;
+        default: break;
+    }
+}
+
+}  // namespace
+
+BatchStepper::BatchStepper(const NewtonStepper& prototype, std::size_t lanes, LaneInstructions instructions)
     : capacity_(lanes), iterations_(lanes, 0), residuals_(lanes, 0.0), x_(Eigen::Index(prototype.dim())), increment_(x_) {
     if (lanes == 0) throw std::invalid_argument("BatchStepper: at least one lane");
-    switch (prototype.lane_dimension()) {
-        case 2: lane_.emplace<LaneStep<2, Pack>>(prototype); break;
-        case 3: lane_.emplace<LaneStep<3, Pack>>(prototype); break;
-        case 4: lane_.emplace<LaneStep<4, Pack>>(prototype); break;
-        case 6: lane_.emplace<LaneStep<6, Pack>>(prototype); break;
-        default: break;
+    if (instructions == LaneInstructions::avx2 && !processor_has_avx2())
+        throw std::invalid_argument("BatchStepper: AVX2 asked for, and this processor has none");
+    if (prototype.lane_dimension() != 0) {
+        const bool avx2 = instructions == LaneInstructions::avx2 || (instructions == LaneInstructions::automatic && processor_has_avx2());
+        if (avx2)
+            emplace_lanes<lanes::Pack4>(lane_, prototype);
+        else
+            emplace_lanes<lanes::Pack>(lane_, prototype);
+        instructions_ = avx2 ? LaneInstructions::avx2 : LaneInstructions::sse2;
     }
     stepper_.assign(lane_.index() == 0 ? lanes : 1, prototype);
 }
@@ -29,7 +49,7 @@ void BatchStepper::step(const double* X, std::size_t m, double dt, double* incre
 }
 
 // lanes::width states at a time, the last pack padded with copies of its last state (their results dropped).
-template <int N>
+template <int N, class Pack>
 void BatchStepper::step_lanes(LaneStep<N, Pack>& lane, const double* X, std::size_t m, double dt, double* increments, StepStatus* status) {
     constexpr std::size_t W = lanes::width;
     for (std::size_t j = 0; j < m; j += W) {
@@ -38,7 +58,7 @@ void BatchStepper::step_lanes(LaneStep<N, Pack>& lane, const double* X, std::siz
         StepStatus st[W];
         for (std::size_t v = 0; v < std::size_t(N); ++v) {
             for (std::size_t w = 0; w < W; ++w) lanes::set_lane(x[v], w, X[v * m + j + std::min(w, count - 1)]);
-            increment[v] = Pack{};
+            increment[v] = Pack{};  // (every lane written: no uninitialised bits reach the kernel)
         }
         lane.step(stepper_.front(), x, dt, increment, st);
         for (std::size_t w = 0; w < count; ++w) {

@@ -1,7 +1,7 @@
 #pragma once
 // BatchStepper: one compiled step advancing m states together (heyoka's batch mode). Where the step has a lane
 // form (NewtonStepper::lane_dimension(): the dense step at N = 2, 3, 4, 6 with the so(3) or the compiled
-// polynomial realisation) the states go lanes::width at a time through LaneStep<N, Pack>: the predictor, the
+// polynomial realisation) the states go lanes::width at a time through LaneStep<N, Pack> (Pack4 on AVX2): the predictor, the
 // evaluations, the Jacobian and its LU, the acceptance test all act on the lanes together (SIMD), each lane
 // with its own Newton control as masks. Otherwise the predictor and the first grad and Hess S_dt are evaluated
 // for all states at once (CompiledMap::eval_batch) and Newton goes on state by state (step_predicted). Either
@@ -13,10 +13,17 @@
 
 namespace pgi {
 
+/// Which instructions the lane form runs on: AVX2 where the processor has it (automatic), or as asked (the tests
+/// run both; asking for AVX2 on a processor without it throws std::invalid_argument).
+enum class LaneInstructions { automatic, sse2, avx2 };
+bool processor_has_avx2();
+
 class BatchStepper {
 public:
     /// Up to lanes states per step, stepped as prototype steps one.
-    BatchStepper(const NewtonStepper& prototype, std::size_t lanes);
+    BatchStepper(const NewtonStepper& prototype, std::size_t lanes, LaneInstructions instructions = LaneInstructions::automatic);
+    /// What the lane form runs on (sse2 or avx2), or automatic when the step has no lane form.
+    LaneInstructions instructions() const { return instructions_; }
 
     std::size_t lanes() const { return capacity_; }
     std::size_t dim() const { return stepper_.front().dim(); }
@@ -29,14 +36,16 @@ public:
     double last_residual(std::size_t j) const { return residuals_[j]; }
 
 private:
-    using Pack = lanes::Pack;
-    template <int N>
+    template <int N, class Pack>
     void step_lanes(LaneStep<N, Pack>& lane, const double* X, std::size_t m, double dt, double* increments, StepStatus* status);
     void step_predicted(const double* X, std::size_t m, double dt, double* increments, StepStatus* status);
 
     std::size_t capacity_ = 0;
     std::vector<NewtonStepper> stepper_;  // the lane form: one (its maps); otherwise one per state, the first's maps serving all
-    std::variant<std::monostate, LaneStep<2, Pack>, LaneStep<3, Pack>, LaneStep<4, Pack>, LaneStep<6, Pack>> lane_;
+    LaneInstructions instructions_ = LaneInstructions::automatic;
+    std::variant<std::monostate, LaneStep<2, lanes::Pack>, LaneStep<3, lanes::Pack>, LaneStep<4, lanes::Pack>, LaneStep<6, lanes::Pack>,
+                 LaneStep<2, lanes::Pack4>, LaneStep<3, lanes::Pack4>, LaneStep<4, lanes::Pack4>, LaneStep<6, lanes::Pack4>>
+        lane_;
     std::vector<int> iterations_;
     std::vector<double> residuals_;
     std::vector<double> xb_, gh_;         // state by state: the predicted base points, grad and Hess S_dt there

@@ -1,18 +1,18 @@
 #pragma once
 // Lanes: the arithmetic of the step written once for one state (T = double) and for lanes::width states at
-// once (T = lanes::Pack: each operation acts lane by lane, as SIMD instructions). The step's kernels (poisson/lane_step, the realisation's lane forms) are templates
-// over T, so every lane of a Pack goes through the operations of the double instantiation in the same order:
-// its bits are the single step's (IEEE operations are exactly rounded; the library is built with
-// -ffp-contract=off, so no multiply-add is fused in one instantiation and not the other). Control that
-// depends on a lane's values is a mask (M = mask_t<T>: bool, or a vector of all-ones / zero lanes) and a
-// select, never a branch, except where every lane agrees (any / all).
+// once (T = a Pack: each operation acts lane by lane, as SIMD instructions). The step's kernels
+// (poisson/lane_step, the realisation's lane forms) are templates over T, so every lane of a Pack goes through
+// the operations of the double instantiation in the same order: its bits are the single step's (IEEE
+// operations are exactly rounded; the library is built with -ffp-contract=off, so no multiply-add is fused in
+// one instantiation and not the other). Control that depends on a lane's values is a mask (mask_t<T>: bool, or
+// all-ones / zero lanes) and a select, never a branch, except where every lane agrees (any / all).
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <type_traits>
 
-// GCC notes that a 64-byte vector returned by value passes differently with and without AVX-512: these
-// functions are inline, and no Pack crosses pgi's compiled interface by value.
+// GCC notes that vectors returned by value pass differently with and without AVX: these functions are inline,
+// and no Pack crosses pgi's compiled interface by value.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace pgi::lanes {
@@ -23,57 +23,80 @@ namespace pgi::lanes {
 
 inline constexpr std::size_t width = 8;
 
-// A Pack is width / 2 native two-lane vectors (SSE2, the x86-64 baseline): GCC lowers comparisons and selects of
-// wider vector types than the target has lane by lane, with branches; on its own width every operation is one
-// instruction. Lane w is part w / 2, element w % 2; the doubles lie in lane order (a Pack array is a structure
-// of arrays: element v of lane w at v width + w).
-using Pair = double __attribute__((vector_size(16)));
-using PairMask = std::int64_t __attribute__((vector_size(16)));
-inline constexpr std::size_t parts = width / 2;
+// A pack of width lanes is width / P native vectors of P doubles: P = 2 for SSE2, the x86-64 baseline (Pack),
+// P = 4 for AVX2 (Pack4, compiled only in poisson/lane_step_avx2.cpp, run only where the processor has AVX2).
+// GCC lowers comparisons and selects on vectors wider than the target has lane by lane, with branches; on its
+// own width every operation is one instruction. Lane w is part w / P, element w % P; the doubles lie in lane
+// order either way (an array of packs is a structure of arrays: element v of lane w at v width + w).
+template <std::size_t P>
+struct Part;
+template <>
+struct Part<2> {
+    using value = double __attribute__((vector_size(16)));
+    using mask = std::int64_t __attribute__((vector_size(16)));
+};
+template <>
+struct Part<4> {
+    using value = double __attribute__((vector_size(32)));
+    using mask = std::int64_t __attribute__((vector_size(32)));
+};
 
-struct PackMask {
-    PairMask p[parts];
+template <std::size_t P>
+struct MaskOf {
+    static constexpr std::size_t parts = width / P;
+    typename Part<P>::mask p[parts];
 };
-struct Pack {
-    Pair p[parts];
+template <std::size_t P>
+struct PackOf {
+    static constexpr std::size_t parts = width / P;
+    typename Part<P>::value p[parts];
 };
+using Pack = PackOf<2>;
+using Pack4 = PackOf<4>;
 
 #define PGI_LANES_BINARY(OP)                                                                        \
-    PGI_LANE_INLINE Pack operator OP(const Pack& a, const Pack& b) {                                         \
-        Pack r;                                                                                     \
-        for (std::size_t k = 0; k < parts; ++k) r.p[k] = a.p[k] OP b.p[k];                          \
+    template <std::size_t P>                                                                        \
+    PGI_LANE_INLINE PackOf<P> operator OP(const PackOf<P>& a, const PackOf<P>& b) {                 \
+        PackOf<P> r;                                                                                \
+        for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] OP b.p[k];                        \
         return r;                                                                                   \
     }                                                                                               \
-    PGI_LANE_INLINE Pack operator OP(const Pack& a, double b) {                                              \
-        Pack r;                                                                                     \
-        for (std::size_t k = 0; k < parts; ++k) r.p[k] = a.p[k] OP b;                               \
+    template <std::size_t P>                                                                        \
+    PGI_LANE_INLINE PackOf<P> operator OP(const PackOf<P>& a, double b) {                           \
+        PackOf<P> r;                                                                                \
+        for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] OP b;                             \
         return r;                                                                                   \
     }                                                                                               \
-    PGI_LANE_INLINE Pack operator OP(double a, const Pack& b) {                                              \
-        Pack r;                                                                                     \
-        for (std::size_t k = 0; k < parts; ++k) r.p[k] = a OP b.p[k];                               \
+    template <std::size_t P>                                                                        \
+    PGI_LANE_INLINE PackOf<P> operator OP(double a, const PackOf<P>& b) {                           \
+        PackOf<P> r;                                                                                \
+        for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a OP b.p[k];                             \
         return r;                                                                                   \
     }                                                                                               \
-    PGI_LANE_INLINE Pack& operator OP##=(Pack& a, const Pack& b) { return a = a OP b; }
+    template <std::size_t P>                                                                        \
+    PGI_LANE_INLINE PackOf<P>& operator OP##=(PackOf<P>& a, const PackOf<P>& b) { return a = a OP b; }
 PGI_LANES_BINARY(+)
 PGI_LANES_BINARY(-)
 PGI_LANES_BINARY(*)
 PGI_LANES_BINARY(/)
 #undef PGI_LANES_BINARY
-PGI_LANE_INLINE Pack operator-(const Pack& a) {
-    Pack r;
-    for (std::size_t k = 0; k < parts; ++k) r.p[k] = -a.p[k];
+template <std::size_t P>
+PGI_LANE_INLINE PackOf<P> operator-(const PackOf<P>& a) {
+    PackOf<P> r;
+    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = -a.p[k];
     return r;
 }
 #define PGI_LANES_COMPARE(OP)                                                                       \
-    PGI_LANE_INLINE PackMask operator OP(const Pack& a, const Pack& b) {                                     \
-        PackMask r;                                                                                 \
-        for (std::size_t k = 0; k < parts; ++k) r.p[k] = a.p[k] OP b.p[k];                          \
+    template <std::size_t P>                                                                        \
+    PGI_LANE_INLINE MaskOf<P> operator OP(const PackOf<P>& a, const PackOf<P>& b) {                 \
+        MaskOf<P> r;                                                                                \
+        for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] OP b.p[k];                        \
         return r;                                                                                   \
     }                                                                                               \
-    PGI_LANE_INLINE PackMask operator OP(const Pack& a, double b) {                                          \
-        PackMask r;                                                                                 \
-        for (std::size_t k = 0; k < parts; ++k) r.p[k] = a.p[k] OP b;                               \
+    template <std::size_t P>                                                                        \
+    PGI_LANE_INLINE MaskOf<P> operator OP(const PackOf<P>& a, double b) {                           \
+        MaskOf<P> r;                                                                                \
+        for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] OP b;                             \
         return r;                                                                                   \
     }
 PGI_LANES_COMPARE(<)
@@ -85,15 +108,15 @@ PGI_LANES_COMPARE(!=)
 
 template <class T>
 struct traits;
+template <std::size_t P>
+struct traits<PackOf<P>> {
+    using mask = MaskOf<P>;
+    static constexpr std::size_t lanes = width;
+};
 template <>
 struct traits<double> {
     using mask = bool;
     static constexpr std::size_t lanes = 1;
-};
-template <>
-struct traits<Pack> {
-    using mask = PackMask;
-    static constexpr std::size_t lanes = width;
 };
 template <class T>
 using mask_t = typename traits<T>::mask;
@@ -103,70 +126,85 @@ inline constexpr std::size_t lanes_of = traits<T>::lanes;
 // Every lane c.
 template <class T>
 PGI_LANE_INLINE T splat(double c) {
-    if constexpr (std::is_same_v<T, double>)
+    if constexpr (std::is_same_v<T, double>) {
         return c;
-    else
-    {
+    } else {
         T r;
-        for (auto& part : r.p) part = Pair{c, c};
+        for (auto& part : r.p) {
+            for (std::size_t e = 0; e < width / r.parts; ++e) part[e] = c;
+        }
         return r;
     }
 }
 
 PGI_LANE_INLINE double select(bool m, double a, double b) { return m ? a : b; }
 PGI_LANE_INLINE bool select(bool m, bool a, bool b) { return m ? a : b; }
-PGI_LANE_INLINE Pack select(const PackMask& m, const Pack& a, const Pack& b) {
-    Pack r;
-    for (std::size_t k = 0; k < parts; ++k) r.p[k] = (Pair)(((PairMask)a.p[k] & m.p[k]) | ((PairMask)b.p[k] & ~m.p[k]));
+template <std::size_t P>
+PGI_LANE_INLINE PackOf<P> select(const MaskOf<P>& m, const PackOf<P>& a, const PackOf<P>& b) {
+    using M = typename Part<P>::mask;
+    using V = typename Part<P>::value;
+    PackOf<P> r;
+    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = (V)(((M)a.p[k] & m.p[k]) | ((M)b.p[k] & ~m.p[k]));
     return r;
 }
-PGI_LANE_INLINE PackMask select(const PackMask& m, const PackMask& a, const PackMask& b) {
-    PackMask r;
-    for (std::size_t k = 0; k < parts; ++k) r.p[k] = (a.p[k] & m.p[k]) | (b.p[k] & ~m.p[k]);
+template <std::size_t P>
+PGI_LANE_INLINE MaskOf<P> select(const MaskOf<P>& m, const MaskOf<P>& a, const MaskOf<P>& b) {
+    MaskOf<P> r;
+    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = (a.p[k] & m.p[k]) | (b.p[k] & ~m.p[k]);
     return r;
 }
 
 PGI_LANE_INLINE bool both(bool a, bool b) { return a && b; }
 PGI_LANE_INLINE bool either(bool a, bool b) { return a || b; }
 PGI_LANE_INLINE bool negate(bool a) { return !a; }
-PGI_LANE_INLINE PackMask both(const PackMask& a, const PackMask& b) {
-    PackMask r;
-    for (std::size_t k = 0; k < parts; ++k) r.p[k] = a.p[k] & b.p[k];
+template <std::size_t P>
+PGI_LANE_INLINE MaskOf<P> both(const MaskOf<P>& a, const MaskOf<P>& b) {
+    MaskOf<P> r;
+    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] & b.p[k];
     return r;
 }
-PGI_LANE_INLINE PackMask either(const PackMask& a, const PackMask& b) {
-    PackMask r;
-    for (std::size_t k = 0; k < parts; ++k) r.p[k] = a.p[k] | b.p[k];
+template <std::size_t P>
+PGI_LANE_INLINE MaskOf<P> either(const MaskOf<P>& a, const MaskOf<P>& b) {
+    MaskOf<P> r;
+    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] | b.p[k];
     return r;
 }
-PGI_LANE_INLINE PackMask negate(const PackMask& a) {
-    PackMask r;
-    for (std::size_t k = 0; k < parts; ++k) r.p[k] = ~a.p[k];
+template <std::size_t P>
+PGI_LANE_INLINE MaskOf<P> negate(const MaskOf<P>& a) {
+    MaskOf<P> r;
+    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = ~a.p[k];
     return r;
 }
 PGI_LANE_INLINE bool any(bool m) { return m; }
 PGI_LANE_INLINE bool all(bool m) { return m; }
-PGI_LANE_INLINE bool any(const PackMask& m) {
-    PairMask o = m.p[0];
-    for (std::size_t k = 1; k < parts; ++k) o |= m.p[k];
-    return (o[0] | o[1]) != 0;
+template <std::size_t P>
+PGI_LANE_INLINE bool any(const MaskOf<P>& m) {
+    typename Part<P>::mask o = m.p[0];
+    for (std::size_t k = 1; k < m.parts; ++k) o |= m.p[k];
+    std::int64_t e = 0;
+    for (std::size_t i = 0; i < P; ++i) e |= o[i];
+    return e != 0;
 }
-PGI_LANE_INLINE bool all(const PackMask& m) { return !any(negate(m)); }
+template <std::size_t P>
+PGI_LANE_INLINE bool all(const MaskOf<P>& m) { return !any(negate(m)); }
 template <class T>
 PGI_LANE_INLINE mask_t<T> none_mask() {
     if constexpr (std::is_same_v<T, double>)
         return false;
     else
-        return PackMask{};
+        return mask_t<T>{};
 }
 template <class T>
 PGI_LANE_INLINE mask_t<T> all_mask() { return negate(none_mask<T>()); }
 
 // |a|: the sign bit cleared (std::fabs's bits, -0 included).
 PGI_LANE_INLINE double abs(double a) { return std::fabs(a); }
-PGI_LANE_INLINE Pack abs(const Pack& a) {
-    Pack r;
-    for (std::size_t k = 0; k < parts; ++k) r.p[k] = (Pair)((PairMask)a.p[k] & INT64_MAX);
+template <std::size_t P>
+PGI_LANE_INLINE PackOf<P> abs(const PackOf<P>& a) {
+    using M = typename Part<P>::mask;
+    using V = typename Part<P>::value;
+    PackOf<P> r;
+    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = (V)((M)a.p[k] & INT64_MAX);
     return r;
 }
 
@@ -181,12 +219,16 @@ template <class T>
 PGI_LANE_INLINE mask_t<T> is_finite(T a) { return a - a == T{}; }
 
 PGI_LANE_INLINE double lane(double a, std::size_t) { return a; }
-PGI_LANE_INLINE double lane(const Pack& a, std::size_t w) { return a.p[w / 2][w % 2]; }
 PGI_LANE_INLINE bool lane(bool m, std::size_t) { return m; }
-PGI_LANE_INLINE bool lane(const PackMask& m, std::size_t w) { return m.p[w / 2][w % 2] != 0; }
 PGI_LANE_INLINE void set_lane(double& a, std::size_t, double v) { a = v; }
-PGI_LANE_INLINE void set_lane(Pack& a, std::size_t w, double v) { a.p[w / 2][w % 2] = v; }
 PGI_LANE_INLINE void set_lane(bool& m, std::size_t, bool v) { m = v; }
-PGI_LANE_INLINE void set_lane(PackMask& m, std::size_t w, bool v) { m.p[w / 2][w % 2] = v ? -1 : 0; }
+template <std::size_t P>
+PGI_LANE_INLINE double lane(const PackOf<P>& a, std::size_t w) { return a.p[w / P][w % P]; }
+template <std::size_t P>
+PGI_LANE_INLINE bool lane(const MaskOf<P>& m, std::size_t w) { return m.p[w / P][w % P] != 0; }
+template <std::size_t P>
+PGI_LANE_INLINE void set_lane(PackOf<P>& a, std::size_t w, double v) { a.p[w / P][w % P] = v; }
+template <std::size_t P>
+PGI_LANE_INLINE void set_lane(MaskOf<P>& m, std::size_t w, bool v) { m.p[w / P][w % P] = v ? -1 : 0; }
 
 }  // namespace pgi::lanes

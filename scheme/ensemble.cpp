@@ -54,6 +54,7 @@ struct Worker {
     std::optional<BatchStepper> batch;
     std::vector<LaneRun> lanes;
     std::vector<double> X, increments;  // the batch's states and increments, structure of arrays
+    std::vector<double> values, map_scratch;  // the invariants at the lanes' new states (structure of arrays)
     std::vector<StepStatus> status;
 
     Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes);
@@ -113,6 +114,7 @@ struct LaneRun {
     std::size_t steps = 0;   // steps taken (end.steps: those observed)
     long iterations = 0;     // over the steps that succeeded
     double residual = 0;     // the last step's Newton residual
+    int last_iterations = 0; // the last step's Newton iterations
 
     LaneRun(const RunLoop& l, Eigen::Index n) : loop(l), x(n), last(n), increment(n), sum(n) {}
 
@@ -129,8 +131,8 @@ struct LaneRun {
         return N > 0;
     }
     // After one more step that ended with status s, its Newton iterations and residual, its increment at
-    // inc[v stride]: false when the run ends (step N, a failed step, a state or an invariant not finite).
-    bool advance(StepStatus s, int step_iterations, double step_residual, const double* inc, std::size_t stride, std::size_t N) {
+    // inc[v stride]: false when the run ends (a failed step); else observed() follows, with the invariants at x.
+    bool stepped(StepStatus s, int step_iterations, double step_residual, const double* inc, std::size_t stride) {
         residual = step_residual;
         iterations += step_iterations;
         if (s != StepStatus::ok) return stop(s);
@@ -138,8 +140,14 @@ struct LaneRun {
         sum.add(x, increment);
         ++steps;
         end.mean_iterations = double(iterations) / double(steps);
-        if (!x.allFinite() || !loop.observe(x, false)) return stop(StepStatus::non_finite);
-        end.max_iterations = std::max(end.max_iterations, step_iterations);
+        last_iterations = step_iterations;
+        return true;
+    }
+    // The invariants at the new x at values[i stride]: false when the run ends (step N, a state or an
+    // invariant not finite).
+    bool observed(const double* values, std::size_t stride, std::size_t N) {
+        if (!x.allFinite() || !loop.observe_values(values, stride, false)) return stop(StepStatus::non_finite);
+        end.max_iterations = std::max(end.max_iterations, last_iterations);
         end.steps = steps;
         last = x;
         return steps < N;
@@ -157,6 +165,7 @@ Worker::Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes
     lanes.assign(batch_lanes, LaneRun(l, Eigen::Index(p.dim())));
     X.resize(batch_lanes * p.dim());
     increments.resize(X.size());
+    values.resize(batch_lanes * l.invariants().num_outputs());
     status.resize(batch_lanes);
 }
 
@@ -194,16 +203,25 @@ void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N
         for (std::size_t j = 0; j < m; ++j)
             for (std::size_t v = 0; v < n; ++v) w.X[v * m + j] = busy[j]->x[Eigen::Index(v)];
         w.batch->step(w.X.data(), m, dt, w.increments.data(), w.status.data());
+        // the lanes that stepped, then the invariants at their new states at once (eval_batch: eval's bits); a
+        // lane whose run ends is recorded and freed
         std::size_t kept = 0;
-        for (std::size_t j = 0; j < m; ++j) {
-            LaneRun* lane = busy[j];
-            if (lane->advance(w.status[j], w.batch->last_iterations(j), w.batch->last_residual(j), w.increments.data() + j, m, N)) {
+        const auto keep = [&](LaneRun* lane, bool going) {
+            if (going) {
                 busy[kept++] = lane;
-            } else {
-                record(lane->x, lane->end, lane->loop, lane->residual, dt, lane->row, r);
-                free.push_back(lane);
+                return;
             }
-        }
+            record(lane->x, lane->end, lane->loop, lane->residual, dt, lane->row, r);
+            free.push_back(lane);
+        };
+        for (std::size_t j = 0; j < m; ++j)
+            keep(busy[j], busy[j]->stepped(w.status[j], w.batch->last_iterations(j), w.batch->last_residual(j), w.increments.data() + j, m));
+        const std::size_t stepped = kept;
+        for (std::size_t j = 0; j < stepped; ++j)
+            for (std::size_t v = 0; v < n; ++v) w.X[v * stepped + j] = busy[j]->x[Eigen::Index(v)];
+        w.loop.invariants().eval_batch(w.X.data(), w.values.data(), stepped, w.map_scratch);
+        kept = 0;
+        for (std::size_t j = 0; j < stepped; ++j) keep(busy[j], busy[j]->observed(w.values.data() + j, stepped, N));
         busy.resize(kept);
         fill();
     }

@@ -39,6 +39,10 @@ void RunLoop::start(const Eigen::VectorXd& x0) {
 
 bool RunLoop::evaluate(const Eigen::VectorXd& x) {
     invariants_.eval(x.data(), values_.data());
+    return all_finite();
+}
+
+bool RunLoop::all_finite() {
     for (std::size_t i = 0; i < values_.size(); ++i)
         if (!std::isfinite(values_[i])) {
             non_finite_ = names_[i] + " = " + non_finite_text(values_[i]);

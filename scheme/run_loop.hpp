@@ -73,6 +73,16 @@ public:
         commit(first);
         return true;
     }
+    /// observe(x, first) with the invariants at x already evaluated (values[i stride]: invariants()'s output i at
+    /// x, as the batch ensemble evaluates them for all its lanes at once).
+    bool observe_values(const double* values, std::size_t stride, bool first) {
+        for (std::size_t i = 0; i < values_.size(); ++i) values_[i] = values[i * stride];
+        if (!all_finite()) return false;
+        commit(first);
+        return true;
+    }
+    /// H, the Casimirs and the extras, compiled (what observe evaluates).
+    const CompiledMap& invariants() const { return invariants_; }
     const std::string& non_finite() const { return non_finite_; }
 
     /// The invariants at the state observed last: H, the Casimirs, the extras.
@@ -91,6 +101,7 @@ public:
 private:
     void start(const Eigen::VectorXd& x0);
     bool evaluate(const Eigen::VectorXd& x);  // values_ at x; false (non_finite_ names it) if one is not finite
+    bool all_finite();                        // values_ finite; else false, non_finite_ naming the first that is not
     void commit(bool first);                  // values_ observed: the initial values, the maxima
 
     const Scheme* scheme_;

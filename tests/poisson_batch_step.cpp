@@ -24,10 +24,21 @@ std::vector<Eigen::VectorXd> states_around(const Eigen::VectorXd& x0, std::size_
     return X;
 }
 
+// The lane forms' instruction sets this processor runs: SSE2 always, AVX2 where it has it.
+std::vector<LaneInstructions> instruction_sets() {
+    std::vector<LaneInstructions> sets{LaneInstructions::sse2};
+    if (processor_has_avx2()) sets.push_back(LaneInstructions::avx2);
+    return sets;
+}
+
 // Steps the states with the batch and one by one with a copy of stepper; every number must be equal.
-void require_lanes_equal_single(const NewtonStepper& stepper, std::size_t lanes, const std::vector<Eigen::VectorXd>& states, double dt) {
+void require_lanes_equal_single(const NewtonStepper& stepper, std::size_t lanes, const std::vector<Eigen::VectorXd>& states, double dt,
+                                LaneInstructions instructions) {
     const std::size_t n = stepper.dim(), m = states.size();
-    BatchStepper batch(stepper, lanes);
+    BatchStepper batch(stepper, lanes, instructions);
+    // the dense steps at N = 2, 3, 4, 6 with a closed so(3) or compiled polynomial realisation run on lanes
+    CHECK((batch.instructions() == LaneInstructions::automatic) == (stepper.lane_dimension() == 0));
+    if (stepper.lane_dimension() != 0) CHECK(batch.instructions() == instructions);
     std::vector<double> X(n * m), increments(n * m);
     for (std::size_t j = 0; j < m; ++j)
         for (std::size_t v = 0; v < n; ++v) X[v * m + j] = states[j][Eigen::Index(v)];
@@ -58,11 +69,28 @@ TEST_CASE("BatchStepper: each lane is the single step bit for bit, on every bund
         const NewtonStepper stepper = s.scheme->stepper(dt, x0);
         for (const double h : {dt, dt / 2, 0.7 * dt}) {
             CAPTURE(h);
-            for (const std::size_t m : {1, 5, 8, 13}) {
-                CAPTURE(m);
-                require_lanes_equal_single(stepper, 16, states_around(x0, m), h);
-            }
+            for (const std::size_t m : {1, 5, 8, 13})
+                for (const LaneInstructions instructions : instruction_sets()) {
+                    CAPTURE(m);
+                    CAPTURE(int(instructions));
+                    require_lanes_equal_single(stepper, 16, states_around(x0, m), h, instructions);
+                }
         }
+    }
+}
+
+TEST_CASE("BatchStepper: the rigid body runs on lanes, Lotka-Volterra (log-canonical, no lane form yet) state by state") {
+    for (const auto& [name, lane_form] : {std::pair{"rigid_body", true}, std::pair{"lotka_volterra", false}, std::pair{"henon_heiles", true}}) {
+        CAPTURE(name);
+        const Scene s = test::bundled(name);
+        const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
+        const NewtonStepper stepper = s.scheme->stepper(s.dt, x0);
+        CHECK((stepper.lane_dimension() != 0) == lane_form);
+    }
+    if (!processor_has_avx2()) {
+        const Scene s = test::bundled("rigid_body");
+        const NewtonStepper stepper = s.scheme->stepper(0.1, Eigen::Vector3d(1, 0, 0));
+        CHECK_THROWS_AS(BatchStepper(stepper, 8, LaneInstructions::avx2), std::invalid_argument);
     }
 }
 
@@ -73,7 +101,7 @@ TEST_CASE("BatchStepper: a failing and a non-finite state fail alone, with the s
     auto states = states_around(x0, 9);
     states[2] *= 1e4;  // dt |x| ~ 1e3: far beyond what the step built at x0 solves
     states[6][1] = std::numeric_limits<double>::quiet_NaN();
-    require_lanes_equal_single(stepper, 9, states, 0.1);
+    for (const LaneInstructions instructions : instruction_sets()) require_lanes_equal_single(stepper, 9, states, 0.1, instructions);
     BatchStepper batch(stepper, 9);
     std::vector<double> X(27), increments(27);
     for (std::size_t j = 0; j < 9; ++j)

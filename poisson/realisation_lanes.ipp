@@ -1,6 +1,8 @@
 // The realisation's forms the Newton step evaluates over lanes (poisson/lanes.hpp): the so(3) closed form and
-// the compiled polynomial form, written once over T (double: one state; Pack: lanes::width states), so the
-// batch step's lanes carry the single step's bits.
+// the compiled polynomial form, written once over T (double: one state; a Pack: lanes::width states), so the
+// batch step's lanes carry the single step's bits. Included, and instantiated (PGI_REALISATION_LANES), by
+// lane_step.cpp and lane_step_avx2.cpp; its helpers have internal linkage on purpose (one copy per target).
+#pragma once
 #include "poisson/lanes.hpp"
 #include "poisson/realisation_eval.hpp"
 
@@ -11,12 +13,11 @@ namespace pgi {
 
 namespace {
 
-using lanes::Pack;
-
 // The compiled map at one state (eval) or at lanes::width (eval_batch, structure of arrays: a Pack array is
 // input v of lane w at v width + w): eval_batch gives each lane eval's bits.
 void eval_map(const CompiledMap& map, const double* in, double* out, std::vector<double>&) { map.eval(in, out); }
-void eval_map(const CompiledMap& map, const Pack* in, Pack* out, std::vector<double>& scratch) {
+template <std::size_t P>
+void eval_map(const CompiledMap& map, const lanes::PackOf<P>* in, lanes::PackOf<P>* out, std::vector<double>& scratch) {
     map.eval_batch(reinterpret_cast<const double*>(in), reinterpret_cast<double*>(out), lanes::width, scratch);
 }
 
@@ -98,7 +99,7 @@ struct RotationAt {
 }  // namespace
 
 // The axial vectors c_j of the so(3) form's C_j (C_j v = c_j x v).
-static void axial_vectors(const std::vector<Eigen::MatrixXd>& C, double (*c)[3]) {
+inline void axial_vectors(const std::vector<Eigen::MatrixXd>& C, double (*c)[3]) {
     for (int j = 0; j < 3; ++j) {
         c[j][0] = C[std::size_t(j)](2, 1);
         c[j][1] = C[std::size_t(j)](0, 2);
@@ -120,8 +121,6 @@ LaneMapScratch<T> RealisationEvaluator::lane_scratch() const {
     }
     return s;
 }
-template LaneMapScratch<double> RealisationEvaluator::lane_scratch<double>() const;
-template LaneMapScratch<Pack> RealisationEvaluator::lane_scratch<Pack>() const;
 
 // so(3): alpha = x - L x / 2 + h(s) L^2 x (docs/math.md 3), alpha_x = (1 - h s) I - L/2 + h w w^T (L^2 = w w^T - s I),
 // alpha_p e_j = -C_j x / 2 + h (c_j x L x + w x C_j x) + dh (2 w . c_j) L^2 x (ds/dp_j = 2 w . c_j), delta = L x.
@@ -199,17 +198,14 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
     for (int i = 0; i < N; ++i) c.size[i] = c.size[i] + lanes::abs(x[i]);
 }
 
+#define PGI_REALISATION_LANES(T)                                                                                          \
+    template LaneMapScratch<T> RealisationEvaluator::lane_scratch<T>() const;                                              \
+    PGI_LANE_FORMS(2, T)                                                                                                   \
+    PGI_LANE_FORMS(3, T)                                                                                                   \
+    PGI_LANE_FORMS(4, T)                                                                                                   \
+    PGI_LANE_FORMS(6, T)
 #define PGI_LANE_FORMS(N, T)                                                                                                       \
     template void RealisationEvaluator::eval_lanes<N, T>(const T*, const T*, LaneRealisation<N, T>&, LaneMapScratch<T>&) const; \
     template void RealisationEvaluator::check_lanes<N, T>(const T*, const T*, LaneCheck<N, T>&, LaneMapScratch<T>&) const;
-PGI_LANE_FORMS(2, double)
-PGI_LANE_FORMS(3, double)
-PGI_LANE_FORMS(4, double)
-PGI_LANE_FORMS(6, double)
-PGI_LANE_FORMS(2, Pack)
-PGI_LANE_FORMS(3, Pack)
-PGI_LANE_FORMS(4, Pack)
-PGI_LANE_FORMS(6, Pack)
-#undef PGI_LANE_FORMS
 
 }  // namespace pgi

@@ -1,0 +1,350 @@
+// The bodies of LaneStep's members (poisson/lane_step.hpp), over any lane type T: included by lane_step.cpp
+// (T = double and Pack, the x86-64 baseline) and by lane_step_avx2.cpp (T = Pack4, compiled for AVX2). Its
+// helpers have internal linkage on purpose: each of those files keeps its own copy, compiled for its target.
+#pragma once
+#include "poisson/lane_step.hpp"
+#include "poisson/newton_step.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace pgi {
+
+namespace {
+
+using lanes::select;
+
+constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
+// NewtonStepper's constants (poisson/newton_step.cpp says why each)
+constexpr double residual_kappa = 64;
+constexpr double simplified_from = 1e-4;
+
+void eval_dt(const DtSeriesMap& map, const double* in, double dt, double* out, BatchScratch&) { map.eval(in, dt, out); }
+template <std::size_t P>
+void eval_dt(const DtSeriesMap& map, const lanes::PackOf<P>* in, double dt, lanes::PackOf<P>* out, BatchScratch& scratch) {
+    map.eval_batch(reinterpret_cast<const double*>(in), dt, reinterpret_cast<double*>(out), lanes::width, scratch);
+}
+void predict(const Predictor& p, const double* x, double dt, double* xb, BatchScratch&) { p.eval(x, dt, xb); }
+template <std::size_t P>
+void predict(const Predictor& p, const lanes::PackOf<P>* x, double dt, lanes::PackOf<P>* xb, BatchScratch& scratch) {
+    p.eval_batch(reinterpret_cast<const double*>(x), dt, reinterpret_cast<double*>(xb), lanes::width, scratch);
+}
+
+// |v|_inf, a NaN of v propagated.
+template <int N, class T>
+PGI_LANE_INLINE T inf_norm(const T* v) {
+    T m = lanes::abs(v[0]);
+    for (int i = 1; i < N; ++i) m = lanes::max_nan(m, lanes::abs(v[i]));
+    return m;
+}
+template <int N, class T>
+PGI_LANE_INLINE lanes::mask_t<T> all_finite(const T* v) {
+    auto f = lanes::is_finite(v[0]);
+    for (int i = 1; i < N; ++i) f = lanes::both(f, lanes::is_finite(v[i]));
+    return f;
+}
+// max_i |r_i| / max(tol_i, min), as std::max folds it (NaN quotients ignored).
+template <int N, class T>
+PGI_LANE_INLINE T tolerance_ratio(const T* r, const T* tol) {
+    T ratio{};
+    for (int i = 0; i < N; ++i) ratio = lanes::max(ratio, lanes::abs(r[i]) / lanes::max(tol[i], lanes::splat<T>(std::numeric_limits<double>::min())));
+    return ratio;
+}
+template <int N, class T>
+PGI_LANE_INLINE void commit(lanes::mask_t<T> m, const T* from, T* to) {
+    for (int i = 0; i < N; ++i) to[i] = select(m, from[i], to[i]);
+}
+
+}  // namespace
+
+template <int N, class T>
+LaneStep<N, T>::LaneStep(const NewtonStepper& s)
+    : gh_(s.with_hessian().width(), T{}), scratch_(N, T{}), maps_(s.realisation_.lane_scratch<T>()) {
+    for (auto& e : H_) e = T{};
+    for (auto& e : lu_) e = T{};
+    for (auto* v : {x_, xb_, good_, p_, r_, dx_})
+        for (int i = 0; i < N; ++i) v[i] = T{};
+    for (auto& m : swaps_) m = lanes::none_mask<T>();
+    for (auto& st : ended_status_) st = StepStatus::ok;
+}
+
+// J's LU with partial pivoting, the row exchanges as masks: for column k, row i > k is exchanged with row k where
+// |J(i, k)| > |J(k, k)| (so row k ends with the first largest), then the multipliers and the update. Kept for the
+// lanes of F.
+template <int N, class T>
+void LaneStep<N, T>::factor(Mask F, const T* J) {
+    T A[N * N];
+    for (int e = 0; e < N * N; ++e) A[e] = J[e];
+    int swap = 0;
+    for (int k = 0; k < N; ++k) {
+        for (int i = k + 1; i < N; ++i, ++swap) {
+            const Mask exchange = lanes::abs(A[i + N * k]) > lanes::abs(A[k + N * k]);
+            for (int j = 0; j < N; ++j) {
+                const T a = A[k + N * j], b = A[i + N * j];
+                A[k + N * j] = select(exchange, b, a);
+                A[i + N * j] = select(exchange, a, b);
+            }
+            swaps_[swap] = select(F, exchange, swaps_[swap]);
+        }
+        for (int i = k + 1; i < N; ++i) {
+            const T l = A[i + N * k] / A[k + N * k];
+            A[i + N * k] = l;
+            for (int j = k + 1; j < N; ++j) A[i + N * j] = A[i + N * j] - l * A[k + N * j];
+        }
+    }
+    commit<N * N>(F, A, lu_);
+}
+
+// d = J^{-1} b with the kept factors: the exchanges, then L (unit diagonal) and U.
+template <int N, class T>
+void LaneStep<N, T>::solve_kept(const T* b, T* d) const {
+    for (int i = 0; i < N; ++i) d[i] = b[i];
+    int swap = 0;
+    for (int k = 0; k < N; ++k)
+        for (int i = k + 1; i < N; ++i, ++swap) {
+            const T a = d[k], c = d[i];
+            d[k] = select(swaps_[swap], c, a);
+            d[i] = select(swaps_[swap], a, c);
+        }
+    for (int i = 1; i < N; ++i)
+        for (int j = 0; j < i; ++j) d[i] = d[i] - lu_[i + N * j] * d[j];
+    for (int i = N - 1; i >= 0; --i) {
+        for (int j = i + 1; j < N; ++j) d[i] = d[i] - lu_[i + N * j] * d[j];
+        d[i] = d[i] / lu_[i + N * i];
+    }
+}
+
+// At xb for the lanes of F: p = grad S_dt, H = Hess S_dt, the realisation and its derivatives, and J = alpha_x +
+// alpha_p H (written to J for every lane; the rest kept for F's).
+template <int N, class T>
+void LaneStep<N, T>::evaluate(const NewtonStepper& s, Mask F, T* J) {
+    eval_dt(s.with_hessian(), xb_, dt_, gh_.data(), dt_maps_);
+    T H[N * N];
+    for (auto& e : H) e = T{};
+    const SparsePattern& P = s.gradient_.hessian;
+    for (std::size_t col = 0; col < P.cols; ++col)
+        for (int k = P.outer[col]; k < P.outer[col + 1]; ++k) H[std::size_t(P.inner[std::size_t(k)]) + N * col] = gh_[N + std::size_t(k)];
+    LaneRealisation<N, T> v;
+    s.realisation_.eval_lanes<N>(xb_, gh_.data(), v, maps_);
+    for (int i = 0; i < N; ++i)
+        for (int j = 0; j < N; ++j) {
+            T acc = v.alpha_x[i + N * j];
+            for (int k = 0; k < N; ++k) acc = acc + v.alpha_p[i + N * k] * H[k + N * j];
+            J[i + N * j] = acc;
+        }
+    commit<N>(F, gh_.data(), p_);
+    commit<N * N>(F, H, H_);
+    commit<N>(F, v.alpha, values_.alpha);
+    commit<N>(F, v.delta, values_.delta);
+    commit<N * N>(F, v.alpha_x, values_.alpha_x);
+    commit<N * N>(F, v.alpha_p, values_.alpha_p);
+}
+
+// NewtonStepper::accept_check for the lanes of C: p updated by the Hessian where small (else grad S_dt anew), the
+// realisation's values there, r = alpha - x against kappa u (|x| + sizes), the round-off of grad S_dt's terms
+// carried by alpha_p added where the stricter test fails. The lanes of C that pass.
+template <int N, class T>
+typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& s, Mask C, Mask small) {
+    const Mask by_hessian = lanes::both(C, small), anew = lanes::both(C, lanes::negate(small));
+    if (lanes::any(by_hessian)) {
+        T p[N];
+        for (int i = 0; i < N; ++i) {
+            T q{};
+            for (int k = 0; k < N; ++k) q = q + H_[i + N * k] * dx_[k];
+            p[i] = p_[i] - q;
+        }
+        commit<N>(by_hessian, p, p_);
+    }
+    if (lanes::any(anew)) {
+        eval_dt(s.gradient_.gradient, xb_, dt_, scratch_.data(), dt_maps_);
+        commit<N>(anew, scratch_.data(), p_);
+    }
+    s.realisation_.check_lanes<N>(xb_, p_, check_, maps_);
+    T r[N], tol[N];
+    for (int i = 0; i < N; ++i) {
+        r[i] = check_.alpha[i] - x_[i];
+        tol[i] = (residual_kappa * unit_roundoff) * (lanes::abs(x_[i]) + check_.size[i]);
+    }
+    T ratio = tolerance_ratio<N>(r, tol);
+    const Mask strict_fails = lanes::both(C, lanes::negate(ratio <= 1.0));
+    if (lanes::any(strict_fails)) {
+        T absolute[N], sizes[N], wide[N];
+        for (int i = 0; i < N; ++i) absolute[i] = lanes::abs(xb_[i]);
+        eval_dt(s.gradient_.gradient_size, absolute, std::abs(dt_), sizes, dt_maps_);
+        constexpr double c = residual_kappa * unit_roundoff;
+        for (int i = 0; i < N; ++i) {
+            wide[i] = tol[i];
+            for (int l = 0; l < N; ++l) wide[i] = wide[i] + c * lanes::abs(values_.alpha_p[i + N * l]) * sizes[l];
+        }
+        ratio = select(strict_fails, tolerance_ratio<N>(r, wide), ratio);
+        commit<N>(strict_fails, wide, tol);
+    }
+    commit<N>(C, r, r_);
+    residual_ = select(C, inf_norm<N>(r), residual_);
+    ratio_ = select(C, ratio, ratio_);
+    tolerance_ = select(C, inf_norm<N>(tol), tolerance_);
+    const T size = lanes::max(lanes::max(x_norm_, inf_norm<N>(xb_)), lanes::splat<T>(std::numeric_limits<double>::min()));
+    truncation_ = select(C, check_.neglected / size, truncation_);
+    return lanes::both(C, ratio <= 1.0);
+}
+
+// NewtonStepper::finish for the lanes of E (accepted): ill-conditioned when the tolerance exceeds sqrt(u) |x|, else
+// the increment delta, non-finite, above the truncation bound, or ok.
+template <int N, class T>
+void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
+    const Mask ill = lanes::both(E, lanes::negate(tolerance_ <= std::sqrt(unit_roundoff) * lanes::max(x_norm_, inf_norm<N>(xb_))));
+    end(ill, StepStatus::ill_conditioned);
+    const Mask solved = lanes::both(E, lanes::negate(ill));
+    commit<N>(solved, check_.delta, increment);
+    const Mask non_finite = lanes::both(solved, lanes::negate(all_finite<N>(check_.delta)));
+    end(non_finite, StepStatus::non_finite);
+    const Mask finite = lanes::both(solved, lanes::negate(non_finite)), above = truncation_ > s.opt_.truncation_bound;
+    end(lanes::both(finite, above), StepStatus::truncation_above_bound);
+    end(lanes::both(finite, lanes::negate(above)), StepStatus::ok);
+}
+
+// The lanes of E leave Newton in this round with st (close_round decides: a second attempt, or the end).
+template <int N, class T>
+void LaneStep<N, T>::end(Mask E, StepStatus st) {
+    E = lanes::both(E, lanes::negate(ended_));
+    if (!lanes::any(E)) return;
+    for (std::size_t w = 0; w < lanes; ++w)
+        if (lanes::lane(E, w)) ended_status_[w] = st;
+    ended_ = lanes::either(ended_, E);
+}
+
+// NewtonStepper::newton's state at its start, for lane w (its iteration 1).
+template <int N, class T>
+void LaneStep<N, T>::restart(std::size_t w) {
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    lanes::set_lane(previous_, w, inf);
+    lanes::set_lane(previous_residual_, w, inf);
+    lanes::set_lane(good_residual_, w, inf);
+    lanes::set_lane(lambda_, w, 1.0);
+    lanes::set_lane(it_, w, 1.0);
+    lanes::set_lane(simplified_, w, false);
+    lanes::set_lane(running_, w, true);
+}
+
+// One iteration of NewtonStepper::newton's loop on every running lane: simplified (the acceptance test, then the
+// kept factors) or full (the Newton system, backtracking, the solve, and the test once settled).
+template <int N, class T>
+void LaneStep<N, T>::round(const NewtonStepper& s, T* increment) {
+    const Mask S = lanes::both(running_, simplified_), F = lanes::both(running_, lanes::negate(simplified_));
+    if (lanes::any(S)) {
+        const Mask accepted = accept_check(s, S, lanes::none_mask<T>());
+        finish(s, accepted, increment);
+        const Mask rest = lanes::both(S, lanes::negate(accepted));
+        end(lanes::both(rest, lanes::negate(lanes::is_finite(residual_))), StepStatus::non_finite);
+        const Mask go = lanes::both(rest, lanes::is_finite(residual_));
+        if (lanes::any(go)) {
+            T d[N];
+            solve_kept(r_, d);
+            commit<N>(go, d, dx_);
+            for (int i = 0; i < N; ++i) xb_[i] = select(go, xb_[i] - d[i], xb_[i]);
+            iterations_ = select(go, it_, iterations_);
+            const T c = inf_norm<N>(d);
+            end(lanes::both(go, lanes::negate(lanes::is_finite(c))), StepStatus::non_finite);
+            const Mask on = lanes::both(go, lanes::is_finite(c));
+            simplified_ = select(on, c <= correction_ / 2, simplified_);
+            correction_ = select(on, c, correction_);
+            previous_ = select(on, c, previous_);
+            previous_residual_ = select(on, residual_, previous_residual_);
+        }
+    }
+    if (!lanes::any(F)) return;
+    T J[N * N], r[N];
+    evaluate(s, F, J);
+    for (int i = 0; i < N; ++i) r[i] = values_.alpha[i] - x_[i];
+    const T residual = inf_norm<N>(r);
+    commit<N>(F, r, r_);
+    residual_ = select(F, residual, residual_);
+    // backtracking along the last correction while the residual grows above sqrt(u) |x|
+    const T noise = std::sqrt(unit_roundoff) * lanes::max(x_norm_, inf_norm<N>(xb_));
+    const Mask back = lanes::both(lanes::both(F, lanes::negate(residual <= good_residual_)),
+                                  lanes::both(lanes::negate(residual <= noise), lambda_ > 0x1p-20));
+    lambda_ = select(back, lambda_ / 2, lambda_);
+    for (int i = 0; i < N; ++i) xb_[i] = select(back, good_[i] - lambda_ * dx_[i], xb_[i]);
+    const Mask forward = lanes::both(F, lanes::negate(back));
+    const Mask bad = lanes::both(forward, lanes::either(lanes::negate(lanes::is_finite(residual)), lanes::negate(all_finite<N>(values_.delta))));
+    end(bad, StepStatus::non_finite);
+    const Mask go = lanes::both(forward, lanes::negate(bad));
+    if (!lanes::any(go)) return;
+    good_residual_ = select(go, residual, good_residual_);
+    lambda_ = select(go, lanes::splat<T>(1.0), lambda_);
+    commit<N>(go, xb_, good_);
+    factor(go, J);
+    T d[N];
+    solve_kept(r, d);
+    commit<N>(go, d, dx_);
+    for (int i = 0; i < N; ++i) xb_[i] = select(go, xb_[i] - d[i], xb_[i]);
+    iterations_ = select(go, it_, iterations_);
+    const T c = inf_norm<N>(d);
+    correction_ = select(go, c, correction_);
+    end(lanes::both(go, lanes::negate(lanes::is_finite(c))), StepStatus::non_finite);
+    const Mask on = lanes::both(go, lanes::is_finite(c));
+    const T scale = lanes::max(x_norm_, inf_norm<N>(xb_));
+    const Mask small = c <= s.opt_.newton_tol * scale;
+    const Mask settled = lanes::either(small, lanes::both(c > previous_ / 2, residual > previous_residual_ / 2));
+    previous_ = select(on, c, previous_);
+    previous_residual_ = select(on, residual, previous_residual_);
+    const Mask test = lanes::both(on, settled);
+    Mask accepted = lanes::none_mask<T>();
+    if (lanes::any(test)) {
+        accepted = accept_check(s, test, small);
+        finish(s, accepted, increment);
+    }
+    const Mask next = lanes::both(on, lanes::negate(accepted));
+    const Mask simplify = lanes::both(lanes::both(s.simplified_newton_ ? lanes::all_mask<T>() : lanes::none_mask<T>(), lanes::negate(small)),
+                                      c <= simplified_from * scale);
+    simplified_ = select(next, simplify, simplified_);
+}
+
+// After a round: the running lanes that did not end go to their next iteration (ending unconverged past the
+// limit); the ended ones either start their second attempt from xb = x (NewtonStepper::solve_from_prediction:
+// a first attempt that failed, with a predictor) or stop with their status.
+template <int N, class T>
+void LaneStep<N, T>::close_round(const NewtonStepper& s, StepStatus* status) {
+    const Mask going = lanes::both(running_, lanes::negate(ended_));
+    it_ = select(going, it_ + 1.0, it_);
+    end(lanes::both(going, it_ > double(s.opt_.newton_max_iter)), StepStatus::newton_not_converged);
+    if (!lanes::any(ended_)) return;
+    for (std::size_t w = 0; w < lanes; ++w) {
+        if (!lanes::lane(ended_, w)) continue;
+        const StepStatus st = ended_status_[w];
+        const bool solved = st == StepStatus::ok || st == StepStatus::truncation_above_bound;
+        if (!solved && s.info_.predictor_order != 0 && !lanes::lane(second_, w)) {
+            lanes::set_lane(spent_, w, lanes::lane(iterations_, w));
+            for (int i = 0; i < N; ++i) lanes::set_lane(xb_[i], w, lanes::lane(x_[i], w));
+            lanes::set_lane(second_, w, true);
+            restart(w);
+            continue;
+        }
+        if (lanes::lane(second_, w)) lanes::set_lane(iterations_, w, lanes::lane(iterations_, w) + lanes::lane(spent_, w));
+        status[w] = st;
+        lanes::set_lane(running_, w, false);
+    }
+    ended_ = lanes::none_mask<T>();
+}
+
+template <int N, class T>
+void LaneStep<N, T>::step(const NewtonStepper& s, const T* x, double dt, T* increment, StepStatus* status) {
+    iterations_ = residual_ = tolerance_ = ratio_ = truncation_ = T{};
+    second_ = ended_ = running_ = lanes::none_mask<T>();
+    for (std::size_t w = 0; w < lanes; ++w) status[w] = StepStatus::non_finite;
+    if (!std::isfinite(dt)) return;
+    dt_ = dt;
+    for (int i = 0; i < N; ++i) x_[i] = x[i];
+    const Mask finite = all_finite<N>(x_);
+    if (!lanes::any(finite)) return;
+    predict(s.predictor(), x_, dt, xb_, dt_maps_);
+    x_norm_ = inf_norm<N>(x_);
+    for (std::size_t w = 0; w < lanes; ++w)
+        if (lanes::lane(finite, w)) restart(w);
+    while (lanes::any(running_)) {
+        round(s, increment);
+        close_round(s, status);
+    }
+}
+
+}  // namespace pgi
