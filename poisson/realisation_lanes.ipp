@@ -30,32 +30,33 @@ void eval_map(const CompiledMap& map, const lanes::PackOf<P>* in, lanes::PackOf<
     dh = (-dq_dt / (2 * t) - h) / s;
 }
 
-// sum_{j<J} b[j] (-s)^j and its derivative in s, by Horner.
-template <class T>
+// sum_{j<J} b[j] (-s)^j and (with_derivative) its derivative in s, by Horner.
+template <bool with_derivative, class T>
 PGI_LANE_INLINE void bernoulli_horner(const std::vector<double>& b, std::size_t J, const T& s, T& h, T& dh) {
     const T minus_s = -s;
     h = lanes::splat<T>(b[J - 1]);
-    dh = lanes::splat<T>(-double(J - 1) * b[J - 1]);
+    if constexpr (with_derivative) dh = lanes::splat<T>(-double(J - 1) * b[J - 1]);
     for (std::size_t j = J - 1; j-- > 0;) {
         h = h * minus_s + b[j];
-        if (j > 0) dh = dh * minus_s + (-double(j) * b[j]);
+        if constexpr (with_derivative)
+            if (j > 0) dh = dh * minus_s + (-double(j) * b[j]);
     }
 }
 
 // h(s) = sum_{j>=1} b_2j (-s)^(j-1) and dh/ds (b = b_2, b_4, ..., b_40): its terms fall like (s / 4 pi^2)^j, so
 // for s <= 1/4 ten terms leave tails below 2^-58 of h and of dh, and for s <= 4 twenty do; in closed form beyond.
 // A polynomial of fixed degree on each interval, chosen by each lane's own s (the longer one evaluated only
-// when some lane needs it).
-template <class T>
+// when some lane needs it). dh only with_derivative (the acceptance test reads h alone).
+template <bool with_derivative, class T>
 void rotation_coefficient(T s, const std::vector<double>& b, T& h, T& dh) {
     constexpr std::size_t short_terms = 10;
-    bernoulli_horner(b, short_terms, s, h, dh);
+    bernoulli_horner<with_derivative>(b, short_terms, s, h, dh);
     const auto longer = lanes::both(s > 0.25, s <= 4.0);
     if (lanes::any(longer)) {
         T hl, dhl;
-        bernoulli_horner(b, b.size(), s, hl, dhl);
+        bernoulli_horner<with_derivative>(b, b.size(), s, hl, dhl);
         h = lanes::select(longer, hl, h);
-        dh = lanes::select(longer, dhl, dh);
+        if constexpr (with_derivative) dh = lanes::select(longer, dhl, dh);
     }
     const auto closed = lanes::negate(s <= 4.0);
     if (!lanes::any(closed)) return;
@@ -64,7 +65,7 @@ void rotation_coefficient(T s, const std::vector<double>& b, T& h, T& dh) {
         double hw, dhw;
         rotation_closed(lanes::lane(s, w), hw, dhw);
         lanes::set_lane(h, w, hw);
-        lanes::set_lane(dh, w, dhw);
+        if constexpr (with_derivative) lanes::set_lane(dh, w, dhw);
     }
 }
 
@@ -133,7 +134,7 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
             axial_vectors(C_, c);
             const RotationAt<T> r(c, x, p);
             T h, dh;
-            rotation_coefficient(r.s, b_, h, dh);
+            rotation_coefficient<true>(r.s, b_, h, dh);
             const T diagonal = 1.0 - h * r.s;
             for (int i = 0; i < 3; ++i) {
                 v.alpha[i] = (r.X.v[i] - 0.5 * r.Lx.v[i]) + h * r.L2x.v[i];
@@ -180,7 +181,7 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
             axial_vectors(C_, axial);
             const RotationAt<T> r(axial, x, p);
             T h, dh;
-            rotation_coefficient(r.s, b_, h, dh);
+            rotation_coefficient<false>(r.s, b_, h, dh);
             for (int i = 0; i < 3; ++i) {
                 c.alpha[i] = (r.X.v[i] - 0.5 * r.Lx.v[i]) + h * r.L2x.v[i];
                 c.delta[i] = r.Lx.v[i];
