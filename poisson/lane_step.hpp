@@ -46,7 +46,7 @@ private:
     void finish(const NewtonStepper& s, Mask E, T* increment);
     void factor(Mask F, const T* J);
     void solve_kept(const T* b, T* d) const;
-    void restart(std::size_t w);
+    void restart(Mask R);
     void end(Mask E, StepStatus st);
     void close_round(const NewtonStepper& s, StepStatus* status);
 
@@ -61,8 +61,8 @@ private:
     // each lane's Newton: its statistics, its control (NewtonStepper::newton's locals) and whether it runs
     T iterations_{}, residual_{}, tolerance_{}, ratio_{}, truncation_{}, correction_{};
     T previous_{}, previous_residual_{}, good_residual_{}, lambda_{}, x_norm_{}, it_{}, spent_{};
+    T ended_code_{};  // what newton returned in this round (a StepStatus as a number), for the lanes in ended_
     Mask running_{}, simplified_{}, second_{}, ended_{};
-    StepStatus ended_status_[lanes];  // what newton returned in this round, for the lanes in ended_
 };
 
 }  // namespace pgi

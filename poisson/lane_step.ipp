@@ -65,7 +65,6 @@ LaneStep<N, T>::LaneStep(const NewtonStepper& s)
     for (auto* v : {x_, xb_, good_, p_, r_, dx_})
         for (int i = 0; i < N; ++i) v[i] = T{};
     for (auto& m : swaps_) m = lanes::none_mask<T>();
-    for (auto& st : ended_status_) st = StepStatus::ok;
 }
 
 // J's LU with partial pivoting, the row exchanges as masks: for column k, row i > k is exchanged with row k where
@@ -203,27 +202,26 @@ void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
     end(lanes::both(finite, lanes::negate(above)), StepStatus::ok);
 }
 
-// The lanes of E leave Newton in this round with st (close_round decides: a second attempt, or the end).
+// The lanes of E leave Newton in this round with st (close_round decides: a second attempt, or the end); the
+// status is kept as a number in each lane, so this is a few vector operations.
 template <int N, class T>
 void LaneStep<N, T>::end(Mask E, StepStatus st) {
     E = lanes::both(E, lanes::negate(ended_));
-    if (!lanes::any(E)) return;
-    for (std::size_t w = 0; w < lanes; ++w)
-        if (lanes::lane(E, w)) ended_status_[w] = st;
+    ended_code_ = select(E, lanes::splat<T>(double(static_cast<int>(st))), ended_code_);
     ended_ = lanes::either(ended_, E);
 }
 
-// NewtonStepper::newton's state at its start, for lane w (its iteration 1).
+// NewtonStepper::newton's state at its start, for the lanes of R (their iteration 1).
 template <int N, class T>
-void LaneStep<N, T>::restart(std::size_t w) {
-    constexpr double inf = std::numeric_limits<double>::infinity();
-    lanes::set_lane(previous_, w, inf);
-    lanes::set_lane(previous_residual_, w, inf);
-    lanes::set_lane(good_residual_, w, inf);
-    lanes::set_lane(lambda_, w, 1.0);
-    lanes::set_lane(it_, w, 1.0);
-    lanes::set_lane(simplified_, w, false);
-    lanes::set_lane(running_, w, true);
+void LaneStep<N, T>::restart(Mask R) {
+    const T inf = lanes::splat<T>(std::numeric_limits<double>::infinity()), one = lanes::splat<T>(1.0);
+    previous_ = select(R, inf, previous_);
+    previous_residual_ = select(R, inf, previous_residual_);
+    good_residual_ = select(R, inf, good_residual_);
+    lambda_ = select(R, one, lambda_);
+    it_ = select(R, one, it_);
+    simplified_ = select(R, lanes::none_mask<T>(), simplified_);
+    running_ = lanes::either(running_, R);
 }
 
 // One iteration of NewtonStepper::newton's loop on every running lane: simplified (the acceptance test, then the
@@ -309,21 +307,21 @@ void LaneStep<N, T>::close_round(const NewtonStepper& s, StepStatus* status) {
     it_ = select(going, it_ + 1.0, it_);
     end(lanes::both(going, it_ > double(s.opt_.newton_max_iter)), StepStatus::newton_not_converged);
     if (!lanes::any(ended_)) return;
-    for (std::size_t w = 0; w < lanes; ++w) {
-        if (!lanes::lane(ended_, w)) continue;
-        const StepStatus st = ended_status_[w];
-        const bool solved = st == StepStatus::ok || st == StepStatus::truncation_above_bound;
-        if (!solved && s.info_.predictor_order != 0 && !lanes::lane(second_, w)) {
-            lanes::set_lane(spent_, w, lanes::lane(iterations_, w));
-            for (int i = 0; i < N; ++i) lanes::set_lane(xb_[i], w, lanes::lane(x_[i], w));
-            lanes::set_lane(second_, w, true);
-            restart(w);
-            continue;
-        }
-        if (lanes::lane(second_, w)) lanes::set_lane(iterations_, w, lanes::lane(iterations_, w) + lanes::lane(spent_, w));
-        status[w] = st;
-        lanes::set_lane(running_, w, false);
+    const Mask solved = lanes::either(ended_code_ == double(static_cast<int>(StepStatus::ok)),
+                                      ended_code_ == double(static_cast<int>(StepStatus::truncation_above_bound)));
+    const Mask retry = s.info_.predictor_order == 0 ? lanes::none_mask<T>()
+                                                    : lanes::both(lanes::both(ended_, lanes::negate(solved)), lanes::negate(second_));
+    const Mask final = lanes::both(ended_, lanes::negate(retry));
+    iterations_ = select(lanes::both(final, second_), iterations_ + spent_, iterations_);
+    running_ = lanes::both(running_, lanes::negate(final));
+    if (lanes::any(retry)) {
+        spent_ = select(retry, iterations_, spent_);
+        commit<N>(retry, x_, xb_);
+        second_ = lanes::either(second_, retry);
+        restart(retry);
     }
+    for (std::size_t w = 0; w < lanes; ++w)
+        if (lanes::lane(final, w)) status[w] = static_cast<StepStatus>(static_cast<int>(lanes::lane(ended_code_, w)));
     ended_ = lanes::none_mask<T>();
 }
 
@@ -339,8 +337,7 @@ void LaneStep<N, T>::step(const NewtonStepper& s, const T* x, double dt, T* incr
     if (!lanes::any(finite)) return;
     predict(s.predictor(), x_, dt, xb_, dt_maps_);
     x_norm_ = inf_norm<N>(x_);
-    for (std::size_t w = 0; w < lanes; ++w)
-        if (lanes::lane(finite, w)) restart(w);
+    restart(finite);
     while (lanes::any(running_)) {
         round(s, increment);
         close_round(s, status);
