@@ -54,8 +54,9 @@ std::vector<std::string> texts(const std::vector<pgi::Poly>& v, bool latex) {
 
 PyScheme from_values(std::vector<std::string> coordinates, const py::dict& brackets, std::string hamiltonian,
                      std::vector<std::string> casimirs, long order, std::string realisation, std::optional<double> dt,
-                     std::optional<Eigen::VectorXd> x0, std::optional<double> t_end, std::size_t max_terms) {
+                     std::optional<Eigen::VectorXd> x0, std::optional<double> t_end, std::size_t max_terms, bool trust_jacobi) {
     pgi::SchemeValues v;
+    v.trust_jacobi = trust_jacobi;
     v.coordinates = std::move(coordinates);
     for (auto [k, value] : brackets) {
         if (!py::isinstance<py::str>(k) || !py::isinstance<py::str>(value))
@@ -90,15 +91,21 @@ PyScheme from_scene(const pgi::Scene& scene) {
     return s;
 }
 
-PyScheme from_toml(const std::string& path) {
+pgi::SceneOverrides trusting(bool trust_jacobi) {
+    pgi::SceneOverrides o;
+    o.trust_jacobi = trust_jacobi;
+    return o;
+}
+
+PyScheme from_toml(const std::string& path, bool trust_jacobi) {
     py::gil_scoped_release release;
-    return from_scene(pgi::load_scene(path));
+    return from_scene(pgi::load_scene(path, trusting(trust_jacobi)));
 }
 
 // The scene's text (what a pickled Scheme carries to another process); file only names it in messages.
-PyScheme from_toml_text(const std::string& text, const std::string& file) {
+PyScheme from_toml_text(const std::string& text, const std::string& file, bool trust_jacobi) {
     py::gil_scoped_release release;
-    return from_scene(pgi::parse_scene(text, file));
+    return from_scene(pgi::parse_scene(text, file, trusting(trust_jacobi)));
 }
 
 py::dict check(const PyScheme& s) {
@@ -107,7 +114,9 @@ py::dict check(const PyScheme& s) {
         return s.scheme->checks();
     }();
     const auto& names = s.M().coordinates();
+    // as the command line's JSON: {"holds": true}, the failing triple, or not checked (trust_jacobi)
     py::dict jacobi("holds"_a = !c.jacobi);
+    if (!c.jacobi_checked) jacobi = py::dict("holds"_a = py::none(), "skipped"_a = "trust_jacobi");
     if (c.jacobi)
         jacobi = py::dict("holds"_a = false, "triple"_a = py::make_tuple(names[c.jacobi->i], names[c.jacobi->j], names[c.jacobi->k]),
                           "jacobiator"_a = c.jacobi->jacobiator.to_string());
@@ -313,9 +322,10 @@ PYBIND11_MODULE(_pgi, m) {
     py::class_<PyScheme>(m, "Scheme")
         .def(py::init(&from_values), "coordinates"_a, "brackets"_a, "hamiltonian"_a, "casimirs"_a = std::vector<std::string>{},
              "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(), "x0"_a = py::none(), "t_end"_a = py::none(),
-             "max_terms"_a = pgi::Ring::default_max_terms)
-        .def_static("from_toml", &from_toml, "path"_a)
-        .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a)
+             "max_terms"_a = pgi::Ring::default_max_terms, "trust_jacobi"_a = false)
+        .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false)
+        .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a, "trust_jacobi"_a = false)
+        .def_property_readonly("jacobi_trusted", [](const PyScheme& s) { return s.scheme->jacobi_trusted(); })
         .def_property_readonly("name", [](const PyScheme& s) { return s.name; })
         .def_property_readonly("coordinates", [](const PyScheme& s) { return s.M().coordinates(); })
         .def_property_readonly("order", [](const PyScheme& s) { return s.scheme->order(); })

@@ -67,10 +67,18 @@ class EnsembleResult:
 
 
 def _rebuild(description):
-    """A Scheme from its description (what pickle carries): ("values", kwargs) or ("toml", text, file)."""
+    """A Scheme from its description (what pickle carries): ("values", kwargs) or ("toml", text, file,
+    trust_jacobi)."""
     if description[0] == "values":
         return Scheme(**description[1])
-    return Scheme._from_toml_text(description[1], description[2])
+    return Scheme._from_toml_text(*description[1:])
+
+
+def _flag(name, v):
+    """v if it is a bool (numpy's included), else InputError: a flag given as 1 or "yes" is refused, not guessed."""
+    if isinstance(v, (bool, _np.bool_)):
+        return bool(v)
+    raise InputError(f"{name}: must be True or False, got {v!r}")
 
 
 _EVENT_KEYS = ("g", "direction", "terminal")
@@ -128,31 +136,35 @@ class Scheme:
     step(x, dt=None), integrate(x0=None, dt=None, t_end=None, every=1)."""
 
     def __init__(self, coordinates, brackets, hamiltonian, casimirs=(), order=2, realisation="auto", dt=None,
-                 x0=None, t_end=None, max_terms=20_000_000):
+                 x0=None, t_end=None, max_terms=20_000_000, trust_jacobi=False):
+        """trust_jacobi=True: the caller vouches for the Jacobi identity of the brackets, which is then not checked
+        (check()["jacobi"] is then {"holds": None, "skipped": "trust_jacobi"}, as `pgi --trust-jacobi` reports it): for large structures known to be Poisson."""
         if x0 is not None:
             x0 = _np.asarray(x0, dtype=float)
         self._core = _Scheme(list(coordinates), dict(brackets), hamiltonian, list(casimirs), order, realisation, dt, x0,
-                             t_end, max_terms)
+                             t_end, max_terms, _flag("trust_jacobi", trust_jacobi))
         self._description = ("values", dict(coordinates=list(coordinates), brackets=dict(brackets),
                                             hamiltonian=hamiltonian, casimirs=list(casimirs), order=order,
                                             realisation=realisation, dt=dt, x0=None if x0 is None else x0.tolist(),
-                                            t_end=t_end, max_terms=max_terms))
+                                            t_end=t_end, max_terms=max_terms, trust_jacobi=trust_jacobi))
 
     @classmethod
-    def from_toml(cls, path):
+    def from_toml(cls, path, trust_jacobi=False):
+        """The scene file's scheme; trust_jacobi as for Scheme()."""
+        trust_jacobi = _flag("trust_jacobi", trust_jacobi)
         try:  # the text, so a pickled Scheme carries the scene itself
             with open(path, "rb") as f:
                 text = f.read()
         except OSError:
-            _Scheme.from_toml(str(path))  # raises pgi's own SceneError naming the file
+            _Scheme.from_toml(str(path), trust_jacobi)  # raises pgi's own SceneError naming the file
             raise
-        return cls._from_toml_text(text, str(path))
+        return cls._from_toml_text(text, str(path), trust_jacobi)
 
     @classmethod
-    def _from_toml_text(cls, text, file):
+    def _from_toml_text(cls, text, file, trust_jacobi=False):
         s = cls.__new__(cls)
-        s._core = _Scheme.from_toml_text(text, file)
-        s._description = ("toml", text, file)
+        s._core = _Scheme.from_toml_text(text, file, trust_jacobi)
+        s._description = ("toml", text, file, trust_jacobi)
         return s
 
     @property
@@ -223,7 +235,7 @@ class Scheme:
         raised for it. Raises ValueError (before any work) for X0 of the wrong shape or dtype."""
         X0 = _states(X0)
         for name, v in (("threads", threads), ("chunk", chunk), ("batch", batch)):
-            if v is not None and (not isinstance(v, (int, _np.integer)) or v < 1):
+            if v is not None and (isinstance(v, (bool, _np.bool_)) or not isinstance(v, (int, _np.integer)) or v < 1):
                 raise InputError(f"{name}: must be a positive integer, got {v!r}")
         return EnsembleResult(self._core._integrate_ensemble(
             X0, dt, t_end, threads or 0, chunk or 0, None if x_typical is None else _np.asarray(x_typical, dtype=float),

@@ -1,4 +1,5 @@
 """The Python module against the command line: same numbers bit for bit, same exact terms, same errors."""
+import pickle
 import threading
 
 import numpy as np
@@ -154,3 +155,21 @@ def test_a_non_finite_invariant_ends_the_run_as_on_the_command_line():
     assert e.value.step == 0 and e.value.result.steps == 0 and len(e.value.result.t) == 0
     r = s.integrate_ensemble(np.array([[1e200, 0.0, 0.0], s.x0]), t_end=1)
     assert r.status.tolist() == ["non_finite", "ok"] and r.steps.tolist() == [0, 10] and r.failed_step[0] == 0
+
+
+def test_trust_jacobi_skips_the_check_as_the_command_line_does_and_survives_pickling():
+    # {x_i, x_j} = eps_ijk v_k with v = (-x2, x1, 1): Jacobi needs v . curl v = 0, here it is 2
+    broken = dict(coordinates=["x1", "x2", "x3"], brackets={"x1,x2": "1", "x2,x3": "-x2", "x3,x1": "x1"},
+                  hamiltonian="x1^2/2 + x2^2/2 + x3^2/2")
+    assert pgi.Scheme(**broken).check()["jacobi"]["holds"] is False
+    trusted = pgi.Scheme(**broken, trust_jacobi=True)
+    assert trusted.jacobi_trusted and trusted.check()["jacobi"] == {"holds": None, "skipped": "trust_jacobi"}
+    assert pickle.loads(pickle.dumps(trusted)).jacobi_trusted
+    scene = pgi.Scheme.from_toml(SCENES / "rigid_body.toml", trust_jacobi=True)
+    assert scene.jacobi_trusted and scene.check()["jacobi"]["holds"] is None
+    assert pickle.loads(pickle.dumps(scene)).jacobi_trusted
+    assert cli_json("check", SCENES / "rigid_body.toml", "--trust-jacobi")["jacobi"]["holds"] is None
+    assert not pgi.Scheme.from_toml(SCENES / "rigid_body.toml").jacobi_trusted
+    for flag in (1, "yes", None):
+        with pytest.raises(ValueError, match="trust_jacobi: must be True or False"):
+            pgi.Scheme(**RIGID_BODY, trust_jacobi=flag)
