@@ -18,17 +18,22 @@ struct IntegrationSummary {
 /// x += increment with Kahan's compensation c: y = increment - c; s = x + y; c = (s - x) - y; x = s.
 class CompensatedSum {
 public:
-    explicit CompensatedSum(Eigen::Index n) : compensation_(Eigen::VectorXd::Zero(n)), y_(compensation_), sum_(compensation_) {}
+    explicit CompensatedSum(Eigen::Index n) : compensation_(Eigen::VectorXd::Zero(n)) {}
     void reset() { compensation_.setZero(); }
-    void add(Eigen::VectorXd& x, const Eigen::VectorXd& increment) {
-        y_ = increment - compensation_;
-        sum_ = x + y_;
-        compensation_ = (sum_ - x) - y_;
-        x = sum_;
+    void add(Eigen::VectorXd& x, const Eigen::VectorXd& increment) { add(x, increment.data(), 1); }
+    /// The same with increment i at increment[i stride] (a batch's structure of arrays), coordinate by coordinate:
+    /// the same operations on each as above, so the same bits.
+    void add(Eigen::VectorXd& x, const double* increment, std::size_t stride) {
+        for (Eigen::Index i = 0; i < x.size(); ++i) {
+            const double y = increment[std::size_t(i) * stride] - compensation_[i];
+            const double sum = x[i] + y;
+            compensation_[i] = (sum - x[i]) - y;
+            x[i] = sum;
+        }
     }
 
 private:
-    Eigen::VectorXd compensation_, y_, sum_;
+    Eigen::VectorXd compensation_;
 };
 
 template <class Observer>

@@ -108,7 +108,7 @@ void run_one(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, do
 struct LaneRun {
     Eigen::Index row = -1;
     RunLoop loop;
-    Eigen::VectorXd x, last, increment;
+    Eigen::VectorXd x, last;
     CompensatedSum sum;
     RunEnd end;
     std::size_t steps = 0;   // steps taken (end.steps: those observed)
@@ -116,7 +116,7 @@ struct LaneRun {
     double residual = 0;     // the last step's Newton residual
     int last_iterations = 0; // the last step's Newton iterations
 
-    LaneRun(const RunLoop& l, Eigen::Index n) : loop(l), x(n), last(n), increment(n), sum(n) {}
+    LaneRun(const RunLoop& l, Eigen::Index n) : loop(l), x(n), last(n), sum(n) {}
 
     // Starts row i at x0 (finite) for N steps; false when the run ends there (N = 0, an invariant not finite).
     bool begin(Eigen::Index i, const Eigen::VectorXd& x0, std::size_t N, double prototype_residual) {
@@ -136,8 +136,7 @@ struct LaneRun {
         residual = step_residual;
         iterations += step_iterations;
         if (s != StepStatus::ok) return stop(s);
-        for (Eigen::Index v = 0; v < increment.size(); ++v) increment[v] = inc[std::size_t(v) * stride];
-        sum.add(x, increment);
+        sum.add(x, inc, stride);
         ++steps;
         end.mean_iterations = double(iterations) / double(steps);
         last_iterations = step_iterations;
