@@ -92,9 +92,9 @@ public:
     void eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, SparseRealisationValues& v) const;
     /// Writes every field of c (alpha and delta as eval writes them). Allocates nothing.
     void check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const;
-    /// Whether eval_lanes and check_lanes serve this form: the so(3) closed form and the compiled polynomial
-    /// one (the Lie-Poisson series and the log-canonical form have none yet).
-    bool has_lane_form() const { return form_ == Form::rotation || form_ == Form::polynomial; }
+    /// Whether eval_lanes and check_lanes serve this form: the so(3) and log-canonical closed forms and the compiled
+    /// polynomial one (the Lie-Poisson series has none yet).
+    bool has_lane_form() const { return form_ == Form::rotation || form_ == Form::log_canonical || form_ == Form::polynomial; }
     /// eval's alpha, delta, alpha_x and alpha_p (and check's values) at N = dim() states at once or one
     /// (poisson/realisation_lanes.cpp): each lane's numbers are those of the double instantiation on it, bit for bit.
     /// Allocates nothing with s from lane_scratch<T>(). Requires has_lane_form().

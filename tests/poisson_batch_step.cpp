@@ -79,18 +79,31 @@ TEST_CASE("BatchStepper: each lane is the single step bit for bit, on every bund
     }
 }
 
-TEST_CASE("BatchStepper: the rigid body runs on lanes, Lotka-Volterra (log-canonical, no lane form yet) state by state") {
-    for (const auto& [name, lane_form] : {std::pair{"rigid_body", true}, std::pair{"lotka_volterra", false}, std::pair{"henon_heiles", true}}) {
+TEST_CASE("BatchStepper: which steps run on lanes; a step without a lane form (sl(2)*) goes state by state, the same bits") {
+    for (const auto& name : {"rigid_body", "lotka_volterra", "henon_heiles", "volterra_chain", "nambu"}) {
         CAPTURE(name);
         const Scene s = test::bundled(name);
         const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
-        const NewtonStepper stepper = s.scheme->stepper(s.dt, x0);
-        CHECK((stepper.lane_dimension() != 0) == lane_form);
+        CHECK(s.scheme->stepper(s.dt, x0).lane_dimension() == x0.size());
+    }
+    // sl(2)*: linear, not skew, so the Lie-Poisson series (no lane form yet)
+    SchemeValues v;
+    v.coordinates = {"h", "e", "f"};
+    v.brackets = {{"h,e", "2*e"}, {"h,f", "-2*f"}, {"e,f", "h"}};
+    v.hamiltonian = "h^2/2 + e*f/3";
+    v.order = 4;
+    const Scheme sl2 = Scheme::from_values(v);
+    const Eigen::Vector3d x0(0.5, 0.3, -0.2);
+    const NewtonStepper stepper = sl2.stepper(0.05, x0);
+    CHECK(stepper.lane_dimension() == 0);
+    for (const std::size_t m : {1, 5, 13}) {
+        CAPTURE(m);
+        require_lanes_equal_single(stepper, 16, states_around(x0, m), 0.05, LaneInstructions::automatic);
     }
     if (!processor_has_avx2()) {
         const Scene s = test::bundled("rigid_body");
-        const NewtonStepper stepper = s.scheme->stepper(0.1, Eigen::Vector3d(1, 0, 0));
-        CHECK_THROWS_AS(BatchStepper(stepper, 8, LaneInstructions::avx2), std::invalid_argument);
+        const NewtonStepper rigid = s.scheme->stepper(0.1, Eigen::Vector3d(1, 0, 0));
+        CHECK_THROWS_AS(BatchStepper(rigid, 8, LaneInstructions::avx2), std::invalid_argument);
     }
 }
 
