@@ -1,5 +1,7 @@
 #include "poisson/realisation_eval.hpp"
 
+#include "poisson/log_canonical.ipp"
+
 #include <flint/fmpq.h>
 
 #include <algorithm>
@@ -461,23 +463,9 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             c.size = Eigen::Map<const Eigen::Vector3d>(r.size);
             return;
         }
-        case Form::log_canonical: {
-            // alpha_j = x_j e^{u_j}, u_j = (1/2) sum_i a_ij x_i p_i: the rounding of u_j (relative to the sum of
-            // its terms' sizes w_j) enters alpha_j multiplied by |alpha_j|
-            for (Eigen::Index j = 0; j < n; ++j) {
-                double u = 0, w = 0;
-                for (int k = a_pattern_.outer[std::size_t(j)]; k < a_pattern_.outer[std::size_t(j) + 1]; ++k) {
-                    const int l = a_pattern_.inner[std::size_t(k)];
-                    const double term = a_values_[std::size_t(k)] * x[l] * p[l];
-                    u += term, w += std::abs(term);
-                }
-                const double em1 = std::expm1(0.5 * u), e = 1.0 + em1;
-                c.alpha[j] = x[j] * e;
-                c.delta[j] = -x[j] * (em1 + em1 / e);
-                c.size[j] = std::abs(x[j]) + std::abs(c.alpha[j]) * (1 + 0.5 * w);
-            }
+        case Form::log_canonical:
+            log_canonical_check(x.data(), p.data(), c.alpha.data(), c.delta.data(), c.size.data());
             return;
-        }
     }
 }
 

@@ -113,9 +113,10 @@ public:
 private:
     enum class Form { polynomial, log_canonical, lie_poisson, rotation };
     void eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
-    template <class Put>
-    void log_canonical_derivatives(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha,
-                                   Eigen::VectorXd& delta, Put put) const;
+    template <class T, class Put>  // (poisson/log_canonical.ipp)
+    void log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put) const;
+    template <class T>
+    void log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     /// The compiled polynomial form at (x, p): alpha and delta written, the derivatives' values returned

@@ -2,39 +2,13 @@
 // patterns, O(pattern) per evaluation (the log-canonical closed form, the compiled polynomial form), for the
 // Newton path of large sparse systems; the log-canonical derivatives are written once here for both the
 // dense blocks and the patterns. The Lie-Poisson forms are dense: they evaluate dense and gather.
+#include "poisson/log_canonical.ipp"
 #include "poisson/realisation_eval.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 namespace pgi {
-
-// u_j = (1/2) sum_l a_lj x_l p_l; alpha_j = x_j e^{u_j}; delta_j = x_j (e^{-u_j} - e^{u_j}) = -2 x_j sinh u_j, and the
-// derivatives on the structure's pattern: du_j/dx_l = a_lj p_l / 2, du_j/dp_l = a_lj x_l / 2. put(k, j, ...) receives
-// entry k of a_pattern_ (column j), put.diagonal(j, ...) the terms of d/dx_j of alpha_j and delta_j.
-template <class Put>
-void RealisationEvaluator::log_canonical_derivatives(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha,
-                                                     Eigen::VectorXd& delta, Put put) const {
-    for (std::size_t j = 0; j < n_; ++j) {
-        double u = 0;
-        for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
-            const int l = a_pattern_.inner[std::size_t(k)];
-            u += a_values_[std::size_t(k)] * x[l] * p[l];
-        }
-        // one transcendental: e^u - 1 keeps sinh u accurate for small u
-        const double em1 = std::expm1(0.5 * u), e = 1.0 + em1;
-        const double s = -(em1 + em1 / e), c = -(e + 1.0 / e);  // -2 sinh u, -2 cosh u
-        const auto J = static_cast<Eigen::Index>(j);
-        alpha[J] = x[J] * e;
-        delta[J] = x[J] * s;
-        for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
-            const int l = a_pattern_.inner[std::size_t(k)];
-            const double ux = 0.5 * a_values_[std::size_t(k)] * p[l], up = 0.5 * a_values_[std::size_t(k)] * x[l];
-            put(std::size_t(k), J, Eigen::Index(l), x[J] * e * ux, x[J] * e * up, x[J] * c * ux, x[J] * c * up);
-        }
-        put.diagonal(J, e, s);
-    }
-}
 
 namespace {
 
@@ -50,7 +24,7 @@ struct DensePut {
 
 void RealisationEvaluator::eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
     for (auto* m : {&v.alpha_x, &v.alpha_p, &v.delta_x, &v.delta_p}) m->setZero();
-    log_canonical_derivatives(x, p, v.alpha, v.delta, DensePut{v});
+    log_canonical_derivatives(x.data(), p.data(), v.alpha.data(), v.delta.data(), DensePut{v});
 }
 
 SparseRealisationValues RealisationEvaluator::sparse_values() const {
@@ -89,7 +63,7 @@ void gather(const Eigen::MatrixXd& m, std::vector<double>& out) { std::copy(m.da
 void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, SparseRealisationValues& v) const {
     switch (form_) {
         case Form::log_canonical:
-            log_canonical_derivatives(x, p, v.alpha, v.delta, SparsePut{v, a_to_x_, a_to_p_, diagonal_x_});
+            log_canonical_derivatives(x.data(), p.data(), v.alpha.data(), v.delta.data(), SparsePut{v, a_to_x_, a_to_p_, diagonal_x_});
             return;
         case Form::lie_poisson:
         case Form::rotation:

@@ -4,6 +4,7 @@
 // lane_step.cpp and lane_step_avx2.cpp; its helpers have internal linkage on purpose (one copy per target).
 #pragma once
 #include "poisson/lanes.hpp"
+#include "poisson/log_canonical.ipp"
 #include "poisson/realisation_eval.hpp"
 
 #include <algorithm>
@@ -69,18 +70,15 @@ void rotation_coefficient(T s, const std::vector<double>& b, T& h, T& dh) {
     }
 }
 
-// e^v - 1 lane by lane, the same libm call in both instantiations.
-[[gnu::noinline]] inline double expm1_lane(double v) { return std::expm1(v); }
-template <class T>
-PGI_LANE_INLINE T expm1_lanes(const T& v) {
-    if constexpr (std::is_same_v<T, double>) {
-        return expm1_lane(v);
-    } else {
-        T r;
-        for (std::size_t w = 0; w < lanes::width; ++w) lanes::set_lane(r, w, expm1_lane(lanes::lane(v, w)));
-        return r;
+// log_canonical_derivatives' entries into the dense N x N blocks of the Newton step (alpha_x and alpha_p only).
+template <int N, class T>
+struct LanePut {
+    LaneRealisation<N, T>& v;
+    PGI_LANE_INLINE void operator()(std::size_t, std::size_t j, std::size_t l, const T& ax, const T& ap, const T&, const T&) const {
+        v.alpha_x[j + N * l] = ax, v.alpha_p[j + N * l] = ap;
     }
-}
+    PGI_LANE_INLINE void diagonal(std::size_t j, const T& e, const T&) const { v.alpha_x[j + N * j] = v.alpha_x[j + N * j] + e; }
+};
 
 template <class T>
 struct Vec3 {
@@ -166,28 +164,10 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
             return;
         }
     }
-    if (form_ == Form::log_canonical) {
-        // alpha_j = x_j e^{u_j}, u_j = (1/2) sum_l a_lj x_l p_l (the structure's pattern), delta_j = -2 x_j sinh u_j,
-        // by one e^{u/2} - 1 (log_canonical_derivatives' operations, dense)
+    if (form_ == Form::log_canonical) {  // (poisson/log_canonical.ipp; delta's derivatives not kept)
         for (auto& e : v.alpha_x) e = T{};
         for (auto& e : v.alpha_p) e = T{};
-        for (int j = 0; j < N; ++j) {
-            T u{};
-            for (int k = a_pattern_.outer[std::size_t(j)]; k < a_pattern_.outer[std::size_t(j) + 1]; ++k) {
-                const int l = a_pattern_.inner[std::size_t(k)];
-                u = u + a_values_[std::size_t(k)] * x[l] * p[l];
-            }
-            const T em1 = expm1_lanes(0.5 * u), e = 1.0 + em1;
-            v.alpha[j] = x[j] * e;
-            v.delta[j] = x[j] * -(em1 + em1 / e);
-            for (int k = a_pattern_.outer[std::size_t(j)]; k < a_pattern_.outer[std::size_t(j) + 1]; ++k) {
-                const int l = a_pattern_.inner[std::size_t(k)];
-                const double half = 0.5 * a_values_[std::size_t(k)];
-                v.alpha_x[j + N * l] = x[j] * e * (half * p[l]);
-                v.alpha_p[j + N * l] = x[j] * e * (half * x[l]);
-            }
-            v.alpha_x[j + N * j] = v.alpha_x[j + N * j] + e;
-        }
+        log_canonical_derivatives(x, p, v.alpha, v.delta, LanePut<N, T>{v});
         return;
     }
     // the compiled polynomial form: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
@@ -228,19 +208,7 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
         }
     }
     if (form_ == Form::log_canonical) {
-        // the rounding of u_j (relative to the sum w_j of its terms' sizes) enters alpha_j multiplied by |alpha_j|
-        for (int j = 0; j < N; ++j) {
-            T u{}, w{};
-            for (int k = a_pattern_.outer[std::size_t(j)]; k < a_pattern_.outer[std::size_t(j) + 1]; ++k) {
-                const int l = a_pattern_.inner[std::size_t(k)];
-                const T term = a_values_[std::size_t(k)] * x[l] * p[l];
-                u = u + term, w = w + lanes::abs(term);
-            }
-            const T em1 = expm1_lanes(0.5 * u), e = 1.0 + em1;
-            c.alpha[j] = x[j] * e;
-            c.delta[j] = x[j] * -(em1 + em1 / e);
-            c.size[j] = lanes::abs(x[j]) + lanes::abs(c.alpha[j]) * (1.0 + 0.5 * w);
-        }
+        log_canonical_check(x, p, c.alpha, c.delta, c.size);
         return;
     }
     for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
