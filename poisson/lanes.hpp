@@ -54,57 +54,38 @@ struct PackOf {
 using Pack = PackOf<2>;
 using Pack4 = PackOf<4>;
 
-#define PGI_LANES_BINARY(OP)                                                                        \
-    template <std::size_t P>                                                                        \
-    PGI_LANE_INLINE PackOf<P> operator OP(const PackOf<P>& a, const PackOf<P>& b) {                 \
-        PackOf<P> r;                                                                                \
-        for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] OP b.p[k];                        \
-        return r;                                                                                   \
-    }                                                                                               \
-    template <std::size_t P>                                                                        \
-    PGI_LANE_INLINE PackOf<P> operator OP(const PackOf<P>& a, double b) {                           \
-        PackOf<P> r;                                                                                \
-        for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] OP b;                             \
-        return r;                                                                                   \
-    }                                                                                               \
-    template <std::size_t P>                                                                        \
-    PGI_LANE_INLINE PackOf<P> operator OP(double a, const PackOf<P>& b) {                           \
-        PackOf<P> r;                                                                                \
-        for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a OP b.p[k];                             \
-        return r;                                                                                   \
-    }                                                                                               \
-    template <std::size_t P>                                                                        \
-    PGI_LANE_INLINE PackOf<P>& operator OP##=(PackOf<P>& a, const PackOf<P>& b) { return a = a OP b; }
-PGI_LANES_BINARY(+)
-PGI_LANES_BINARY(-)
-PGI_LANES_BINARY(*)
-PGI_LANES_BINARY(/)
-#undef PGI_LANES_BINARY
-template <std::size_t P>
-PGI_LANE_INLINE PackOf<P> operator-(const PackOf<P>& a) {
-    PackOf<P> r;
-    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = -a.p[k];
+// R's parts from f(k), part by part: every operation of a pack below.
+template <class R, class F>
+PGI_LANE_INLINE R by_parts(F&& f) {
+    R r;
+    for (std::size_t k = 0; k < R::parts; ++k) r.p[k] = f(k);
     return r;
 }
-#define PGI_LANES_COMPARE(OP)                                                                       \
-    template <std::size_t P>                                                                        \
-    PGI_LANE_INLINE MaskOf<P> operator OP(const PackOf<P>& a, const PackOf<P>& b) {                 \
-        MaskOf<P> r;                                                                                \
-        for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] OP b.p[k];                        \
-        return r;                                                                                   \
-    }                                                                                               \
-    template <std::size_t P>                                                                        \
-    PGI_LANE_INLINE MaskOf<P> operator OP(const PackOf<P>& a, double b) {                           \
-        MaskOf<P> r;                                                                                \
-        for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] OP b;                             \
-        return r;                                                                                   \
-    }
-PGI_LANES_COMPARE(<)
-PGI_LANES_COMPARE(<=)
-PGI_LANES_COMPARE(>)
-PGI_LANES_COMPARE(==)
-PGI_LANES_COMPARE(!=)
-#undef PGI_LANES_COMPARE
+
+// a OP b with a pack on either side (or both), a Pack's or a mask's result: one line per operator.
+#define PGI_LANES_OPERATOR(R, OP)                                                                                       \
+    template <std::size_t P>                                                                                            \
+    PGI_LANE_INLINE R operator OP(const PackOf<P>& a, const PackOf<P>& b) {                                             \
+        return by_parts<R>([&](std::size_t k) { return a.p[k] OP b.p[k]; });                                            \
+    }                                                                                                                   \
+    template <std::size_t P>                                                                                            \
+    PGI_LANE_INLINE R operator OP(const PackOf<P>& a, double b) { return by_parts<R>([&](std::size_t k) { return a.p[k] OP b; }); } \
+    template <std::size_t P>                                                                                            \
+    PGI_LANE_INLINE R operator OP(double a, const PackOf<P>& b) { return by_parts<R>([&](std::size_t k) { return a OP b.p[k]; }); }
+PGI_LANES_OPERATOR(PackOf<P>, +)
+PGI_LANES_OPERATOR(PackOf<P>, -)
+PGI_LANES_OPERATOR(PackOf<P>, *)
+PGI_LANES_OPERATOR(PackOf<P>, /)
+PGI_LANES_OPERATOR(MaskOf<P>, <)
+PGI_LANES_OPERATOR(MaskOf<P>, <=)
+PGI_LANES_OPERATOR(MaskOf<P>, >)
+PGI_LANES_OPERATOR(MaskOf<P>, ==)
+PGI_LANES_OPERATOR(MaskOf<P>, !=)
+#undef PGI_LANES_OPERATOR
+template <std::size_t P>
+PGI_LANE_INLINE PackOf<P>& operator*=(PackOf<P>& a, const PackOf<P>& b) { return a = a * b; }
+template <std::size_t P>
+PGI_LANE_INLINE PackOf<P> operator-(const PackOf<P>& a) { return by_parts<PackOf<P>>([&](std::size_t k) { return -a.p[k]; }); }
 
 template <class T>
 struct traits;
@@ -143,15 +124,11 @@ template <std::size_t P>
 PGI_LANE_INLINE PackOf<P> select(const MaskOf<P>& m, const PackOf<P>& a, const PackOf<P>& b) {
     using M = typename Part<P>::mask;
     using V = typename Part<P>::value;
-    PackOf<P> r;
-    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = (V)(((M)a.p[k] & m.p[k]) | ((M)b.p[k] & ~m.p[k]));
-    return r;
+    return by_parts<PackOf<P>>([&](std::size_t k) { return (V)(((M)a.p[k] & m.p[k]) | ((M)b.p[k] & ~m.p[k])); });
 }
 template <std::size_t P>
 PGI_LANE_INLINE MaskOf<P> select(const MaskOf<P>& m, const MaskOf<P>& a, const MaskOf<P>& b) {
-    MaskOf<P> r;
-    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = (a.p[k] & m.p[k]) | (b.p[k] & ~m.p[k]);
-    return r;
+    return by_parts<MaskOf<P>>([&](std::size_t k) { return (a.p[k] & m.p[k]) | (b.p[k] & ~m.p[k]); });
 }
 
 PGI_LANE_INLINE bool both(bool a, bool b) { return a && b; }
@@ -159,22 +136,14 @@ PGI_LANE_INLINE bool either(bool a, bool b) { return a || b; }
 PGI_LANE_INLINE bool negate(bool a) { return !a; }
 template <std::size_t P>
 PGI_LANE_INLINE MaskOf<P> both(const MaskOf<P>& a, const MaskOf<P>& b) {
-    MaskOf<P> r;
-    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] & b.p[k];
-    return r;
+    return by_parts<MaskOf<P>>([&](std::size_t k) { return a.p[k] & b.p[k]; });
 }
 template <std::size_t P>
 PGI_LANE_INLINE MaskOf<P> either(const MaskOf<P>& a, const MaskOf<P>& b) {
-    MaskOf<P> r;
-    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = a.p[k] | b.p[k];
-    return r;
+    return by_parts<MaskOf<P>>([&](std::size_t k) { return a.p[k] | b.p[k]; });
 }
 template <std::size_t P>
-PGI_LANE_INLINE MaskOf<P> negate(const MaskOf<P>& a) {
-    MaskOf<P> r;
-    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = ~a.p[k];
-    return r;
-}
+PGI_LANE_INLINE MaskOf<P> negate(const MaskOf<P>& a) { return by_parts<MaskOf<P>>([&](std::size_t k) { return ~a.p[k]; }); }
 PGI_LANE_INLINE bool any(bool m) { return m; }
 PGI_LANE_INLINE bool all(bool m) { return m; }
 template <std::size_t P>
@@ -203,9 +172,7 @@ template <std::size_t P>
 PGI_LANE_INLINE PackOf<P> abs(const PackOf<P>& a) {
     using M = typename Part<P>::mask;
     using V = typename Part<P>::value;
-    PackOf<P> r;
-    for (std::size_t k = 0; k < r.parts; ++k) r.p[k] = (V)((M)a.p[k] & INT64_MAX);
-    return r;
+    return by_parts<PackOf<P>>([&](std::size_t k) { return (V)((M)a.p[k] & INT64_MAX); });
 }
 
 // std::max(a, b)'s rule lane by lane: b if a < b, else a (so a NaN in b is ignored).
