@@ -1,7 +1,9 @@
 // LaneStep for 8 states on AVX2 (Pack4: two vectors of four), compiled with -mavx2 (CMakeLists.txt) and run only
-// where the processor has AVX2 (BatchStepper asks it). Only Pack4's instantiations may come out of this file:
-// an inline function of another type compiled here with AVX2 instructions could be the copy the linker keeps
-// for the whole program (tests/lane_isa.sh checks the object's weak symbols).
+// where the processor has AVX2 (BatchStepper asks it). Only Pack4's kernels may come out of this file with AVX2
+// instructions: an inline function of another type compiled here (a std::vector<double> member, say) could be the
+// copy the linker keeps for the whole program, and fault where there is no AVX2; so what the kernels need of
+// such functions (the scratch's sizing: RealisationEvaluator::lane_scratch) is compiled elsewhere, and ctest
+// lane_isa checks the object (tests/lane_isa.sh).
 #include "poisson/lane_step.ipp"
 #include "poisson/realisation_lanes.ipp"
 

@@ -37,17 +37,19 @@ struct Part<2> {
 };
 template <>
 struct Part<4> {
-    using value = double __attribute__((vector_size(32)));
-    using mask = std::int64_t __attribute__((vector_size(32)));
+    // aligned explicitly: a file compiled for the baseline gives a 32-byte vector only 16-byte alignment (its
+    // largest), one compiled for AVX2 32, and Pack4's layout must be the same in both
+    using value = double __attribute__((vector_size(32), aligned(32)));
+    using mask = std::int64_t __attribute__((vector_size(32), aligned(32)));
 };
 
 template <std::size_t P>
-struct MaskOf {
+struct alignas(8 * P) MaskOf {
     static constexpr std::size_t parts = width / P;
     typename Part<P>::mask p[parts];
 };
 template <std::size_t P>
-struct PackOf {
+struct alignas(8 * P) PackOf {
     static constexpr std::size_t parts = width / P;
     typename Part<P>::value p[parts];
 };

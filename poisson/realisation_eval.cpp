@@ -241,6 +241,26 @@ const double* RealisationEvaluator::eval_polynomial(const Eigen::VectorXd& x, co
     return out_.data() + 2 * n;
 }
 
+// Sized for both maps of the polynomial form (and for CompiledMap::eval_batch's blocks of a Pack). Here, not with
+// the lane kernels: lane_step_avx2.cpp must not compile std::vector<double>'s members (poisson/lane_step_avx2.cpp).
+template <class T>
+LaneMapScratch<T> RealisationEvaluator::lane_scratch() const {
+    LaneMapScratch<T> s;
+    s.in.resize(2 * n_);
+    s.out.resize(std::max({map_.num_outputs(), values_map_.num_outputs(), n_}));
+    if constexpr (!std::is_same_v<T, double>) {
+        std::size_t block = 0;
+        for (const CompiledMap* m : {&map_, &values_map_, &size_map_})
+            block = std::max(block, m->num_monomials() + m->num_inputs() + m->num_outputs());
+        s.map.resize(block * CompiledMap::batch_lanes);
+    }
+    return s;
+}
+
+template LaneMapScratch<double> RealisationEvaluator::lane_scratch<double>() const;
+template LaneMapScratch<lanes::Pack> RealisationEvaluator::lane_scratch<lanes::Pack>() const;
+template LaneMapScratch<lanes::Pack4> RealisationEvaluator::lane_scratch<lanes::Pack4>() const;
+
 void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
     switch (form_) {
         case Form::log_canonical: eval_log_canonical(x, p, v); return;

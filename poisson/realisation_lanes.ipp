@@ -110,28 +110,13 @@ struct RotationAt {
 
 }  // namespace
 
-// The axial vectors c_j of the so(3) form's C_j (C_j v = c_j x v).
-inline void axial_vectors(const std::vector<Eigen::MatrixXd>& C, double (*c)[3]) {
+// The axial vectors c_j of the so(3) form's C_j (C_j v = c_j x v). (Internal: one copy per including file.)
+static void axial_vectors(const std::vector<Eigen::MatrixXd>& C, double (*c)[3]) {
     for (int j = 0; j < 3; ++j) {
         c[j][0] = C[std::size_t(j)](2, 1);
         c[j][1] = C[std::size_t(j)](0, 2);
         c[j][2] = C[std::size_t(j)](1, 0);
     }
-}
-
-// Sized for both maps of the polynomial form (and for CompiledMap::eval_batch's blocks of a Pack).
-template <class T>
-LaneMapScratch<T> RealisationEvaluator::lane_scratch() const {
-    LaneMapScratch<T> s;
-    s.in.resize(2 * n_);
-    s.out.resize(std::max({map_.num_outputs(), values_map_.num_outputs(), n_}));
-    if constexpr (!std::is_same_v<T, double>) {
-        std::size_t block = 0;
-        for (const CompiledMap* m : {&map_, &values_map_, &size_map_})
-            block = std::max(block, m->num_monomials() + m->num_inputs() + m->num_outputs());
-        s.map.resize(block * CompiledMap::batch_lanes);
-    }
-    return s;
 }
 
 // so(3): alpha = x - L x / 2 + h(s) L^2 x (docs/math.md 3), alpha_x = (1 - h s) I - L/2 + h w w^T (L^2 = w w^T - s I),
@@ -221,7 +206,6 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
 }
 
 #define PGI_REALISATION_LANES(T)                                                                                          \
-    template LaneMapScratch<T> RealisationEvaluator::lane_scratch<T>() const;                                              \
     PGI_LANE_FORMS(2, T)                                                                                                   \
     PGI_LANE_FORMS(3, T)                                                                                                   \
     PGI_LANE_FORMS(4, T)                                                                                                   \
