@@ -4,6 +4,8 @@
 
 namespace pgi {
 
+LaneLayout lane_layout_baseline() { return lane_layout(); }
+
 template class LaneStep<2, double>;
 template class LaneStep<3, double>;
 template class LaneStep<4, double>;

@@ -18,6 +18,15 @@ namespace pgi {
 class NewtonStepper;
 enum class StepStatus;
 
+/// sizeof and alignof of the types the lane kernels read, as the baseline files and as the AVX2 file (compiled
+/// with other options, poisson/lane_step_avx2.cpp) see them: a test checks that they agree (one layout per type).
+struct LaneLayout {
+    std::size_t values[8];
+    bool operator==(const LaneLayout&) const = default;
+};
+LaneLayout lane_layout_baseline();
+LaneLayout lane_layout_avx2();
+
 template <int N, class T>
 class LaneStep {
 public:

@@ -12,6 +12,12 @@ namespace pgi {
 
 namespace {
 
+// The layouts the kernels read, as this file sees them (lane_layout_baseline / lane_layout_avx2).
+[[maybe_unused]] LaneLayout lane_layout() {
+    return {sizeof(NewtonStepper), alignof(NewtonStepper), sizeof(RealisationEvaluator), alignof(RealisationEvaluator),
+            sizeof(DtSeriesMap), alignof(DtSeriesMap), sizeof(LaneStep<3, double>), alignof(LaneStep<3, double>)};
+}
+
 using lanes::select;
 
 constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;

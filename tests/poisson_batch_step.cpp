@@ -126,3 +126,13 @@ TEST_CASE("BatchStepper: a failing and a non-finite state fail alone, with the s
     for (std::size_t j : {0, 1, 3, 4, 5, 7, 8}) CHECK(status[j] == StepStatus::ok);
     CHECK_THROWS_AS(batch.step(X.data(), 10, 0.1, increments.data(), status.data()), std::invalid_argument);  // more states than lanes
 }
+
+TEST_CASE("BatchStepper: the AVX2 kernels' file sees the library's types with the same layout as the rest of it") {
+    // it is compiled with -mavx2, under which Eigen would align its fixed-size types to 32 bytes, not 16
+    const LaneLayout baseline = lane_layout_baseline(), avx2 = lane_layout_avx2();
+    for (std::size_t i = 0; i < 8; ++i) {
+        CAPTURE(i);
+        CHECK(baseline.values[i] == avx2.values[i]);
+    }
+    CHECK(baseline.values[0] > 0);
+}
