@@ -4,7 +4,7 @@
 
 namespace pgi {
 
-LaneLayout lane_layout_baseline() { return lane_layout(); }
+extern constexpr LaneLayout baseline_lane_layout = lane_layout();
 
 template class LaneStep<2, double>;
 template class LaneStep<3, double>;

@@ -24,8 +24,8 @@ struct LaneLayout {
     std::size_t values[8];
     bool operator==(const LaneLayout&) const = default;
 };
-LaneLayout lane_layout_baseline();
-LaneLayout lane_layout_avx2();
+/// Data, not functions: the AVX2 file exports no code but its Pack4 kernels (tests/lane_isa.sh).
+extern const LaneLayout baseline_lane_layout, avx2_lane_layout;
 
 template <int N, class T>
 class LaneStep {

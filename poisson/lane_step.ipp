@@ -12,8 +12,8 @@ namespace pgi {
 
 namespace {
 
-// The layouts the kernels read, as this file sees them (lane_layout_baseline / lane_layout_avx2).
-[[maybe_unused]] LaneLayout lane_layout() {
+// The layouts the kernels read, as this file sees them (baseline_lane_layout, avx2_lane_layout).
+[[maybe_unused]] constexpr LaneLayout lane_layout() {
     return {sizeof(NewtonStepper), alignof(NewtonStepper), sizeof(RealisationEvaluator), alignof(RealisationEvaluator),
             sizeof(DtSeriesMap), alignof(DtSeriesMap), sizeof(LaneStep<3, double>), alignof(LaneStep<3, double>)};
 }

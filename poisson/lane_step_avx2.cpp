@@ -6,14 +6,14 @@
 // lane_isa checks the object (tests/lane_isa.sh).
 // Eigen aligns its fixed-size types to the widest vector the compiler targets: 32 bytes under -mavx2, 16 in the
 // rest of the library, which would give NewtonStepper (it holds fixed-size Eigen types) another layout here.
-// Eigen's own switch for mixing SIMD options keeps them at 16 (lane_layout() lets a test compare).
+// Eigen's own switch for mixing SIMD options keeps them at 16 (avx2_lane_layout lets a test compare).
 #define EIGEN_MAX_ALIGN_BYTES 16
 #include "poisson/lane_step.ipp"
 #include "poisson/realisation_lanes.ipp"
 
 namespace pgi {
 
-LaneLayout lane_layout_avx2() { return lane_layout(); }
+extern constexpr LaneLayout avx2_lane_layout = lane_layout();
 
 template class LaneStep<2, lanes::Pack4>;
 template class LaneStep<3, lanes::Pack4>;

@@ -129,7 +129,7 @@ TEST_CASE("BatchStepper: a failing and a non-finite state fail alone, with the s
 
 TEST_CASE("BatchStepper: the AVX2 kernels' file sees the library's types with the same layout as the rest of it") {
     // it is compiled with -mavx2, under which Eigen would align its fixed-size types to 32 bytes, not 16
-    const LaneLayout baseline = lane_layout_baseline(), avx2 = lane_layout_avx2();
+    const LaneLayout baseline = baseline_lane_layout, avx2 = avx2_lane_layout;
     for (std::size_t i = 0; i < 8; ++i) {
         CAPTURE(i);
         CHECK(baseline.values[i] == avx2.values[i]);
