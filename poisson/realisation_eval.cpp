@@ -214,6 +214,11 @@ RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) 
     e.C_ = structure_matrices(pi);
     // the even Bernoulli coefficients b_2j = B_2j/(2j)!, j = 1..20, for h(s) near s = 0
     for (std::size_t j = 1; j <= 20; ++j) e.b_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
+    for (std::size_t j = 0; j < 3; ++j) {  // once here, not at every evaluation
+        e.axial_[j][0] = e.C_[j](2, 1);
+        e.axial_[j][1] = e.C_[j](0, 2);
+        e.axial_[j][2] = e.C_[j](1, 0);
+    }
     e.pattern_x_ = e.pattern_p_ = SparsePattern::dense(3, 3);
     e.dense_ = RealisationValues(3);
     return e;

@@ -136,6 +136,7 @@ private:
     mutable RealisationValues dense_;   // Lie-Poisson forms: evaluated dense, then gathered on the (full) patterns
     std::vector<Eigen::MatrixXd> C_;    // Lie-Poisson: C_[j](i, k) = c_ij^k = dL(p)/dp_j
     std::vector<double> b_;             // Lie-Poisson: B_m / m!, m = 0..D; rotation: B_2j / (2j)!, j = 1..20
+    double axial_[3][3] = {};           // rotation: the axial vector c_j of each C_j (C_j v = c_j x v), read at every step
     std::vector<double> q_;             // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
     double radius_ = 0;                 // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off
     CompiledMap map_;                   // polynomial: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)

@@ -99,7 +99,7 @@ template <class T>
 struct RotationAt {
     Vec3<T> w, X, Lx, L2x;
     T s;
-    [[gnu::always_inline]] RotationAt(const double (*c)[3], const T* x, const T* p) {
+    [[gnu::always_inline]] RotationAt(const double (&c)[3][3], const T* x, const T* p) {
         for (int i = 0; i < 3; ++i) w.v[i] = (p[0] * c[0][i] + p[1] * c[1][i]) + p[2] * c[2][i];
         s = (w.v[0] * w.v[0] + w.v[1] * w.v[1]) + w.v[2] * w.v[2];
         X = {{x[0], x[1], x[2]}};
@@ -110,15 +110,6 @@ struct RotationAt {
 
 }  // namespace
 
-// The axial vectors c_j of the so(3) form's C_j (C_j v = c_j x v). (Internal: one copy per including file.)
-static void axial_vectors(const std::vector<Eigen::MatrixXd>& C, double (*c)[3]) {
-    for (int j = 0; j < 3; ++j) {
-        c[j][0] = C[std::size_t(j)](2, 1);
-        c[j][1] = C[std::size_t(j)](0, 2);
-        c[j][2] = C[std::size_t(j)](1, 0);
-    }
-}
-
 // so(3): alpha = x - L x / 2 + h(s) L^2 x (docs/math.md 3), alpha_x = (1 - h s) I - L/2 + h w w^T (L^2 = w w^T - s I),
 // alpha_p e_j = -C_j x / 2 + h (c_j x L x + w x C_j x) + dh (2 w . c_j) L^2 x (ds/dp_j = 2 w . c_j), delta = L x.
 // Polynomial: the compiled map's outputs, the derivatives scattered from their patterns.
@@ -126,9 +117,7 @@ template <int N, class T>
 void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N, T>& v, LaneMapScratch<T>& s) const {
     if constexpr (N == 3) {
         if (form_ == Form::rotation) {
-            double c[3][3];
-            axial_vectors(C_, c);
-            const RotationAt<T> r(c, x, p);
+            const RotationAt<T> r(axial_, x, p);
             T h, dh;
             rotation_coefficient<true>(r.s, b_, h, dh);
             const T diagonal = 1.0 - h * r.s;
@@ -142,8 +131,9 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
                 }
             }
             for (int j = 0; j < 3; ++j) {
-                const Vec3<T> Cx = cross(c[j], r.X), a = cross(c[j], r.Lx), b = cross(r.w, Cx);
-                const T slope = dh * (2.0 * ((r.w.v[0] * c[j][0] + r.w.v[1] * c[j][1]) + r.w.v[2] * c[j][2]));
+                const double* c = axial_[j];
+                const Vec3<T> Cx = cross(c, r.X), a = cross(c, r.Lx), b = cross(r.w, Cx);
+                const T slope = dh * (2.0 * ((r.w.v[0] * c[0] + r.w.v[1] * c[1]) + r.w.v[2] * c[2]));
                 for (int i = 0; i < 3; ++i) v.alpha_p[i + 3 * j] = (-0.5 * Cx.v[i] + h * (a.v[i] + b.v[i])) + slope * r.L2x.v[i];
             }
             return;
@@ -179,9 +169,7 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
     c.neglected = T{};
     if constexpr (N == 3) {
         if (form_ == Form::rotation) {
-            double axial[3][3];
-            axial_vectors(C_, axial);
-            const RotationAt<T> r(axial, x, p);
+            const RotationAt<T> r(axial_, x, p);
             T h, dh;
             rotation_coefficient<false>(r.s, b_, h, dh);
             for (int i = 0; i < 3; ++i) {
