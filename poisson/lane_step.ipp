@@ -128,7 +128,8 @@ void LaneStep<N, T>::evaluate(const NewtonStepper& s, Mask F, T* J) {
     for (auto& e : H) e = T{};
     const SparsePattern& P = s.gradient_.hessian;
     for (std::size_t col = 0; col < P.cols; ++col)
-        for (int k = P.outer[col]; k < P.outer[col + 1]; ++k) H[std::size_t(P.inner[std::size_t(k)]) + N * col] = gh_[N + std::size_t(k)];
+        for (int k = P.outer[col]; k < P.outer[col + 1]; ++k)
+            H[std::size_t(P.inner[std::size_t(k)]) + N * col] = gh_[N + s.gradient_.hessian_value[std::size_t(k)]];
     LaneRealisation<N, T> v;
     s.realisation_.eval_lanes<N>(xb_, gh_.data(), v, maps_);
     for (int i = 0; i < N; ++i)

@@ -104,7 +104,8 @@ void NewtonStepper::size_scratch(std::size_t n) {
     const auto N = static_cast<Eigen::Index>(n);
     check_ = RealisationCheck(n);
     for (auto* v : {&xb_, &xb_good_, &p_, &r_, &dx_, &gsize_, &tol_}) v->setZero(N);
-    gh_.setZero(N + static_cast<Eigen::Index>(gradient_.hessian.nonzeros()));
+    gh_.setZero(static_cast<Eigen::Index>(gradient_.with_hessian.width()));
+    hessian_.setZero(static_cast<Eigen::Index>(gradient_.hessian.nonzeros()));
     if (sparse_) {  // nothing n x n: the values live on the patterns
         sparse_values_ = realisation_.sparse_values();
         return;
@@ -126,17 +127,18 @@ void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
 void NewtonStepper::take_gradient_at(const Eigen::VectorXd& xb) {
     const auto n = xb.size();
     p_ = gh_.head(n);
+    expand_hessian(gradient_, gh_.data() + n, hessian_.data());
     if (sparse_) {
         realisation_.eval(xb, p_, sparse_values_);
         return;
     }
-    gradient_.hessian.scatter(gh_.data() + n, hess_);
+    gradient_.hessian.scatter(hessian_.data(), hess_);
     realisation_.eval(xb, p_, v_);
 }
 
 void NewtonStepper::assemble() {
     if (sparse_) {
-        matrix_.assemble(sparse_values_.alpha_x.data(), sparse_values_.alpha_p.data(), gh_.data() + p_.size());
+        matrix_.assemble(sparse_values_.alpha_x.data(), sparse_values_.alpha_p.data(), hessian_.data());
         return;
     }
     algebra_.jacobian(v_.alpha_x, v_.alpha_p, hess_, J_);
@@ -171,7 +173,7 @@ constexpr double residual_kappa = 64;
 bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction) {
     if (small_correction) {
         if (sparse_)
-            gradient_.hessian.multiply(gh_.data() + p_.size(), dx_, r_);
+            gradient_.hessian.multiply(hessian_.data(), dx_, r_);
         else
             algebra_.product(hess_, dx_, r_);
         p_ -= r_;
@@ -365,7 +367,7 @@ Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
     if (sparse_) {  // the dense blocks from the patterns: a tangent map is dense anyway
         v_ = RealisationValues(dim());
         realisation_.eval(xb_, p_, v_);
-        gradient_.hessian.scatter(gh_.data() + p_.size(), hess_);
+        gradient_.hessian.scatter(hessian_.data(), hess_);
     }
     D_ = v_.delta_x;
     D_.noalias() += v_.delta_p * hess_;

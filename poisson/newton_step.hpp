@@ -55,7 +55,7 @@ public:
     /// output i at (xb, dt). The same status, increment and statistics as step(), bit for bit.
     [[nodiscard]] StepStatus step_predicted(const Eigen::VectorXd& x, double dt, const double* xb, const double* gh, std::size_t stride,
                                             Eigen::VectorXd& increment);
-    /// What step_predicted is given: the predictor, and grad S_dt with Hess S_dt on its pattern (width() outputs).
+    /// What step_predicted is given: the predictor, and grad S_dt with Hess S_dt on its upper triangle (width() outputs; CompiledGradient).
     const Predictor& predictor() const { return predictor_; }
     const DtSeriesMap& with_hessian() const { return gradient_.with_hessian; }
     /// Dphi_dt(x) by implicit differentiation: I + (delta_x + delta_p Hess S) J^{-1} at the solution.
@@ -127,7 +127,8 @@ private:
     RealisationCheck check_;
     Eigen::VectorXd gsize_, tol_;
     RealisationValues v_;
-    Eigen::VectorXd xb_, xb_good_, p_, r_, dx_, gh_;
+    Eigen::VectorXd xb_, xb_good_, p_, r_, dx_, gh_;  // gh_: with_hessian's outputs (the Hessian's upper triangle)
+    Eigen::VectorXd hessian_;                          // Hess S_dt on its whole pattern (expand_hessian)
     Eigen::MatrixXd hess_, J_, D_;
     DenseAlgebra algebra_;                // the dense path's J, LU and products
     // the same step over lanes, where it exists (then step() is its one-lane instantiation)

@@ -2,6 +2,8 @@
 
 #include "poisson/realisation_eval.hpp"
 
+#include <stdexcept>
+
 namespace pgi {
 
 CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt) {
@@ -17,17 +19,36 @@ CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& 
     }
     CompiledGradient g;
     g.hessian = SparsePattern::from_columns(n, std::move(columns));
+    // the entries r <= c numbered in pattern order; (c, r) with r < c (in an earlier column) takes (r, c)'s number
+    const SparsePattern& P = g.hessian;
+    g.hessian_value.assign(P.nonzeros(), 0);
+    std::uint32_t upper = 0;
+    for (std::size_t c = 0; c < n; ++c)
+        for (int k = P.outer[c]; k < P.outer[c + 1]; ++k)
+            if (std::size_t(P.inner[std::size_t(k)]) <= c) g.hessian_value[std::size_t(k)] = upper++;
+    for (std::size_t c = 0; c < n; ++c)
+        for (int k = P.outer[c]; k < P.outer[c + 1]; ++k) {
+            const int r = P.inner[std::size_t(k)];
+            if (std::size_t(r) <= c) continue;
+            const std::ptrdiff_t mirror = P.find(static_cast<int>(c), r);
+            if (mirror < 0) throw std::logic_error("compile_gradient: the Hessian's pattern is not symmetric");
+            g.hessian_value[std::size_t(k)] = g.hessian_value[std::size_t(mirror)];
+        }
     for (std::size_t j = 0; j < S.size(); ++j) {
         with_hessian[j] = grad[j];
         for (std::size_t c = 0; c < n; ++c)
-            for (int k = g.hessian.outer[c]; k < g.hessian.outer[c + 1]; ++k)
-                with_hessian[j].push_back(derivative(grad[j][c], M.x(std::size_t(g.hessian.inner[std::size_t(k)]))));
+            for (int k = P.outer[c]; k < P.outer[c + 1]; ++k)
+                if (const auto r = std::size_t(P.inner[std::size_t(k)]); r <= c) with_hessian[j].push_back(derivative(grad[j][c], M.x(r)));
     }
     const auto inputs = M.coordinate_vars();
     g.with_hessian = DtSeriesMap::build(with_hessian, inputs, planned_dt);
     g.gradient = DtSeriesMap::build(grad, inputs, planned_dt);
     g.gradient_size = DtSeriesMap::build(sizes, inputs);  // read at |x| and |dt|: no planned sum
     return g;
+}
+
+void expand_hessian(const CompiledGradient& g, const double* upper, double* values) {
+    for (std::size_t k = 0; k < g.hessian_value.size(); ++k) values[k] = upper[g.hessian_value[k]];
 }
 
 }  // namespace pgi

@@ -3,7 +3,7 @@
 #include <flint/mpoly.h>
 
 #include <algorithm>
-#include <bit>
+#include <span>
 #include <cmath>
 #include <cstdint>
 #include <numeric>
@@ -13,35 +13,58 @@ namespace pgi {
 
 namespace {
 
-// The distinct exponent vectors (one entry per input) seen so far, numbered in order of arrival: a flat
-// array of exponents and an open-addressing hash table of their numbers (a std::map of vectors cost
-// most of a large build in allocations and comparisons).
+// A monomial in the inputs: its (input, exponent) pairs, inputs ascending, every exponent positive (the
+// constant monomial has none). Sparse, so that a map of a thousand inputs stores each monomial in the
+// size of its own support, not in k words.
+struct Power {
+    std::uint32_t input, exponent;
+    bool operator==(const Power&) const = default;
+};
+using Exponents = std::span<const Power>;
+
+std::size_t total_degree(Exponents e) {
+    std::size_t d = 0;
+    for (const Power& p : e) d += p.exponent;
+    return d;
+}
+
+// The distinct monomials seen so far, numbered in order of arrival: a flat array of their powers and an
+// open-addressing hash table of their numbers (a std::map of vectors cost most of a large build in
+// allocations and comparisons).
 class MonomialTable {
 public:
-    explicit MonomialTable(std::size_t k) : k_(k), slots_(1024, empty) {}
-    const unsigned long* exponents(std::uint32_t id) const { return exps_.data() + std::size_t(id) * k_; }
+    MonomialTable() : slots_(1024, empty), start_{0} {}
+    Exponents exponents(std::uint32_t id) const { return {powers_.data() + start_[id], powers_.data() + start_[id + 1]}; }
+    std::size_t count() const { return start_.size() - 1; }
     /// The number of e, and whether it is new.
-    std::pair<std::uint32_t, bool> insert(const unsigned long* e) {
-        if (2 * (count_ + 1) > slots_.size()) grow();
-        std::size_t s = hash(e) & (slots_.size() - 1);
-        for (; slots_[s] != empty; s = (s + 1) & (slots_.size() - 1))
-            if (std::equal(e, e + k_, exponents(slots_[s]))) return {slots_[s], false};
-        slots_[s] = static_cast<std::uint32_t>(count_++);
-        exps_.insert(exps_.end(), e, e + k_);
+    std::pair<std::uint32_t, bool> insert(Exponents e) {
+        if (2 * (count() + 1) > slots_.size()) grow();
+        std::size_t s = slot_of(e);
+        if (slots_[s] != empty) return {slots_[s], false};
+        slots_[s] = static_cast<std::uint32_t>(count());
+        powers_.insert(powers_.end(), e.begin(), e.end());
+        start_.push_back(powers_.size());
         return {slots_[s], true};
     }
-    std::uint32_t at(const unsigned long* e) const {
-        for (std::size_t s = hash(e) & (slots_.size() - 1);; s = (s + 1) & (slots_.size() - 1))
-            if (std::equal(e, e + k_, exponents(slots_[s]))) return slots_[s];
-    }
-    std::size_t count() const { return count_; }
+    /// The number of e, or none.
+    std::uint32_t find(Exponents e) const { return slots_[slot_of(e)]; }
+    static constexpr std::uint32_t none = UINT32_MAX;
 
 private:
-    static constexpr std::uint32_t empty = UINT32_MAX;
-    std::size_t hash(const unsigned long* e) const {
+    static constexpr std::uint32_t empty = none;
+    static std::size_t hash(Exponents e) {
         std::uint64_t h = 0x9e3779b97f4a7c15ull;
-        for (std::size_t v = 0; v < k_; ++v) h = (h ^ e[v]) * 0xff51afd7ed558ccdull, h ^= h >> 32;
+        for (const Power& p : e) h = (h ^ (std::uint64_t(p.input) << 32 | p.exponent)) * 0xff51afd7ed558ccdull, h ^= h >> 32;
         return static_cast<std::size_t>(h);
+    }
+    // e's slot, or the empty one where it would go
+    std::size_t slot_of(Exponents e) const {
+        std::size_t s = hash(e) & (slots_.size() - 1);
+        for (; slots_[s] != empty; s = (s + 1) & (slots_.size() - 1)) {
+            const Exponents f = exponents(slots_[s]);
+            if (std::equal(e.begin(), e.end(), f.begin(), f.end())) break;
+        }
+        return s;
     }
     void grow() {
         std::vector<std::uint32_t> old(2 * slots_.size(), empty);
@@ -53,9 +76,80 @@ private:
             slots_[s] = id;
         }
     }
-    std::size_t k_, count_ = 0;
-    std::vector<unsigned long> exps_;
     std::vector<std::uint32_t> slots_;
+    std::vector<Power> powers_;
+    std::vector<std::size_t> start_;  // monomial id's powers are powers_[start_[id], start_[id + 1])
+};
+
+// The monomials the terms read, each made as the product of two made before it (a vectorial addition chain):
+// the constant is monomial 0 and the inputs 1..k; a monomial t is split as a + b with both made when some
+// divisor allows it, else as its largest made divisor a times the rest t - a, made first the same way. On
+// sparse polynomials (the rigid body's S_dt is a polynomial in squares) this makes far fewer monomials than
+// "one variable times a monomial of one degree less", whose intermediate chains cost more than the terms.
+class MonomialChain {
+public:
+    explicit MonomialChain(std::size_t k) {
+        made_.insert({});
+        for (std::uint32_t v = 0; v < k; ++v) {
+            const Power e{v, 1};
+            made_.insert(Exponents(&e, 1));
+        }
+    }
+    /// t's number in the chain, made (with what it needs) if new.
+    std::uint32_t make(Exponents t) {
+        if (const auto id = made_.find(t); id != MonomialTable::none) return id;
+        const std::vector<Power> whole(t.begin(), t.end());
+        Split s = split(whole);
+        if (s.b == MonomialTable::none) s.b = make(s.rest);
+        const std::uint32_t id = made_.insert(whole).first;
+        factors_.push_back({s.a, s.b});
+        return id;
+    }
+    /// Monomial k + 1 + m = monomial factors()[m].first * monomial factors()[m].second.
+    const std::vector<std::pair<std::uint32_t, std::uint32_t>>& factors() const { return factors_; }
+
+private:
+    struct Split {
+        std::uint32_t a = MonomialTable::none, b = MonomialTable::none;
+        std::vector<Power> rest;  // t - a when b is none
+    };
+    // At most this many divisors are tried per monomial (a degree-10 monomial in three variables has at
+    // most 6^2 5 of them); past it, the best made divisor found so far is used.
+    static constexpr std::size_t divisor_limit = 4096;
+
+    // The first split of t (of degree 2 or more) into two made monomials, its divisors taken in a fixed order;
+    // failing that, t's made divisor of the highest degree as a (b none, rest = t - a). The first divisor tried
+    // is t's first input, which is made: the best starts there.
+    Split split(const std::vector<Power>& t) const {
+        const std::size_t degree = total_degree(t);
+        std::vector<std::uint32_t> e(t.size(), 0);  // the divisor's exponents, a mixed-radix counter
+        std::vector<Power> a, b;
+        Split best{};
+        std::size_t best_degree = 0, tried = 0;
+        while (tried++ < divisor_limit) {
+            std::size_t i = 0;  // next divisor
+            for (; i < t.size() && e[i] == t[i].exponent; ++i) e[i] = 0;
+            if (i == t.size()) break;
+            ++e[i];
+            a.clear();
+            b.clear();
+            std::size_t da = 0;
+            for (std::size_t j = 0; j < t.size(); ++j) {
+                if (e[j] > 0) a.push_back({t[j].input, e[j]});
+                if (e[j] < t[j].exponent) b.push_back({t[j].input, t[j].exponent - e[j]});
+                da += e[j];
+            }
+            if (da == degree) continue;  // t itself
+            const std::uint32_t ia = made_.find(a);
+            if (ia == MonomialTable::none) continue;
+            if (const std::uint32_t ib = made_.find(b); ib != MonomialTable::none) return {ia, ib};
+            if (da > best_degree) best = Split{ia, MonomialTable::none, b}, best_degree = da;
+        }
+        return best;
+    }
+
+    MonomialTable made_;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> factors_;
 };
 
 // The double nearest to content * z (correctly rounded, as Rational::to_double): directly when numerator
@@ -84,12 +178,11 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
     std::vector<long> slot(ring->size(), -1);  // ring variable -> input position
     for (std::size_t i = 0; i < k; ++i) slot.at(inputs[i]) = static_cast<long>(i);
 
-    // Every monomial the outputs use, closed under "remove one unit of the first variable".
-    MonomialTable table(k);
-    std::vector<unsigned long> x(k, 0), y(k);
-    table.insert(x.data());  // the constant monomial
+    // Every term's monomial, numbered in the chain that makes it.
+    MonomialChain chain(k);
     const mpoly_ctx_struct* minfo = ring->ctx()->zctx->minfo;
     std::vector<ulong> e(static_cast<std::size_t>(minfo->nvars));
+    std::vector<Power> x;
     c.row_start_.push_back(0);
     for (std::size_t o = 0; o < outputs.size(); ++o) {
         const fmpq_mpoly_struct* f = outputs[o].get();
@@ -97,65 +190,43 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
         const std::size_t words = mpoly_words_per_exp(z->bits, minfo);
         for (slong t = 0; t < z->length; ++t) {
             mpoly_get_monomial_ui(e.data(), z->exps + std::size_t(t) * words, z->bits, minfo);
-            std::fill(x.begin(), x.end(), 0);
+            x.clear();
             for (std::size_t v = 0; v < ring->size(); ++v) {
                 if (e[v] == 0) continue;
                 if (slot[v] < 0)
                     throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " reads '" + ring->names()[v] +
                                                 "', which is not an input");
-                x[static_cast<std::size_t>(slot[v])] = e[v];
+                if (e[v] > UINT32_MAX) throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " has a power above 2^32");
+                x.push_back({static_cast<std::uint32_t>(slot[v]), static_cast<std::uint32_t>(e[v])});
             }
+            std::sort(x.begin(), x.end(), [](const Power& a, const Power& b) { return a.input < b.input; });
             const double coeff = term_value(f->content, z->coeffs + t);
             // NOTE: never let a rational become an infinite double silently
             if (!std::isfinite(coeff))
                 throw std::invalid_argument("a coefficient of " +
                                             std::to_string(fmpz_sizeinbase(fmpq_numref(outputs[o].term_coeff(std::size_t(t)).get()), 10)) +
                                             " digits in output " + std::to_string(o) + " is beyond the double range");
-            const auto [id, fresh] = table.insert(x.data());
-            c.term_monomial_.push_back(id);
+            c.term_monomial_.push_back(chain.make(x));
             c.term_coeff_.push_back(coeff);
-            if (!fresh) continue;
-            y = x;
-            for (auto v = y.begin();;) {  // the parents, until one is known
-                v = std::find_if(v, y.end(), [](unsigned long d) { return d > 0; });
-                --*v;
-                if (!table.insert(y.data()).second) break;
-            }
         }
         c.row_start_.push_back(static_cast<std::uint32_t>(c.term_coeff_.size()));
     }
-
-    // Total degree first, so a monomial's parent (one degree less) is always numbered before it.
-    const std::size_t count = table.count();
-    std::vector<unsigned long> degree(count);
-    for (std::uint32_t id = 0; id < count; ++id) degree[id] = std::accumulate(table.exponents(id), table.exponents(id) + k, 0ul);
-    std::vector<std::uint32_t> order(count);
+    // The products by level (an input is at level 0, a product one above its higher factor), made in the order
+    // of the chain within a level: a product then never waits on the one just before it (its store and the
+    // multiplication's latency), so the products of a level overlap.
+    const auto& factors = chain.factors();
+    const std::size_t first = 1 + k;
+    std::vector<std::uint32_t> level(first + factors.size(), 0);
+    for (std::size_t m = 0; m < factors.size(); ++m) level[first + m] = 1 + std::max(level[factors[m].first], level[factors[m].second]);
+    std::vector<std::uint32_t> order(factors.size());
     std::iota(order.begin(), order.end(), 0u);
-    // the same order on one word per monomial (degree, then the exponents in fields) when they fit in it
-    const unsigned width = std::bit_width(std::max<unsigned long>(1, *std::max_element(degree.begin(), degree.end())));
-    if (width * (k + 1) <= 64) {
-        std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(count);
-        for (std::uint32_t id = 0; id < count; ++id) {
-            std::uint64_t key = degree[id];
-            for (std::size_t v = 0; v < k; ++v) key = key << width | table.exponents(id)[v];
-            keyed[id] = {key, id};
-        }
-        std::sort(keyed.begin(), keyed.end());
-        for (std::uint32_t m = 0; m < count; ++m) order[m] = keyed[m].second;
-    } else {
-        std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-            if (degree[a] != degree[b]) return degree[a] < degree[b];
-            return std::lexicographical_compare(table.exponents(a), table.exponents(a) + k, table.exponents(b), table.exponents(b) + k);
-        });
-    }
-    std::vector<std::uint32_t> number(count);
-    for (std::uint32_t m = 0; m < count; ++m) number[order[m]] = m;
-    for (std::uint32_t m = 1; m < count; ++m) {
-        std::copy(table.exponents(order[m]), table.exponents(order[m]) + k, y.begin());
-        auto v = std::find_if(y.begin(), y.end(), [](unsigned long d) { return d > 0; });
-        --*v;
-        c.parent_.push_back(number[table.at(y.data())]);
-        c.var_.push_back(static_cast<std::uint32_t>(v - y.begin()));
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return level[first + a] < level[first + b]; });
+    std::vector<std::uint32_t> number(first + factors.size());
+    std::iota(number.begin(), number.begin() + std::ptrdiff_t(first), 0u);
+    for (std::size_t m = 0; m < order.size(); ++m) number[first + order[m]] = static_cast<std::uint32_t>(first + m);
+    for (std::uint32_t m : order) {
+        c.left_.push_back(number[factors[m].first]);
+        c.right_.push_back(number[factors[m].second]);
     }
     for (auto& id : c.term_monomial_) id = number[id];
     c.mono_.assign(c.num_monomials(), 0.0);
@@ -165,8 +236,10 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
 template <class T>
 void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
     mono[0] = T(1);
-    const std::size_t M = parent_.size();
-    for (std::size_t m = 0; m < M; ++m) mono[m + 1] = mono[parent_[m]] * in[var_[m]];
+    std::copy(in, in + num_inputs_, mono + 1);
+    T* made = mono + 1 + num_inputs_;
+    const std::size_t M = left_.size();
+    for (std::size_t m = 0; m < M; ++m) made[m] = mono[left_[m]] * mono[right_[m]];
     const std::size_t O = num_outputs();
     const double* c = term_coeff_.data();
     const std::uint32_t* tm = term_monomial_.data();
@@ -196,13 +269,15 @@ template <std::size_t W>
 void CompiledMap::eval_lanes(const double* __restrict in, std::size_t in_stride, double* __restrict out, std::size_t out_stride,
                              double* __restrict mono) const {
     for (std::size_t w = 0; w < W; ++w) mono[w] = 1.0;
-    const std::size_t M = parent_.size();
+    for (std::size_t v = 0; v < num_inputs_; ++v) std::copy(in + v * in_stride, in + v * in_stride + W, mono + (v + 1) * W);
+    double* made = mono + (1 + num_inputs_) * W;
+    const std::size_t M = left_.size();
     for (std::size_t k = 0; k < M; ++k) {
-        const double* parent = mono + std::size_t(parent_[k]) * W;
-        const double* v = in + std::size_t(var_[k]) * in_stride;
+        const double* a = mono + std::size_t(left_[k]) * W;
+        const double* b = mono + std::size_t(right_[k]) * W;
         double product[W];  // read both rows before writing: no aliasing to fear, so the lanes vectorise
-        for (std::size_t w = 0; w < W; ++w) product[w] = parent[w] * v[w];
-        std::copy(product, product + W, mono + (k + 1) * W);
+        for (std::size_t w = 0; w < W; ++w) product[w] = a[w] * b[w];
+        std::copy(product, product + W, made + k * W);
     }
     const double* c = term_coeff_.data();
     const std::uint32_t* tm = term_monomial_.data();

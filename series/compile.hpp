@@ -8,8 +8,8 @@
 
 namespace pgi {
 
-/// Several polynomials evaluated together in double: every monomial is formed once, from a monomial
-/// of one degree less times one input, and shared by all outputs; coefficients are rounded once
+/// Several polynomials evaluated together in double: every monomial is formed once, as the product of two
+/// monomials formed before it (the inputs first), and shared by all outputs; coefficients are rounded once
 /// (correctly) at build time. eval() runs no FLINT code and allocates nothing.
 class CompiledMap {
 public:
@@ -21,7 +21,8 @@ public:
 
     std::size_t num_inputs() const { return num_inputs_; }
     std::size_t num_outputs() const { return row_start_.empty() ? 0 : row_start_.size() - 1; }
-    std::size_t num_monomials() const { return parent_.size() + 1; }
+    /// The monomials formed: the constant, the inputs, and the products.
+    std::size_t num_monomials() const { return 1 + num_inputs_ + left_.size(); }
     std::size_t num_terms() const { return term_coeff_.size(); }
 
     /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch).
@@ -40,7 +41,7 @@ public:
 
 private:
     std::size_t num_inputs_ = 0;
-    std::vector<std::uint32_t> parent_, var_;       // monomial m+1 = monomial[parent_[m]] * in[var_[m]]
+    std::vector<std::uint32_t> left_, right_;       // monomial 1 + k + m = monomial[left_[m]] * monomial[right_[m]]
     std::vector<std::uint32_t> row_start_, term_monomial_;
     std::vector<double> term_coeff_;
     mutable std::vector<double> mono_;

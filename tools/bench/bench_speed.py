@@ -36,7 +36,7 @@ import time
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 WP_SCENES = ["rigid_body", "lotka_volterra", "henon_heiles"]
-ORDERS = [2, 4, 6, 8, 10]
+ORDERS = [2, 4, 6, 8, 10, 12, 14, 16]
 TOLS = [10.0 ** -e for e in range(6, 17)]
 TARGETS = [1e-10, 1e-12]
 MEMORY_LIMIT = 4 << 30  # address space of each lattice child: the machine is shared
