@@ -2,6 +2,7 @@
 // CompiledMap: polynomials compiled once to a floating-point evaluator (heyoka's "build once, step fast").
 #include "series/poly.hpp"
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -23,7 +24,9 @@ public:
     std::size_t num_outputs() const { return row_start_.empty() ? 0 : row_start_.size() - 1; }
     /// The monomials formed: the constant, the inputs, and the products.
     std::size_t num_monomials() const { return 1 + num_inputs_ + left_.size(); }
-    std::size_t num_terms() const { return term_coeff_.size(); }
+    /// The multiply-adds of one evaluation: the terms of the outputs evaluated one by one, and one per monomial
+    /// of each group of outputs evaluated together (four at a time).
+    std::size_t num_terms() const { return term_coeff_.size() + group_monomial_.size(); }
 
     /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch).
     void eval(const double* in, double* out) const;
@@ -44,7 +47,15 @@ private:
     std::vector<std::uint32_t> left_, right_;       // monomial 1 + k + m = monomial[left_[m]] * monomial[right_[m]]
     std::vector<std::uint32_t> row_start_, term_monomial_;
     std::vector<double> term_coeff_;
+    // groups of up to group_width outputs read together: group g's terms group_start_[g] .. group_start_[g + 1] - 1,
+    // term t reading monomial group_monomial_[t] times group_coeff_[t group_width + i] for its output i
+    static constexpr std::size_t group_width = 4;
+    static constexpr std::uint32_t no_output = UINT32_MAX;
+    std::vector<std::array<std::uint32_t, group_width>> group_output_;
+    std::vector<std::uint32_t> group_start_, group_monomial_;
+    std::vector<double> group_coeff_;
     mutable std::vector<double> mono_;
+    void group_outputs();
     template <class T>
     void eval_with(const T* in, T* out, T* mono) const;
     template <std::size_t W>

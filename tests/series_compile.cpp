@@ -80,3 +80,59 @@ TEST_CASE("compile: eval_batch of no points writes nothing") {
     map.eval_batch(nullptr, &out, 0, scratch);
     CHECK(out == 42);
 }
+
+TEST_CASE("compile: monomials are made as products of two (an addition chain), not one input at a time") {
+    const auto r = make_ring({"x", "y", "z"});
+    const auto f = [&](const char* s) { return Poly::parse(r, s); };
+    // x^16, y^16 by squaring (4 products each), x^16 y^16 as their product: 9 products; the inputs one at a time
+    // take 15 + 15 + 16 = 46
+    const CompiledMap powers = CompiledMap::build({f("x^16"), f("y^16"), f("x^16*y^16")}, {0, 1, 2});
+    CHECK(powers.num_monomials() == 1 + 3 + 9);
+    // a polynomial in squares (the rigid body's S_dt): every monomial of degree 2j is a product of two of
+    // lower degree, one product each (9 of them); one input at a time would add intermediate ones (x y^2, ...)
+    const CompiledMap squares = CompiledMap::build({f("x^2 + y^2 + z^2 + x^2*y^2 + y^2*z^2 + x^2*z^2 + x^4*y^2 + x^2*y^2*z^2 + x^4*z^4")}, {0, 1, 2});
+    CHECK(squares.num_monomials() == 1 + 3 + 9);
+    const double in[3] = {0.5, -2, 4};
+    double out = 0;
+    squares.eval(in, &out);
+    CHECK(out == 0.25 + 4 + 16 + 1 + 64 + 4 + 0.25 + 16 + 0.0625 * 256);  // powers of two: exact in any order
+}
+
+TEST_CASE("compile: outputs sharing their monomials are evaluated four at a time, with eval_batch's bits and exact values") {
+    const auto r = make_ring({"x", "y", "z"});
+    std::mt19937 gen(5);
+    std::uniform_int_distribution<long> coeff(-9, 9);
+    std::uniform_int_distribution<unsigned long> ex(0, 3);
+    // f and seven outputs on f's monomials (other coefficients, and a constant), plus one on others: two groups of
+    // four, and a lone output
+    Poly f(r), lone(r);
+    for (int t = 0; t < 40; ++t) {
+        Poly m = Poly::constant(r, Rational(coeff(gen), 4));
+        for (std::size_t v = 0; v < 3; ++v) m = m * pow(Poly::gen(r, v), ex(gen));
+        f += m;
+    }
+    lone = pow(Poly::gen(r, 0), 9) + pow(Poly::gen(r, 1), 11);
+    std::vector<Poly> outputs{f, lone};
+    for (long c : {2, -3, 5, 7, -11, 13, -17}) outputs.push_back(Poly::constant(r, Rational(c, 8)) * f + Poly::constant(r, Rational(c)));
+    const CompiledMap map = CompiledMap::build(outputs, {0, 1, 2});
+    std::size_t one_by_one = 0;
+    for (const auto& o : outputs) one_by_one += o.length();
+    CHECK(map.num_terms() * 3 < one_by_one);  // grouped: each shared monomial read once per group of four
+    // dyadic inputs: every term and partial sum is exact (coefficients k/32, powers of 1/2 and 2), so any order gives
+    // the exact value
+    const std::vector<double> point{0.5, -2, 0.25};
+    std::vector<double> y(outputs.size());
+    map.eval(point.data(), y.data());
+    for (std::size_t o = 0; o < outputs.size(); ++o) CHECK(y[o] == evaluate(outputs[o], point));
+    // each lane of a batch is eval()'s, bit for bit
+    std::uniform_real_distribution<double> input(-1.5, 1.5);
+    const std::size_t m = 21;
+    std::vector<double> in(3 * m), out(outputs.size() * m), scratch;
+    for (auto& v : in) v = input(gen);
+    map.eval_batch(in.data(), out.data(), m, scratch);
+    for (std::size_t j = 0; j < m; ++j) {
+        const double x[3] = {in[j], in[m + j], in[2 * m + j]};
+        map.eval(x, y.data());
+        for (std::size_t o = 0; o < outputs.size(); ++o) CHECK(bits(out[o * m + j]) == bits(y[o]));
+    }
+}
