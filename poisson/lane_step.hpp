@@ -60,7 +60,7 @@ private:
     void close_round(const NewtonStepper& s, StepStatus* status);
 
     double dt_ = 0;
-    T x_[N], xb_[N], good_[N], p_[N], r_[N], dx_[N], H_[N * N], lu_[N * N];
+    T x_[N], xb_[N], good_[N], p_[N], r_[N], dx_[N], H_[N * N], lu_[N * N], pivot_inverse_[N];
     Mask swaps_[N * (N - 1) / 2 + 1];  // the LU's row exchanges, as masks, in the order it made them
     LaneRealisation<N, T> values_;
     LaneCheck<N, T> check_;

@@ -68,6 +68,7 @@ LaneStep<N, T>::LaneStep(const NewtonStepper& s)
     : gh_(s.with_hessian().width(), T{}), scratch_(N, T{}), maps_(s.realisation_.lane_scratch<T>()) {
     for (auto& e : H_) e = T{};
     for (auto& e : lu_) e = T{};
+    for (auto& e : pivot_inverse_) e = T{};
     for (auto* v : {x_, xb_, good_, p_, r_, dx_})
         for (int i = 0; i < N; ++i) v[i] = T{};
     for (auto& m : swaps_) m = lanes::none_mask<T>();
@@ -75,10 +76,12 @@ LaneStep<N, T>::LaneStep(const NewtonStepper& s)
 
 // J's LU with partial pivoting, the row exchanges as masks: for column k, row i > k is exchanged with row k where
 // |J(i, k)| > |J(k, k)| (so row k ends with the first largest), then the multipliers and the update. Kept for the
-// lanes of F.
+// lanes of F, with the pivots' inverses: a division each, not one per multiplier and per solve (a division's
+// latency is four multiplications', and the solve's run one after another; the rounding of a correction differs
+// by an ulp, which Newton does not see).
 template <int N, class T>
 void LaneStep<N, T>::factor(Mask F, const T* J) {
-    T A[N * N];
+    T A[N * N], inverse[N];
     for (int e = 0; e < N * N; ++e) A[e] = J[e];
     int swap = 0;
     for (int k = 0; k < N; ++k) {
@@ -91,13 +94,15 @@ void LaneStep<N, T>::factor(Mask F, const T* J) {
             }
             swaps_[swap] = select(F, exchange, swaps_[swap]);
         }
+        inverse[k] = 1.0 / A[k + N * k];
         for (int i = k + 1; i < N; ++i) {
-            const T l = A[i + N * k] / A[k + N * k];
+            const T l = A[i + N * k] * inverse[k];
             A[i + N * k] = l;
             for (int j = k + 1; j < N; ++j) A[i + N * j] = A[i + N * j] - l * A[k + N * j];
         }
     }
     commit<N * N>(F, A, lu_);
+    commit<N>(F, inverse, pivot_inverse_);
 }
 
 // d = J^{-1} b with the kept factors: the exchanges, then L (unit diagonal) and U.
@@ -115,7 +120,7 @@ void LaneStep<N, T>::solve_kept(const T* b, T* d) const {
         for (int j = 0; j < i; ++j) d[i] = d[i] - lu_[i + N * j] * d[j];
     for (int i = N - 1; i >= 0; --i) {
         for (int j = i + 1; j < N; ++j) d[i] = d[i] - lu_[i + N * j] * d[j];
-        d[i] = d[i] / lu_[i + N * i];
+        d[i] = d[i] * pivot_inverse_[i];
     }
 }
 

@@ -386,7 +386,7 @@ void CompiledMap::group_outputs() {
 template <class T>
 void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
     mono[0] = T(1);
-    std::copy(in, in + num_inputs_, mono + 1);
+    for (std::size_t v = 0; v < num_inputs_; ++v) mono[1 + v] = in[v];  // (a few: a loop, not a call to memmove)
     T* made = mono + 1 + num_inputs_;
     const std::size_t M = left_.size();
     for (std::size_t m = 0; m < M; ++m) made[m] = mono[left_[m]] * mono[right_[m]];

@@ -77,7 +77,7 @@ struct Method {
 
 /// Runs a method `repeats` times while runs are short (< 0.2 s), keeping the fastest time: the
 /// machines are shared and noisy, and the best time is the least disturbed.
-Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, double value, int repeats = 3);
+Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, double value, int repeats = 9);
 
 /// The absolute tolerance matching a relative one at the scale of x0 (its largest component), so the
 /// adaptive peers are asked the same relative accuracy at |x| = 1e-6 and at |x| = 1e6.
