@@ -31,16 +31,33 @@ void eval_map(const CompiledMap& map, const lanes::PackOf<P>* in, lanes::PackOf<
     dh = (-dq_dt / (2 * t) - h) / s;
 }
 
-// sum_{j<J} b[j] (-s)^j and (with_derivative) its derivative in s, by Horner.
+// sum_{j<J} c[j] u^j by Estrin's scheme: pairs c[j] + c[j+1] u, then pairs of those with u^2, u^4, ... A
+// depth of about 2 log2 J multiply-adds, where Horner's is J: h(s) is a chain of ten (twenty) otherwise, the
+// longest latency of the so(3) step, which has nothing else to overlap it with.
+template <class T>
+PGI_LANE_INLINE T estrin(const double* c, std::size_t J, const T& u) {
+    T q[20];
+    std::size_t m = 0;
+    for (std::size_t j = 0; j < J; j += 2) q[m++] = j + 1 < J ? lanes::splat<T>(c[j + 1]) * u + c[j] : lanes::splat<T>(c[j]);
+    T power = u * u;
+    while (m > 1) {
+        std::size_t k = 0;
+        for (std::size_t j = 0; j < m; j += 2) q[k++] = j + 1 < m ? q[j + 1] * power + q[j] : q[j];
+        m = k;
+        if (m > 1) power = power * power;
+    }
+    return q[0];
+}
+
+// sum_{j<J} b[j] (-s)^j and (with_derivative) its derivative in s, J <= 20.
 template <bool with_derivative, class T>
-PGI_LANE_INLINE void bernoulli_horner(const std::vector<double>& b, std::size_t J, const T& s, T& h, T& dh) {
+PGI_LANE_INLINE void bernoulli_sum(const std::vector<double>& b, std::size_t J, const T& s, T& h, T& dh) {
     const T minus_s = -s;
-    h = lanes::splat<T>(b[J - 1]);
-    if constexpr (with_derivative) dh = lanes::splat<T>(-double(J - 1) * b[J - 1]);
-    for (std::size_t j = J - 1; j-- > 0;) {
-        h = h * minus_s + b[j];
-        if constexpr (with_derivative)
-            if (j > 0) dh = dh * minus_s + (-double(j) * b[j]);
+    h = estrin(b.data(), J, minus_s);
+    if constexpr (with_derivative) {
+        double d[20];  // d/ds b[j] (-s)^j = -j b[j] (-s)^(j-1)
+        for (std::size_t j = 1; j < J; ++j) d[j - 1] = -double(j) * b[j];
+        dh = estrin(d, J - 1, minus_s);
     }
 }
 
@@ -51,11 +68,11 @@ PGI_LANE_INLINE void bernoulli_horner(const std::vector<double>& b, std::size_t 
 template <bool with_derivative, class T>
 void rotation_coefficient(T s, const std::vector<double>& b, T& h, T& dh) {
     constexpr std::size_t short_terms = 10;
-    bernoulli_horner<with_derivative>(b, short_terms, s, h, dh);
+    bernoulli_sum<with_derivative>(b, short_terms, s, h, dh);
     const auto longer = lanes::both(s > 0.25, s <= 4.0);
     if (lanes::any(longer)) {
         T hl, dhl;
-        bernoulli_horner<with_derivative>(b, b.size(), s, hl, dhl);
+        bernoulli_sum<with_derivative>(b, b.size(), s, hl, dhl);
         h = lanes::select(longer, hl, h);
         if constexpr (with_derivative) dh = lanes::select(longer, dhl, dh);
     }
