@@ -54,8 +54,17 @@ private:
     std::vector<std::array<std::uint32_t, group_width>> group_output_;
     std::vector<std::uint32_t> group_start_, group_monomial_;
     std::vector<double> group_coeff_;
+    // eval_lanes' terms of a grouped output o (split_sums; start is UINT32_MAX for the others): from lane_row_[o].start,
+    // quads of terms going into partial sums 0..3, then tail[a] terms into sum a: eval_with's sums without the zeros
+    struct LaneRow {
+        std::uint32_t start, quads, tail[4];
+    };
+    std::vector<LaneRow> lane_row_;
+    std::vector<std::uint32_t> lane_monomial_;
+    std::vector<double> lane_coeff_;
     mutable std::vector<double> mono_;
     void group_outputs();
+    void split_sums();
     template <class T>
     void eval_with(const T* in, T* out, T* mono) const;
     template <std::size_t W>

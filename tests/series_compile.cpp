@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <bit>
+#include <cmath>
 #include <cstdlib>
 #include <cstdint>
 #include <random>
@@ -124,6 +125,24 @@ TEST_CASE("compile: outputs sharing their monomials are evaluated four at a time
     std::vector<double> y(outputs.size());
     map.eval(point.data(), y.data());
     for (std::size_t o = 0; o < outputs.size(); ++o) CHECK(y[o] == evaluate(outputs[o], point));
+    // a monomial only one output of a group reads overflows: that output is infinite, the others stay finite (the
+    // group's zero coefficients add nothing, not 0 inf = NaN), and eval_batch agrees bit for bit
+    {
+        std::vector<Poly> g{f + pow(Poly::gen(r, 0), 5)};
+        for (long c : {2, 3, 5}) g.push_back(Poly::constant(r, Rational(c)) * f);
+        const CompiledMap overflow = CompiledMap::build(g, {0, 1, 2});
+        REQUIRE(overflow.num_terms() < f.length() + 1 + 3 * f.length());  // grouped
+        const double huge[3] = {1e70, 0.5, 0.5};  // x^5 = inf, f's monomials (x^3 at most) finite
+        std::vector<double> v(4), scratch_overflow;
+        overflow.eval(huge, v.data());
+        CHECK(std::isinf(v[0]));
+        for (std::size_t o = 1; o < 4; ++o) CHECK(std::isfinite(v[o]));
+        const std::size_t m8 = CompiledMap::batch_lanes;  // a whole block: the lanes' own code, not eval's
+        std::vector<double> in8(3 * m8), out8(4 * m8);
+        for (std::size_t v3 = 0; v3 < 3; ++v3) std::fill_n(in8.begin() + std::ptrdiff_t(v3 * m8), m8, huge[v3]);
+        overflow.eval_batch(in8.data(), out8.data(), m8, scratch_overflow);
+        for (std::size_t o = 0; o < 4; ++o) CHECK(bits(out8[o * m8 + m8 - 1]) == bits(v[o]));
+    }
     // each lane of a batch is eval()'s, bit for bit
     std::uniform_real_distribution<double> input(-1.5, 1.5);
     const std::size_t m = 21;
