@@ -36,7 +36,7 @@ void eval_map(const CompiledMap& map, const lanes::PackOf<P>* in, lanes::PackOf<
 // longest latency of the so(3) step, which has nothing else to overlap it with.
 template <class T>
 PGI_LANE_INLINE T estrin(const double* c, std::size_t J, const T& u) {
-    T q[20];
+    T q[20]{};  // (J >= 1 always; value-initialised so GCC need not prove it)
     std::size_t m = 0;
     for (std::size_t j = 0; j < J; j += 2) q[m++] = j + 1 < J ? lanes::splat<T>(c[j + 1]) * u + c[j] : lanes::splat<T>(c[j]);
     T power = u * u;
