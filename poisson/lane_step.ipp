@@ -4,6 +4,7 @@
 #pragma once
 #include "poisson/lane_step.hpp"
 #include "poisson/newton_step.hpp"
+#include "series/compile_lanes.ipp"
 
 #include <cmath>
 #include <limits>
@@ -25,15 +26,30 @@ constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
 constexpr double residual_kappa = 64;
 constexpr double simplified_from = 1e-4;
 
+static_assert(lanes::width == CompiledMap::batch_lanes, "a pack's lanes are one block of CompiledMap::eval_batch");
+
 void eval_dt(const DtSeriesMap& map, const double* in, double dt, double* out, BatchScratch&) { map.eval(in, dt, out); }
+// At the planned dt, the lane kernel compiled in this file (for AVX2 in lane_step_avx2.cpp): what map.eval_batch runs
+// there (one block of batch_lanes points), the same bits; elsewhere eval_batch itself.
 template <std::size_t P>
 void eval_dt(const DtSeriesMap& map, const lanes::PackOf<P>* in, double dt, lanes::PackOf<P>* out, BatchScratch& scratch) {
-    map.eval_batch(reinterpret_cast<const double*>(in), dt, reinterpret_cast<double*>(out), lanes::width, scratch);
+    const auto* x = reinterpret_cast<const double*>(in);
+    auto* y = reinterpret_cast<double*>(out);
+    if (const CompiledMap* planned = map.planned_at(dt))
+        eval_tape_lanes<lanes::width>(planned->tape(), x, lanes::width, y, lanes::width, scratch.map.data());
+    else
+        map.eval_batch(x, dt, y, lanes::width, scratch);
 }
 void predict(const Predictor& p, const double* x, double dt, double* xb, BatchScratch&) { p.eval(x, dt, xb); }
+// Predictor::eval_batch's operations: the series, then x added.
 template <std::size_t P>
 void predict(const Predictor& p, const lanes::PackOf<P>* x, double dt, lanes::PackOf<P>* xb, BatchScratch& scratch) {
-    p.eval_batch(reinterpret_cast<const double*>(x), dt, reinterpret_cast<double*>(xb), lanes::width, scratch);
+    if (p.order() == 0 || !p.series().planned_at(dt)) {
+        p.eval_batch(reinterpret_cast<const double*>(x), dt, reinterpret_cast<double*>(xb), lanes::width, scratch);
+        return;
+    }
+    eval_dt(p.series(), x, dt, xb, scratch);
+    for (std::size_t i = 0; i < p.series().width(); ++i) xb[i] = xb[i] + x[i];
 }
 
 // |v|_inf, a NaN of v propagated.
@@ -66,6 +82,7 @@ PGI_LANE_INLINE void commit(lanes::mask_t<T> m, const T* from, T* to) {
 template <int N, class T>
 LaneStep<N, T>::LaneStep(const NewtonStepper& s)
     : gh_(s.with_hessian().width(), T{}), scratch_(N, T{}), maps_(s.realisation_.lane_scratch<T>()) {
+    if constexpr (lanes != 1) s.size_lane_maps(dt_maps_);
     for (auto& e : H_) e = T{};
     for (auto& e : lu_) e = T{};
     for (auto& e : pivot_inverse_) e = T{};

@@ -95,6 +95,13 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     return build(pi, S, source, opt, x_typical);
 }
 
+void NewtonStepper::size_lane_maps(BatchScratch& scratch) const {
+    std::size_t monomials = 0;
+    for (const DtSeriesMap* m : {&gradient_.with_hessian, &gradient_.gradient, &predictor_.series()})
+        if (const CompiledMap* planned = m->planned_at(opt_.dt)) monomials = std::max(monomials, planned->num_monomials());
+    if (scratch.map.size() < monomials * CompiledMap::batch_lanes) scratch.map.resize(monomials * CompiledMap::batch_lanes);
+}
+
 void NewtonStepper::set_dt(double dt) {
     if (!(dt > 0) || !std::isfinite(dt)) throw std::invalid_argument("NewtonStepper: dt must be positive and finite");
     dt_ = dt;

@@ -91,6 +91,10 @@ public:
     /// N when the step is LaneStep<N, double> (the dense step at N = 2, 3, 4, 6 with the so(3) or the compiled
     /// polynomial realisation), which BatchStepper runs on lanes::width states at once; 0 otherwise.
     std::size_t lane_dimension() const { return lane_.index() == 0 ? 0 : dim(); }
+    /// Sizes scratch for the lane kernel (series/compile_lanes.ipp) of the planned maps LaneStep runs on packs: grad
+    /// and Hess S_dt, grad S_dt and the predictor. Here, in the baseline library, because a std::vector's growth must
+    /// not be compiled for AVX2 (tests/lane_isa.sh).
+    void size_lane_maps(BatchScratch& scratch) const;
 
 private:
     template <int, class>

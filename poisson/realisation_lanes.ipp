@@ -6,6 +6,7 @@
 #include "poisson/lanes.hpp"
 #include "poisson/log_canonical.ipp"
 #include "poisson/realisation_eval.hpp"
+#include "series/compile_lanes.ipp"
 
 #include <algorithm>
 #include <cmath>
@@ -14,12 +15,14 @@ namespace pgi {
 
 namespace {
 
-// The compiled map at one state (eval) or at lanes::width (eval_batch, structure of arrays: a Pack array is
-// input v of lane w at v width + w): eval_batch gives each lane eval's bits.
+// The compiled map at one state (eval) or at lanes::width (structure of arrays: a Pack array is input v of lane w
+// at v width + w) by the lane kernel compiled in this file, what eval_batch runs on one block: each lane eval's
+// bits. scratch is sized by RealisationEvaluator::lane_scratch (in the baseline library).
 void eval_map(const CompiledMap& map, const double* in, double* out, std::vector<double>&) { map.eval(in, out); }
 template <std::size_t P>
 void eval_map(const CompiledMap& map, const lanes::PackOf<P>* in, lanes::PackOf<P>* out, std::vector<double>& scratch) {
-    map.eval_batch(reinterpret_cast<const double*>(in), reinterpret_cast<double*>(out), lanes::width, scratch);
+    eval_tape_lanes<lanes::width>(map.tape(), reinterpret_cast<const double*>(in), lanes::width, reinterpret_cast<double*>(out),
+                                  lanes::width, scratch.data());
 }
 
 // h(s) = (1 - (t/2) cot(t/2)) / s, s = t^2, and dh/ds in closed form: for s > 4, where the series below is slow.

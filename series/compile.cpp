@@ -1,4 +1,5 @@
 #include "series/compile.hpp"
+#include "series/compile_lanes.ipp"
 
 #include <flint/mpoly.h>
 
@@ -266,13 +267,13 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
     return c;
 }
 
-// eval_lanes' terms of a grouped output: which of eval_with's four partial sums each goes into (the term at
+// The lane kernel's terms of a grouped output (eval_tape_lanes, series/compile_lanes.ipp): which of eval_with's four partial sums each goes into (the term at
 // position p of its group's union of length L goes into sum p mod 4, the last L mod 4 into sum 0, as a row's; the
 // padding zeros into none), laid out in one stream: quads (sum 0, 1, 2, 3) while every sum has terms, then what
 // is left of sum 0, 1, 2 and 3.
 void CompiledMap::split_sums() {
     const std::size_t O = num_outputs();
-    lane_row_.assign(O, LaneRow{UINT32_MAX, 0, {}});  // not grouped: eval_lanes reads the row
+    lane_row_.assign(O, LaneRow{UINT32_MAX, 0, {}});  // not grouped: the lane kernel reads the row
     const auto sum_of = [](std::size_t p, std::size_t L) { return p < L / 4 * 4 ? p % 4 : 0; };
     for (std::size_t g = 0; g < group_output_.size(); ++g) {
         const std::size_t L = group_start_[g + 1] - group_start_[g];
@@ -306,7 +307,7 @@ struct GroupSums {
     Pair lo{}, hi{};
     using Bits = long long __attribute__((vector_size(16)));
     // acc += c m where c is not zero (a padding zero adds +0, which leaves a sum that started at +0 as it is, even
-    // where m is infinite or NaN: eval_lanes skips those terms, and the bits agree)
+    // where m is infinite or NaN: the lane kernel skips those terms, and the bits agree)
     void add(const double* c, double m) {
         Pair a, b;
         std::memcpy(&a, c, sizeof a);
@@ -476,67 +477,6 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
 
 void CompiledMap::eval(const double* in, double* out) const { eval_with(in, out, mono_.data()); }
 
-// W points ("lanes") at once: input v of lane w at in[v in_stride + w], output o at out[o out_stride + w],
-// monomial k at mono[k W + w]. eval_with's operations, in its order, once per lane (the four partial sums
-// and their final pairing included), so each lane gets exactly eval()'s bits; the loops over the lanes are
-// the inner ones, of a fixed length, which the compiler vectorises.
-template <std::size_t W>
-void CompiledMap::eval_lanes(const double* __restrict in, std::size_t in_stride, double* __restrict out, std::size_t out_stride,
-                             double* __restrict mono) const {
-    for (std::size_t w = 0; w < W; ++w) mono[w] = 1.0;
-    for (std::size_t v = 0; v < num_inputs_; ++v) std::copy(in + v * in_stride, in + v * in_stride + W, mono + (v + 1) * W);
-    double* made = mono + (1 + num_inputs_) * W;
-    const std::size_t M = left_.size();
-    for (std::size_t k = 0; k < M; ++k) {
-        const double* a = mono + std::size_t(left_[k]) * W;
-        const double* b = mono + std::size_t(right_[k]) * W;
-        double product[W];  // read both rows before writing: no aliasing to fear, so the lanes vectorise
-        for (std::size_t w = 0; w < W; ++w) product[w] = a[w] * b[w];
-        std::copy(product, product + W, made + k * W);
-    }
-    // the rows as eval_with adds them (each lane the same operations), then the grouped outputs: their four partial
-    // sums side by side over quads of terms, then the sums' tails (split_sums), without the zeros a group pads with.
-    // Two loops, not one stream for both: GCC allocates the sixteen lane-pairs of partial sums to registers in the
-    // first; in a single loop over the stream it spilled some and left stragglers scalar (the batch step 1.2x slower).
-    const auto term = [mono](std::uint32_t m, double c, double* acc) {
-        const double* a = mono + std::size_t(m) * W;
-        for (std::size_t w = 0; w < W; ++w) acc[w] += c * a[w];
-    };
-    for (std::size_t o = 0; o < num_outputs(); ++o) {
-        std::uint32_t t = row_start_[o];
-        const std::uint32_t end = row_start_[o + 1];
-        if (t == end && lane_row_[o].start != UINT32_MAX) continue;  // grouped: below
-        double s0[W] = {}, s1[W] = {}, s2[W] = {}, s3[W] = {};
-        for (; t + 4 <= end; t += 4) {
-            term(term_monomial_[t], term_coeff_[t], s0);
-            term(term_monomial_[t + 1], term_coeff_[t + 1], s1);
-            term(term_monomial_[t + 2], term_coeff_[t + 2], s2);
-            term(term_monomial_[t + 3], term_coeff_[t + 3], s3);
-        }
-        for (; t < end; ++t) term(term_monomial_[t], term_coeff_[t], s0);
-        for (std::size_t w = 0; w < W; ++w) out[o * out_stride + w] = (s0[w] + s1[w]) + (s2[w] + s3[w]);
-    }
-    const double* c = lane_coeff_.data();
-    const std::uint32_t* tm = lane_monomial_.data();
-    for (std::size_t o = 0; o < num_outputs(); ++o) {
-        const LaneRow& row = lane_row_[o];
-        if (row.start == UINT32_MAX) continue;
-        double s0[W] = {}, s1[W] = {}, s2[W] = {}, s3[W] = {};
-        std::uint32_t t = row.start;
-        for (const std::uint32_t end = t + 4 * row.quads; t < end; t += 4) {
-            term(tm[t], c[t], s0);
-            term(tm[t + 1], c[t + 1], s1);
-            term(tm[t + 2], c[t + 2], s2);
-            term(tm[t + 3], c[t + 3], s3);
-        }
-        for (std::uint32_t i = 0; i < row.tail[0]; ++i, ++t) term(tm[t], c[t], s0);
-        for (std::uint32_t i = 0; i < row.tail[1]; ++i, ++t) term(tm[t], c[t], s1);
-        for (std::uint32_t i = 0; i < row.tail[2]; ++i, ++t) term(tm[t], c[t], s2);
-        for (std::uint32_t i = 0; i < row.tail[3]; ++i, ++t) term(tm[t], c[t], s3);
-        for (std::size_t w = 0; w < W; ++w) out[o * out_stride + w] = (s0[w] + s1[w]) + (s2[w] + s3[w]);
-    }
-}
-
 void CompiledMap::eval_batch(const double* in, double* out, std::size_t m, std::vector<double>& scratch) const {
     // Blocks of W lanes: the monomials of one block (W num_monomials() doubles) stay in cache whatever m is.
     constexpr std::size_t W = batch_lanes;
@@ -544,7 +484,7 @@ void CompiledMap::eval_batch(const double* in, double* out, std::size_t m, std::
     if (scratch.size() < (M + k + O) * W) scratch.resize((M + k + O) * W);
     double* mono = scratch.data();
     std::size_t j = 0;
-    for (; j + W <= m; j += W) eval_lanes<W>(in + j, m, out + j, m, mono);
+    for (; j + W <= m; j += W) eval_tape_lanes<W>(tape(), in + j, m, out + j, m, mono);
     const std::size_t rest = m - j;
     if (rest == 0) return;
     double *tin = mono + M * W, *tout = tin + k * W;
@@ -559,7 +499,7 @@ void CompiledMap::eval_batch(const double* in, double* out, std::size_t m, std::
     // the last, partial block: its lanes padded with copies of its last point, only the real ones written
     for (std::size_t v = 0; v < k; ++v)
         for (std::size_t w = 0; w < W; ++w) tin[v * W + w] = in[v * m + j + std::min(w, rest - 1)];
-    eval_lanes<W>(tin, W, tout, W, mono);
+    eval_tape_lanes<W>(tape(), tin, W, tout, W, mono);
     for (std::size_t o = 0; o < O; ++o)
         for (std::size_t w = 0; w < rest; ++w) out[o * m + j + w] = tout[o * W + w];
 }

@@ -38,6 +38,26 @@ public:
     /// too small: reused, it allocates nothing. Unlike eval(), thread-safe (all scratch is the caller's).
     void eval_batch(const double* in, double* out, std::size_t m, std::vector<double>& scratch) const;
     static constexpr std::size_t batch_lanes = 8;
+
+    /// A grouped output's terms for the lanes (split_sums): from start, quads going into partial sums 0..3, then
+    /// tail[a] terms into sum a; start is UINT32_MAX for an output evaluated from its row.
+    struct LaneRow {
+        std::uint32_t start, quads, tail[4];
+    };
+    /// The evaluator's arrays, read-only, for the lane kernel (series/compile_lanes.ipp) that each instruction set's
+    /// file compiles for itself (the batch step's AVX2 file, poisson/lane_step_avx2.cpp, too).
+    struct Tape {
+        std::size_t inputs, products, outputs;
+        const std::uint32_t *left, *right, *row_start, *term_monomial;
+        const double* term_coeff;
+        const LaneRow* lane_row;
+        const std::uint32_t* lane_monomial;
+        const double* lane_coeff;
+    };
+    Tape tape() const {
+        return {num_inputs_,         left_.size(),        num_outputs(),        left_.data(), right_.data(), row_start_.data(),
+                term_monomial_.data(), term_coeff_.data(), lane_row_.data(), lane_monomial_.data(), lane_coeff_.data()};
+    }
     /// The same polynomials (with the same double coefficients) in long double, for reference
     /// solutions of the problem the double evaluator defines; scratch is resized as needed.
     void eval(const long double* in, long double* out, std::vector<long double>& scratch) const;
@@ -54,11 +74,7 @@ private:
     std::vector<std::array<std::uint32_t, group_width>> group_output_;
     std::vector<std::uint32_t> group_start_, group_monomial_;
     std::vector<double> group_coeff_;
-    // eval_lanes' terms of a grouped output o (split_sums; start is UINT32_MAX for the others): from lane_row_[o].start,
-    // quads of terms going into partial sums 0..3, then tail[a] terms into sum a: eval_with's sums without the zeros
-    struct LaneRow {
-        std::uint32_t start, quads, tail[4];
-    };
+    // the lanes' terms of a grouped output (LaneRow): eval_with's sums without the zeros
     std::vector<LaneRow> lane_row_;
     std::vector<std::uint32_t> lane_monomial_;
     std::vector<double> lane_coeff_;
@@ -67,8 +83,6 @@ private:
     void split_sums();
     template <class T>
     void eval_with(const T* in, T* out, T* mono) const;
-    template <std::size_t W>
-    void eval_lanes(const double* in, std::size_t in_stride, double* out, std::size_t out_stride, double* mono) const;
 };
 
 }  // namespace pgi
