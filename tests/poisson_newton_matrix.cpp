@@ -196,3 +196,46 @@ TEST_CASE("newton matrix: the sparse and dense solves agree on random sparse sys
     sparse.assemble(zx.data(), zp.data(), zh.data());
     CHECK_FALSE(sparse.solve(r, b));
 }
+
+TEST_CASE("sparse hessian: grad S_dt and Hess S_dt on its whole pattern from the upper triangle compiled, exactly") {
+    // random S_1..S_3 in four coordinates with dyadic coefficients, a dyadic dt and point: every term and partial sum
+    // is exact in double, so the compiled values equal the exact ones whatever the evaluation order
+    PhaseSpace M({"a", "b", "c", "d"});
+    std::mt19937 gen(13);
+    std::uniform_int_distribution<long> coeff(-7, 7);
+    std::uniform_int_distribution<unsigned long> ex(0, 2);
+    std::vector<Poly> S;
+    for (int j = 0; j < 3; ++j) {
+        Poly f(M.ring());
+        for (int t = 0; t < 12; ++t) {
+            Poly m = Poly::constant(M.ring(), Rational(coeff(gen), 4));
+            for (std::size_t v = 0; v < 3; ++v) m = m * pow(M.x_gen(v), ex(gen));  // d never appears: a row of zeros
+            f += m;
+        }
+        S.push_back(f);
+    }
+    const double dt = 0.5;
+    const CompiledGradient g = compile_gradient(M, S, dt);
+    const Poly S_dt = sum_powers(S, Rational::from_double(dt), 1);
+    std::vector<double> point(M.ring()->size(), 0.0), x{0.5, -2, 1, 4};
+    std::copy(x.begin(), x.end(), point.begin());
+    std::vector<double> gh(g.with_hessian.width()), hessian(g.hessian.nonzeros());
+    g.with_hessian.eval(x.data(), dt, gh.data());
+    expand_hessian(g, gh.data() + 4, hessian.data());
+    std::size_t upper = 0, mirrored = 0;
+    for (std::size_t c = 0; c < 4; ++c) {
+        const Poly dc = derivative(S_dt, M.x(c));
+        CHECK(gh[c] == evaluate(dc, point));
+        for (int k = g.hessian.outer[c]; k < g.hessian.outer[c + 1]; ++k) {
+            const auto r = std::size_t(g.hessian.inner[std::size_t(k)]);
+            CAPTURE(r);
+            CAPTURE(c);
+            CHECK(hessian[std::size_t(k)] == evaluate(derivative(dc, M.x(r)), point));
+            CHECK(g.hessian.find(int(c), int(r)) >= 0);  // symmetric pattern
+            (r <= c ? upper : mirrored)++;
+        }
+    }
+    CHECK(mirrored > 0);
+    CHECK(g.with_hessian.width() == 4 + upper);  // only the upper triangle compiled
+    CHECK(g.hessian.outer[4] == g.hessian.outer[3]);  // d holds nothing
+}
