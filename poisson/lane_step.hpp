@@ -56,7 +56,7 @@ private:
     void factor(Mask F, const T* J);
     void solve_kept(const T* b, T* d) const;
     void restart(Mask R);
-    void end(Mask E, StepStatus st);
+    [[gnu::always_inline]] inline void end(Mask E, StepStatus st);
     void close_round(const NewtonStepper& s, StepStatus* status);
 
     double dt_ = 0;

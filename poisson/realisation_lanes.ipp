@@ -34,33 +34,40 @@ void eval_map(const CompiledMap& map, const lanes::PackOf<P>* in, lanes::PackOf<
     dh = (-dq_dt / (2 * t) - h) / s;
 }
 
-// sum_{j<J} c[j] u^j by Estrin's scheme: pairs c[j] + c[j+1] u, then pairs of those with u^2, u^4, ... A
-// depth of about 2 log2 J multiply-adds, where Horner's is J: h(s) is a chain of ten (twenty) otherwise, the
-// longest latency of the so(3) step, which has nothing else to overlap it with.
-template <class T>
-PGI_LANE_INLINE T estrin(const double* c, std::size_t J, const T& u) {
-    T q[20]{};  // (J >= 1 always; value-initialised so GCC need not prove it)
-    std::size_t m = 0;
-    for (std::size_t j = 0; j < J; j += 2) q[m++] = j + 1 < J ? lanes::splat<T>(c[j + 1]) * u + c[j] : lanes::splat<T>(c[j]);
-    T power = u * u;
-    while (m > 1) {
-        std::size_t k = 0;
-        for (std::size_t j = 0; j < m; j += 2) q[k++] = j + 1 < m ? q[j + 1] * power + q[j] : q[j];
-        m = k;
-        if (m > 1) power = power * power;
+// Estrin's levels: q[0..M) -> q[2j] + q[2j+1] power (an odd last one kept), then with power^2, until one is left.
+template <std::size_t M, class T>
+PGI_LANE_INLINE T estrin_levels(const T* q, const T& power) {
+    if constexpr (M == 1) {
+        return q[0];
+    } else {
+        T r[(M + 1) / 2];
+        for (std::size_t j = 0; j < M / 2; ++j) r[j] = q[2 * j + 1] * power + q[2 * j];
+        if constexpr (M % 2 == 1) r[M / 2] = q[M - 1];
+        return estrin_levels<(M + 1) / 2>(r, power * power);
     }
-    return q[0];
 }
 
-// sum_{j<J} b[j] (-s)^j and (with_derivative) its derivative in s, J <= 20.
-template <bool with_derivative, class T>
-PGI_LANE_INLINE void bernoulli_sum(const std::vector<double>& b, std::size_t J, const T& s, T& h, T& dh) {
+// sum_{j<J} c[j] u^j by Estrin's scheme: pairs c[j] + c[j+1] u, then pairs of those with u^2, u^4, ... A
+// depth of about 2 log2 J multiply-adds, where Horner's is J: h(s) is a chain of ten (twenty) otherwise, the
+// longest latency of the so(3) step, which has nothing else to overlap it with. J is a constant, so the levels
+// unroll and stay in registers (a run-time J kept 8-lane packs in memory: 12% of an AVX2 batch).
+template <std::size_t J, class T>
+PGI_LANE_INLINE T estrin(const double* c, const T& u) {
+    T q[(J + 1) / 2];
+    for (std::size_t j = 0; j < J / 2; ++j) q[j] = lanes::splat<T>(c[2 * j + 1]) * u + c[2 * j];
+    if constexpr (J % 2 == 1) q[J / 2] = lanes::splat<T>(c[J - 1]);
+    return estrin_levels<(J + 1) / 2>(q, u * u);
+}
+
+// sum_{j<J} b[j] (-s)^j and (with_derivative) its derivative in s.
+template <bool with_derivative, std::size_t J, class T>
+PGI_LANE_INLINE void bernoulli_sum(const std::vector<double>& b, const T& s, T& h, T& dh) {
     const T minus_s = -s;
-    h = estrin(b.data(), J, minus_s);
+    h = estrin<J>(b.data(), minus_s);
     if constexpr (with_derivative) {
-        double d[20];  // d/ds b[j] (-s)^j = -j b[j] (-s)^(j-1)
+        double d[J - 1];  // d/ds b[j] (-s)^j = -j b[j] (-s)^(j-1)
         for (std::size_t j = 1; j < J; ++j) d[j - 1] = -double(j) * b[j];
-        dh = estrin(d, J - 1, minus_s);
+        dh = estrin<J - 1>(d, minus_s);
     }
 }
 
@@ -70,12 +77,12 @@ PGI_LANE_INLINE void bernoulli_sum(const std::vector<double>& b, std::size_t J, 
 // when some lane needs it). dh only with_derivative (the acceptance test reads h alone).
 template <bool with_derivative, class T>
 void rotation_coefficient(T s, const std::vector<double>& b, T& h, T& dh) {
-    constexpr std::size_t short_terms = 10;
-    bernoulli_sum<with_derivative>(b, short_terms, s, h, dh);
+    constexpr std::size_t short_terms = 10, long_terms = 20;  // b holds long_terms (RealisationEvaluator::rotation)
+    bernoulli_sum<with_derivative, short_terms>(b, s, h, dh);
     const auto longer = lanes::both(s > 0.25, s <= 4.0);
     if (lanes::any(longer)) {
         T hl, dhl;
-        bernoulli_sum<with_derivative>(b, b.size(), s, hl, dhl);
+        bernoulli_sum<with_derivative, long_terms>(b, s, hl, dhl);
         h = lanes::select(longer, hl, h);
         if constexpr (with_derivative) dh = lanes::select(longer, dhl, dh);
     }
