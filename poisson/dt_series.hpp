@@ -32,8 +32,10 @@ public:
     /// The same at the planned dt.
     std::size_t planned_cost() const { return planned_dt_ ? planned_.num_terms() + planned_.num_monomials() : cost(); }
 
-    /// The map compiled at the planned dt, if dt is it (what eval and eval_batch then run), else null.
-    const CompiledMap* planned_at(double dt) const { return planned_dt_ != 0 && dt == planned_dt_ ? &planned_ : nullptr; }
+    /// The map compiled at the planned dt, if there is one, else null.
+    const CompiledMap* planned() const { return planned_dt_ != 0 ? &planned_ : nullptr; }
+    /// The same if dt is the planned dt (what eval and eval_batch then run), else null.
+    const CompiledMap* planned_at(double dt) const { return dt == planned_dt_ ? planned() : nullptr; }
     /// out[o] = sum_j dt^j f_j[o](in). Allocates nothing. Not thread-safe (scratch): each copy is one caller's.
     void eval(const double* in, double dt, double* out) const;
     /// m points at once in structure of arrays (CompiledMap::eval_batch's layout: in[v m + j], out[o m + j]),

@@ -98,7 +98,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
 void NewtonStepper::size_lane_maps(BatchScratch& scratch) const {
     std::size_t monomials = 0;
     for (const DtSeriesMap* m : {&gradient_.with_hessian, &gradient_.gradient, &predictor_.series()})
-        if (const CompiledMap* planned = m->planned_at(opt_.dt)) monomials = std::max(monomials, planned->num_monomials());
+        if (const CompiledMap* planned = m->planned()) monomials = std::max(monomials, planned->num_monomials());
     if (scratch.map.size() < monomials * CompiledMap::batch_lanes) scratch.map.resize(monomials * CompiledMap::batch_lanes);
 }
 

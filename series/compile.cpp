@@ -88,11 +88,11 @@ private:
 
 // The monomials the terms read, each made as the product of two made before it (a vectorial addition chain):
 // the constant is monomial 0 and the inputs 1..k; a monomial t is split as a + b with both made when some
-// divisor allows it, else as its largest made divisor a times the rest t - a, made first the same way, when a
-// has at least half t's degree, else as h + (t - h) with h = floor(t / 2), both made first (a power x^d then
-// takes about 2 log2 d products, not d - 1). On
-// sparse polynomials (the rigid body's S_dt is a polynomial in squares) this makes far fewer monomials than
-// "one variable times a monomial of one degree less", whose intermediate chains cost more than the terms.
+// divisor allows it (split), else as its largest made divisor a times the rest t - a, made first the same way,
+// when a has at least half t's degree, else as h + (t - h) with h = floor(t / 2), both made first (a power x^d
+// then takes about 2 log2 d products, not d - 1). On sparse polynomials (the rigid body's S_dt is a polynomial
+// in squares) this makes far fewer monomials than "one variable times a monomial of one degree less", whose
+// intermediate chains cost more than the terms; on dense ones it is that rule.
 class MonomialChain {
 public:
     explicit MonomialChain(std::size_t k) {
@@ -277,10 +277,10 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
     return c;
 }
 
-// The lane kernel's terms of a grouped output (eval_tape_lanes, series/compile_lanes.ipp): which of eval_with's four partial sums each goes into (the term at
-// position p of its group's union of length L goes into sum p mod 4, the last L mod 4 into sum 0, as a row's; the
-// padding zeros into none), laid out in one stream: quads (sum 0, 1, 2, 3) while every sum has terms, then what
-// is left of sum 0, 1, 2 and 3.
+// The lane kernel's terms of a grouped output (eval_tape_lanes, series/compile_lanes.ipp): which of eval_with's
+// four partial sums each goes into (the term at position p of its group's union of length L goes into sum p mod 4,
+// the last L mod 4 into sum 0, as a row's; the padding zeros into none), laid out in one stream: quads (sum 0, 1,
+// 2, 3) while every sum has terms, then what is left of sum 0, 1, 2 and 3.
 void CompiledMap::split_sums() {
     const std::size_t O = num_outputs();
     lane_row_.assign(O, LaneRow{UINT32_MAX, 0, {}});  // not grouped: the lane kernel reads the row
@@ -336,10 +336,9 @@ struct GroupSums {
 // outputs' terms one by one (1.25, 1.5 and 2 measured on the bundled scenes at k = 10: 2 best; a grouped term is
 // twice the arithmetic of a scalar one, but one index and one monomial load for four). Lotka-Volterra's grad and
 // Hess S_dt at k = 10: 846 terms and monomials to 466, the step 1.2x faster; the rigid body's grad S_dt shares
-// nothing (parities) and stays as it is. A zero coefficient times an infinite monomial makes a NaN where the
-// output itself would be finite: only at states whose monomials overflow, where the step fails anyway. Only maps
-// of at most group_limit outputs are grouped (the greedy choice is quadratic in the outputs; a lattice's maps are
-// sparse and gain nothing).
+// nothing (parities) and stays as it is. A padding zero adds nothing, even times an infinite monomial
+// (GroupSums masks it; the lane kernel skips it). Only maps of at most group_limit outputs are grouped (the greedy
+// choice is quadratic in the outputs; a lattice's maps are sparse and gain nothing).
 void CompiledMap::group_outputs() {
     constexpr double group_cost = 2.0;
     constexpr std::size_t group_limit = 64;
@@ -363,6 +362,7 @@ void CompiledMap::group_outputs() {
     };
     std::vector<bool> taken(O, false);
     std::vector<std::array<std::uint32_t, group_width>> groups;
+    std::vector<std::vector<std::uint32_t>> unions;  // each group's monomials, ascending
     for (std::size_t seed = 0; seed < O; ++seed) {
         if (taken[seed] || rows[seed].empty()) continue;
         std::vector<std::size_t> members{seed};
@@ -388,18 +388,14 @@ void CompiledMap::group_outputs() {
         g.fill(no_output);
         for (std::size_t i = 0; i < members.size(); ++i) g[i] = static_cast<std::uint32_t>(members[i]), taken[members[i]] = true;
         groups.push_back(g);
+        unions.push_back(std::move(u));
     }
     if (groups.empty()) return;
     // the grouped terms, each group's in the order of its union (monomial numbers ascending)
     group_start_.push_back(0);
-    for (const auto& g : groups) {
-        std::vector<std::uint32_t> u;
-        for (std::uint32_t o : g)
-            if (o != no_output) {
-                std::vector<std::uint32_t> merged;
-                std::set_union(u.begin(), u.end(), rows[o].begin(), rows[o].end(), std::back_inserter(merged));
-                u = std::move(merged);
-            }
+    for (std::size_t n = 0; n < groups.size(); ++n) {
+        const auto& g = groups[n];
+        const auto& u = unions[n];
         const std::size_t first = group_monomial_.size();
         group_monomial_.insert(group_monomial_.end(), u.begin(), u.end());
         group_coeff_.resize(group_monomial_.size() * group_width, 0.0);
