@@ -17,5 +17,6 @@
 #include "scheme/trajectory.hpp"
 #include "series/compile.hpp"
 #include "series/latex.hpp"
+#include "series/composition.hpp"
 #include "series/series.hpp"
 #include "scheme/version.hpp"

@@ -3,6 +3,7 @@
 #include "magnus/magnus.hpp"
 #include "poisson/bisection.hpp"
 #include "poisson/hamilton_jacobi.hpp"
+#include "series/composition.hpp"
 
 #include <stdexcept>
 

@@ -1,5 +1,7 @@
 #include "poisson/bisection.hpp"
 
+#include "series/composition.hpp"
+
 #include <algorithm>
 
 namespace pgi {

@@ -1,5 +1,7 @@
 #include "poisson/realisation.hpp"
 
+#include "series/composition.hpp"
+
 #include <set>
 #include <stdexcept>
 
@@ -165,21 +167,21 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
     const std::size_t n = M.dim();
     auto alpha = identity_map(M, D);
     std::vector<std::vector<Gradient>> grad(n);  // grad[i][a]: gradients of A_{a,i}, a >= 1
+    // R is skew like pi: R_ji = -R_ij (swap a and b), R_ii = 0 (the terms a and b cancel), so i < j only
+    std::vector<Poly> entries;
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = i + 1; j < n; ++j) entries.push_back(pi(i, j));
+    // [pi_ij(A_0 + ... + A_m)]_deg m reads A_0..A_m only: the composition is completed one degree per step
+    std::vector<std::optional<Series>> images(M.ring()->size());
+    for (std::size_t i = 0; i < n; ++i) images[M.x(i)] = alpha[i];
+    ComposeByOrder pi_of_alpha(entries, std::move(images), D + 1);  // all entries share the image products
     for (std::size_t m = 0; m < D; ++m) {
         BudgetStage stage(M.ring()->budget(), "radial realisation, terms of degree " + std::to_string(m + 1) + " in p", m + 1, D);
-        // [pi_ij(A_0 + ... + A_m)]_deg m: compose with alpha truncated after degree m
-        std::vector<std::optional<Series>> images(M.ring()->size());
-        for (std::size_t i = 0; i < n; ++i) images[M.x(i)] = alpha[i].truncated(m + 1);
-        // R is skew like pi: R_ji = -R_ij (swap a and b), R_ii = 0 (the terms a and b cancel), so i < j only
-        std::vector<Poly> entries;
-        for (std::size_t i = 0; i < n; ++i)
-            for (std::size_t j = i + 1; j < n; ++j) entries.push_back(pi(i, j));
-        const auto pi_of_alpha = compose(entries, images, m + 1);  // all entries share the image products
         std::vector<Poly> next(n, Poly(M.ring()));
         for (std::size_t i = 0, entry = 0; i < n; ++i) {
             for (std::size_t j = i + 1; j < n; ++j, ++entry) {
                 // R_ij = [pi_ij(A_0 + ... + A_m)]_deg m - sum_{a+b=m+1, 1<=a,b<=m} {A_a,i, A_b,j}_can
-                Poly R = pi_of_alpha[entry][m];
+                Poly R = pi_of_alpha.coefficient(entry, m);
                 for (std::size_t a = 1; a <= m; ++a) R -= canonical_bracket(M, grad[i][a - 1], grad[j][m - a]);
                 next[j] += M.p_gen(i) * R;
                 next[i] -= M.p_gen(j) * R;
@@ -189,6 +191,7 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
             // A_{m+1,j} = 1/(m+2) sum_i p_i R_ij
             alpha[j][m + 1] = Rational(1, static_cast<unsigned long>(m + 2)) * next[j];
             grad[j].emplace_back(M, alpha[j][m + 1]);
+            pi_of_alpha.set_image(M.x(j), m + 1, alpha[j][m + 1]);
         }
     }
     return symmetric(to_string(RealisationForm::radial), D, std::move(alpha));

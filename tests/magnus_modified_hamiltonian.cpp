@@ -4,6 +4,7 @@
 #include "magnus/modified_hamiltonian.hpp"
 #include "poisson/bisection.hpp"
 #include "poisson/hamilton_jacobi.hpp"
+#include "series/composition.hpp"
 #include "poisson/integrate.hpp"
 #include "test_util.hpp"
 

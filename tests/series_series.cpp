@@ -1,4 +1,4 @@
-#include "series/series.hpp"
+#include "series/composition.hpp"
 
 #include <doctest/doctest.h>
 

@@ -1,0 +1,184 @@
+#include "series/composition.hpp"
+
+#include <stdexcept>
+#include <string>
+
+namespace pgi {
+
+namespace {
+
+// f = sum_e c_e(kept variables) * prod_{v substituted} v^{e_v}: the terms grouped by e. Each term goes to its
+// group as it is, its substituted exponents zeroed (a group is sorted once at the end, not rebuilt by sums).
+std::vector<std::pair<SparseExponents, Poly>> substitution_groups(const Poly& f, const std::vector<std::optional<Series>>& images) {
+    const RingPtr& ring = f.ring();
+    std::map<SparseExponents, Poly> groups;
+    std::vector<ulong> e(static_cast<std::size_t>(f.ctx()->zctx->minfo->nvars));
+    for (std::size_t t = 0; t < f.length(); ++t) {
+        fmpq_mpoly_get_term_exp_ui(e.data(), f.get(), static_cast<slong>(t), f.ctx());
+        SparseExponents key;
+        for (std::size_t v = 0; v < ring->size(); ++v)
+            if (e[v] != 0 && images[v]) {
+                key.emplace_back(static_cast<std::uint32_t>(v), static_cast<std::uint32_t>(e[v]));
+                e[v] = 0;
+            }
+        Poly& kept = groups.try_emplace(std::move(key), ring).first->second;
+        fmpq_mpoly_push_term_fmpq_ui(kept.get_mut(), f.term_coeff(t).get(), e.data(), f.ctx());
+    }
+    std::vector<std::pair<SparseExponents, Poly>> out;
+    for (auto& [key, kept] : groups) {
+        // distinct terms of f with one key differ in their kept exponents: sorting and FLINT's canonical
+        // content (combine_like_terms ends by reducing it) are all that is left
+        fmpq_mpoly_sort_terms(kept.get_mut(), f.ctx());
+        fmpq_mpoly_combine_like_terms(kept.get_mut(), f.ctx());
+        out.emplace_back(key, std::move(kept));
+    }
+    return out;
+}
+
+// The sum of the pieces, added in pairs: each term is copied O(log count) times, where adding them one by one
+// into a growing result copies it count times (quadratic for H = x_1 + ... + x_n composed with a lattice's images).
+Poly balanced_sum(std::vector<Poly> pieces, const RingPtr& ring) {
+    if (pieces.empty()) return Poly(ring);
+    while (pieces.size() > 1) {
+        std::size_t kept = 0;
+        for (std::size_t i = 0; i < pieces.size(); i += 2, ++kept) {
+            if (i + 1 < pieces.size()) pieces[i] += pieces[i + 1];  // in place: no third polynomial
+            if (kept != i) pieces[kept] = std::move(pieces[i]);
+        }
+        pieces.erase(pieces.begin() + std::ptrdiff_t(kept), pieces.end());
+    }
+    return std::move(pieces.front());
+}
+
+void check_images(std::size_t nvars, const std::vector<std::optional<Series>>& images, std::size_t N) {
+    if (images.size() != nvars) throw std::invalid_argument("pgi::compose: need one (optional) image per variable");
+    for (const auto& im : images)
+        if (im && im->order() != N) throw std::invalid_argument("pgi::compose: an image has the wrong truncation order");
+}
+
+}  // namespace
+
+ComposeByOrder::ComposeByOrder(const std::vector<Poly>& fs, std::vector<std::optional<Series>> images, std::size_t N)
+    : N_(N), images_(std::move(images)) {
+    if (fs.empty()) return;
+    ring_ = fs.front().ring();
+    check_images(ring_->size(), images_, N);
+    for (const Poly& f : fs) {
+        if (f.ring() != ring_) throw std::invalid_argument("pgi::compose: the polynomials belong to different rings");
+        groups_.push_back(substitution_groups(f, images_));
+    }
+}
+
+void ComposeByOrder::set_image(std::size_t v, std::size_t m, Poly c) {
+    if (v >= images_.size() || !images_[v] || m >= N_)
+        throw std::invalid_argument("pgi::ComposeByOrder::set_image: variable " + std::to_string(v) + " has no image of order " +
+                                    std::to_string(m + 1));
+    if (static_cast<long>(m) <= composed_through_)
+        throw std::logic_error("pgi::ComposeByOrder::set_image: order " + std::to_string(m) + " of an image was already read");
+    (*images_[v])[m] = std::move(c);
+}
+
+const std::vector<Poly>& ComposeByOrder::product_through(const SparseExponents& e, std::size_t d) {
+    auto [it, fresh] = products_.try_emplace(e);
+    std::vector<Poly>& c = it->second;
+    if (e.empty()) {  // the constant 1
+        if (c.empty()) c.push_back(Poly::constant(ring_, 1));
+        while (c.size() <= d) c.emplace_back(ring_);
+        return c;
+    }
+    if (c.size() > d) return c;
+    SparseExponents lower = e;
+    if (--lower.front().second == 0) lower.erase(lower.begin());
+    const std::vector<Poly>& low = product_through(lower, d);  // std::map: c stays valid across insertions
+    const Series& image = *images_[e.front().first];
+    for (std::size_t k = c.size(); k <= d; ++k) {
+        Poly r(ring_);
+        for (std::size_t i = 0; i <= k; ++i)
+            if (!low[i].is_zero() && !image[k - i].is_zero()) r += low[i] * image[k - i];
+        c.push_back(std::move(r));
+    }
+    return c;
+}
+
+Poly ComposeByOrder::coefficient(std::size_t i, std::size_t m) {
+    if (i >= groups_.size() || m >= N_)
+        throw std::out_of_range("pgi::ComposeByOrder::coefficient: no order " + std::to_string(m) + " of polynomial " + std::to_string(i));
+    composed_through_ = std::max(composed_through_, static_cast<long>(m));
+    std::vector<Poly> pieces;
+    for (const auto& [e, kept] : groups_[i]) {
+        const Poly& product = product_through(e, m)[m];
+        if (!product.is_zero()) pieces.push_back(kept * product);
+    }
+    return balanced_sum(std::move(pieces), ring_);
+}
+
+std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::optional<Series>>& images, std::size_t N) {
+    std::vector<Series> out;
+    if (fs.empty()) return out;
+    ComposeByOrder composed(fs, images, N);
+    for (std::size_t i = 0; i < fs.size(); ++i) {
+        Series result(fs[i].ring(), N);
+        for (std::size_t m = 0; m < N; ++m) result[m] = composed.coefficient(i, m);
+        out.push_back(std::move(result));
+    }
+    return out;
+}
+
+Series compose(const Poly& f, const std::vector<std::optional<Series>>& images, std::size_t N) {
+    return std::move(compose(std::vector<Poly>{f}, images, N).front());
+}
+
+std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std::optional<Series>>& images, std::size_t N) {
+    std::vector<Series> out;
+    if (fs.empty()) return out;
+    const RingPtr& ring = fs.front().ring();
+    // all coefficients at once, so they share the products of the images
+    std::vector<Poly> coefficients;
+    for (const auto& f : fs)
+        for (std::size_t m = 0; m < std::min(f.order(), N); ++m) coefficients.push_back(f[m]);
+    const auto composed = compose(coefficients, images, N);
+    std::size_t next = 0;
+    for (const auto& f : fs) {
+        Series r(ring, N);
+        for (std::size_t m = 0; m < std::min(f.order(), N); ++m, ++next)
+            for (std::size_t d = 0; m + d < N; ++d) r[m + d] += composed[next][d];
+        out.push_back(std::move(r));
+    }
+    return out;
+}
+
+std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars, std::size_t N,
+                                          const std::function<bool(const std::vector<Series>&)>& enough) {
+    if (u.size() != vars.size()) throw std::invalid_argument("pgi::inverse_near_identity: one displacement per variable");
+    if (u.empty()) return {};
+    const RingPtr& ring = u.front().ring();
+    for (const auto& ui : u)
+        if (ui.order() != N || (N > 0 && !ui[0].is_zero()))
+            throw std::invalid_argument("pgi::inverse_near_identity: every displacement must be O(e) and of order N");
+    // v = -u(id + v) order by order: coefficient s of u_m(id + v) (m >= 1) reads the images' coefficients
+    // through s - m < s only, which are final, so each product coefficient is computed once (the sweeps
+    // v <- -u(id + v) recomputed every lower order at every sweep, ~N times the work).
+    std::vector<std::optional<Series>> images(ring->size());
+    for (std::size_t i = 0; i < vars.size(); ++i) images[vars[i]] = Series::constant(Poly::gen(ring, vars[i]), N);
+    std::vector<Poly> parts;  // u_i's e^m part at i * N + m
+    for (const auto& ui : u)
+        for (std::size_t m = 0; m < N; ++m) parts.push_back(ui[m]);
+    ComposeByOrder u_after_v(parts, std::move(images), N);
+    std::vector<Series> v(u.size(), Series(ring, std::min<std::size_t>(N, 1)));
+    for (std::size_t s = 1; s < N; ++s) {
+        std::vector<Poly> next(u.size(), Poly(ring));
+        for (std::size_t i = 0; i < u.size(); ++i)
+            for (std::size_t m = 1; m <= s; ++m) next[i] -= u_after_v.coefficient(i * N + m, s - m);
+        for (std::size_t i = 0; i < u.size(); ++i) {
+            u_after_v.set_image(vars[i], s, next[i]);
+            Series grown(ring, s + 1);
+            for (std::size_t d = 0; d < s; ++d) grown[d] = std::move(v[i][d]);
+            grown[s] = std::move(next[i]);
+            v[i] = std::move(grown);
+        }
+        if (enough && enough(v)) break;
+    }
+    return v;
+}
+
+}  // namespace pgi

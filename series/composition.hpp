@@ -1,0 +1,68 @@
+#pragma once
+// Composition of polynomials with truncated series: f(images) + O(e^N), all at once or one order at a time.
+#include "series/series.hpp"
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <utility>
+#include <vector>
+
+namespace pgi {
+
+/// The exponents of the substituted variables in a monomial, as (variable, exponent > 0) by increasing
+/// variable: O(variables held), where a dense exponent vector costs O(ring size) (2n on a lattice of n sites).
+using SparseExponents = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
+
+/// Polynomials f_0..f_{r-1} composed with series images one order at a time: [e^m] f_i(images) reads the
+/// images' coefficients through e^m only. A recursion whose next image coefficient is made from the lower
+/// coefficients of a composition (the Hamilton-Jacobi terms, docs/math.md 5; the radial realisation, 4;
+/// the inverse of a near-identity map) completes the images as it goes, and each coefficient of each
+/// product of images is formed once, however many orders are asked for: recomposing from scratch at
+/// every order forms the low coefficients again at each one.
+class ComposeByOrder {
+public:
+    /// images[v]: the series replacing variable v, of order N, or none to keep v (it counts as degree 0).
+    /// Throws std::invalid_argument unless there is one (optional) image per variable of the fs' ring,
+    /// each of order N.
+    ComposeByOrder(const std::vector<Poly>& fs, std::vector<std::optional<Series>> images, std::size_t N);
+
+    std::size_t order() const { return N_; }
+    /// Sets coefficient m of the image of variable v. Throws std::logic_error if an order >= m has
+    /// already been composed (it read the old coefficient), std::invalid_argument if v has no image or
+    /// m >= N.
+    void set_image(std::size_t v, std::size_t m, Poly c);
+    /// [e^m] f_i(images), m < N, from the images' coefficients 0..m as they are now.
+    Poly coefficient(std::size_t i, std::size_t m);
+
+private:
+    // Products prod_v images[v]^{e_v}, memoised by exponent vector and formed coefficient by coefficient on
+    // demand: coefficient d of a product from the product of one degree less.
+    const std::vector<Poly>& product_through(const SparseExponents& e, std::size_t d);
+
+    RingPtr ring_;
+    std::size_t N_;
+    std::vector<std::optional<Series>> images_;
+    // f_i = sum_e kept_{i,e}(kept variables) prod_v v^{e_v} over the substituted variables
+    std::vector<std::vector<std::pair<SparseExponents, Poly>>> groups_;
+    std::map<SparseExponents, std::vector<Poly>> products_;
+    long composed_through_ = -1;  // the highest order asked for so far
+};
+
+/// f with the variable v replaced by images[v] where images[v] is set, + O(e^N); the other variables
+/// stay as they are and count as degree 0. Every image must have order N.
+Series compose(const Poly& f, const std::vector<std::optional<Series>>& images, std::size_t N);
+/// The same for several polynomials at once, sharing the products of the images (all in one ring).
+std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::optional<Series>>& images, std::size_t N);
+/// sum_m e^m f_m(images) + O(e^N): a series whose coefficients are themselves composed (images of order N).
+std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std::optional<Series>>& images, std::size_t N);
+/// v with (id + u) o (id + v) = id + O(e^N), for u = O(e) given on the listed variables (u[i] displaces
+/// variable vars[i]; all of order N), order by order (v = -u(id + v): each order reads only lower ones). If
+/// enough is given, it sees v after each sweep (v exact to its order, s + 1 after sweep s) and may end
+/// the computation early by returning true: the result is then of that lower order. Throws
+/// std::invalid_argument when a u[i] is not O(e) or not of order N.
+std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars, std::size_t N,
+                                          const std::function<bool(const std::vector<Series>&)>& enough = {});
+
+}  // namespace pgi
