@@ -72,3 +72,25 @@ TEST_CASE("series: inverse_near_identity inverts id + u to its order, stops wher
     u[1][0] = Poly::parse(r, "x");
     CHECK_THROWS_AS(inverse_near_identity(u, {0, 1}, N), std::invalid_argument);
 }
+
+TEST_CASE("series: ComposeByOrder completed order by order equals compose of the finished images, and refuses to rewrite a read order") {
+    auto r = make_ring({"x", "y", "p"});
+    const std::size_t N = 5;
+    // images of x and y whose coefficient m is given only once the compositions through m - 1 were read
+    const char* ix[] = {"x", "p*y", "x^2 - p", "3*y*p^2", "x*y"};
+    const char* iy[] = {"y + 1", "0", "x*p", "y^2", "p^3 - x"};
+    std::vector<Poly> fs{Poly::parse(r, "x^3*y - 2*x*p + y^2"), Poly::parse(r, "p*x*y^2 + 1/3"), Poly::parse(r, "y^4 + x")};
+    std::vector<std::optional<Series>> empty(3), full(3);
+    empty[0] = Series(r, N), empty[1] = Series(r, N), full[0] = Series(r, N), full[1] = Series(r, N);
+    for (std::size_t m = 0; m < N; ++m) (*full[0])[m] = Poly::parse(r, ix[m]), (*full[1])[m] = Poly::parse(r, iy[m]);
+    const auto expected = compose(fs, full, N);
+    ComposeByOrder by_order(fs, empty, N);
+    for (std::size_t m = 0; m < N; ++m) {
+        by_order.set_image(0, m, Poly::parse(r, ix[m]));
+        by_order.set_image(1, m, Poly::parse(r, iy[m]));
+        for (std::size_t i = 0; i < fs.size(); ++i) CHECK(by_order.coefficient(i, m) == expected[i][m]);
+        if (m > 0) CHECK_THROWS_AS(by_order.set_image(0, m, Poly(r)), std::logic_error);
+    }
+    CHECK_THROWS_AS(by_order.set_image(2, 0, Poly(r)), std::invalid_argument);  // p has no image
+    CHECK_THROWS_AS(by_order.coefficient(0, N), std::out_of_range);
+}
