@@ -69,17 +69,24 @@ std::vector<Series> identity_map(const PhaseSpace& M, std::size_t D) {
     return a;
 }
 
-// (pi(x) p)_i = sum_j pi_ij(x) p_j, or with y in place of x for a linear pi: (L(p) y)_i.
-std::vector<Poly> apply_L(const PoissonStructure& pi, const std::vector<Poly>& y) {
+// The linear forms l_ik(p) = sum_j c_ij^k p_j of a linear pi (pi_ij = sum_k c_ij^k x_k): L(p) y = (sum_k l_ik(p) y_k)_i.
+std::vector<std::vector<Poly>> structure_forms(const PoissonStructure& pi) {
     const PhaseSpace& M = pi.phase_space();
-    std::vector<Poly> out;
-    for (std::size_t i = 0; i < M.dim(); ++i) {
-        Poly r(M.ring());
+    std::vector<std::vector<Poly>> l(M.dim(), std::vector<Poly>(M.dim(), Poly(M.ring())));
+    for (std::size_t i = 0; i < M.dim(); ++i)
         for (std::size_t j = 0; j < M.dim(); ++j)
-            for (std::size_t k = 0; k < M.dim(); ++k) {
-                Poly c = derivative(pi(i, j), M.x(k));  // c_ij^k, a constant
-                if (!c.is_zero()) r += c * y[k] * M.p_gen(j);
-            }
+            if (!pi(i, j).is_zero())
+                for (std::size_t k = 0; k < M.dim(); ++k) l[i][k] += derivative(pi(i, j), M.x(k)) * M.p_gen(j);  // c_ij^k p_j
+    return l;
+}
+
+// (L(p) y)_i = sum_k l_ik(p) y_k.
+std::vector<Poly> apply_L(const std::vector<std::vector<Poly>>& l, const std::vector<Poly>& y) {
+    std::vector<Poly> out;
+    for (const auto& row : l) {
+        Poly r(y.front().ring());
+        for (std::size_t k = 0; k < y.size(); ++k)
+            if (!row[k].is_zero() && !y[k].is_zero()) r += row[k] * y[k];
         out.push_back(std::move(r));
     }
     return out;
@@ -109,10 +116,11 @@ Realisation lie_poisson_realisation(const PoissonStructure& pi, std::size_t D) {
     const PhaseSpace& M = pi.phase_space();
     auto alpha = identity_map(M, D);
     // alpha = sum_m B_m/m! L(p)^m x, with v_m = L(p)^m x homogeneous of degree m in p
+    const auto l = structure_forms(pi);
     std::vector<Poly> v;
     for (std::size_t i = 0; i < M.dim(); ++i) v.push_back(M.x_gen(i));
     for (std::size_t m = 1; m <= D; ++m) {
-        v = apply_L(pi, v);
+        v = apply_L(l, v);
         Rational c = bernoulli(m) * inverse_factorial(m);
         for (std::size_t i = 0; i < M.dim(); ++i) alpha[i][m] = c * v[i];
     }

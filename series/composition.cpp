@@ -7,32 +7,33 @@ namespace pgi {
 
 namespace {
 
-// f = sum_e c_e(kept variables) * prod_{v substituted} v^{e_v}: the terms grouped by e. Each term goes to its
-// group as it is, its substituted exponents zeroed (a group is sorted once at the end, not rebuilt by sums).
-std::vector<std::pair<SparseExponents, Poly>> substitution_groups(const Poly& f, const std::vector<std::optional<Series>>& images) {
+// f = sum_e c_e(kept variables) * prod_{v substituted} v^{e_v}: the terms grouped by e. Every term of f shares
+// its content, so a group is that content times f's integer terms with their substituted exponents zeroed,
+// sorted and reduced once at the end (not rebuilt by sums nor rescaled at each term).
+std::map<SparseExponents, Poly> substitution_groups(const Poly& f, const std::vector<std::optional<Series>>& images) {
     const RingPtr& ring = f.ring();
+    const fmpz_mpoly_ctx_struct* zctx = f.ctx()->zctx;
     std::map<SparseExponents, Poly> groups;
-    std::vector<ulong> e(static_cast<std::size_t>(f.ctx()->zctx->minfo->nvars));
+    std::vector<ulong> e(static_cast<std::size_t>(zctx->minfo->nvars));
     for (std::size_t t = 0; t < f.length(); ++t) {
-        fmpq_mpoly_get_term_exp_ui(e.data(), f.get(), static_cast<slong>(t), f.ctx());
+        fmpz_mpoly_get_term_exp_ui(e.data(), f.get()->zpoly, static_cast<slong>(t), zctx);
         SparseExponents key;
         for (std::size_t v = 0; v < ring->size(); ++v)
             if (e[v] != 0 && images[v]) {
                 key.emplace_back(static_cast<std::uint32_t>(v), static_cast<std::uint32_t>(e[v]));
                 e[v] = 0;
             }
-        Poly& kept = groups.try_emplace(std::move(key), ring).first->second;
-        fmpq_mpoly_push_term_fmpq_ui(kept.get_mut(), f.term_coeff(t).get(), e.data(), f.ctx());
+        auto [it, fresh] = groups.try_emplace(std::move(key), ring);
+        fmpq_mpoly_struct* kept = it->second.get_mut();
+        if (fresh) fmpq_set(kept->content, f.get()->content);
+        fmpz_mpoly_push_term_fmpz_ui(kept->zpoly, f.get()->zpoly->coeffs + t, e.data(), zctx);
     }
-    std::vector<std::pair<SparseExponents, Poly>> out;
     for (auto& [key, kept] : groups) {
-        // distinct terms of f with one key differ in their kept exponents: sorting and FLINT's canonical
-        // content (combine_like_terms ends by reducing it) are all that is left
-        fmpq_mpoly_sort_terms(kept.get_mut(), f.ctx());
-        fmpq_mpoly_combine_like_terms(kept.get_mut(), f.ctx());
-        out.emplace_back(key, std::move(kept));
+        // distinct terms of f with one key differ in their kept exponents: no like terms to combine
+        fmpz_mpoly_sort_terms(kept.get_mut()->zpoly, zctx);
+        fmpq_mpoly_reduce(kept.get_mut(), f.ctx());
     }
-    return out;
+    return groups;
 }
 
 // The sum of the pieces, added in pairs: each term is copied O(log count) times, where adding them one by one
@@ -63,10 +64,26 @@ ComposeByOrder::ComposeByOrder(const std::vector<Poly>& fs, std::vector<std::opt
     if (fs.empty()) return;
     ring_ = fs.front().ring();
     check_images(ring_->size(), images_, N);
+    products_.emplace_back();  // the empty product
+    std::map<SparseExponents, std::uint32_t> index{{SparseExponents{}, 0}};
     for (const Poly& f : fs) {
         if (f.ring() != ring_) throw std::invalid_argument("pgi::compose: the polynomials belong to different rings");
-        groups_.push_back(substitution_groups(f, images_));
+        auto& groups = groups_.emplace_back();
+        for (auto& [e, kept] : substitution_groups(f, images_)) {
+            std::optional<Rational> scalar;
+            if (fmpq_mpoly_is_fmpq(kept.get(), kept.ctx())) fmpq_mpoly_get_fmpq(scalar.emplace().get_mut(), kept.get(), kept.ctx());
+            groups.push_back(Group{product_index(e, index), std::move(kept), std::move(scalar)});
+        }
     }
+}
+
+std::uint32_t ComposeByOrder::product_index(const SparseExponents& e, std::map<SparseExponents, std::uint32_t>& index) {
+    if (auto it = index.find(e); it != index.end()) return it->second;
+    SparseExponents lower = e;
+    if (--lower.front().second == 0) lower.erase(lower.begin());
+    const std::uint32_t low = product_index(lower, index);
+    products_.push_back(Product{e.front().first, low, {}});
+    return index[e] = static_cast<std::uint32_t>(products_.size() - 1);
 }
 
 void ComposeByOrder::set_image(std::size_t v, std::size_t m, Poly c) {
@@ -78,19 +95,22 @@ void ComposeByOrder::set_image(std::size_t v, std::size_t m, Poly c) {
     (*images_[v])[m] = std::move(c);
 }
 
-const std::vector<Poly>& ComposeByOrder::product_through(const SparseExponents& e, std::size_t d) {
-    auto [it, fresh] = products_.try_emplace(e);
-    std::vector<Poly>& c = it->second;
-    if (e.empty()) {  // the constant 1
+const std::vector<Poly>& ComposeByOrder::product_through(std::uint32_t p, std::size_t d) {
+    Product& product = products_[p];
+    std::vector<Poly>& c = product.c;
+    if (c.size() > d) return c;
+    c.reserve(N_);  // grown one order at a time: no moves of the lower orders
+    if (p == 0) {  // the constant 1
         if (c.empty()) c.push_back(Poly::constant(ring_, 1));
         while (c.size() <= d) c.emplace_back(ring_);
         return c;
     }
-    if (c.size() > d) return c;
-    SparseExponents lower = e;
-    if (--lower.front().second == 0) lower.erase(lower.begin());
-    const std::vector<Poly>& low = product_through(lower, d);  // std::map: c stays valid across insertions
-    const Series& image = *images_[e.front().first];
+    const Series& image = *images_[product.factor];
+    if (product.lower == 0) {  // the image itself
+        while (c.size() <= d) c.push_back(image[c.size()]);
+        return c;
+    }
+    const std::vector<Poly>& low = product_through(product.lower, d);
     for (std::size_t k = c.size(); k <= d; ++k) {
         Poly r(ring_);
         for (std::size_t i = 0; i <= k; ++i)
@@ -105,9 +125,10 @@ Poly ComposeByOrder::coefficient(std::size_t i, std::size_t m) {
         throw std::out_of_range("pgi::ComposeByOrder::coefficient: no order " + std::to_string(m) + " of polynomial " + std::to_string(i));
     composed_through_ = std::max(composed_through_, static_cast<long>(m));
     std::vector<Poly> pieces;
-    for (const auto& [e, kept] : groups_[i]) {
-        const Poly& product = product_through(e, m)[m];
-        if (!product.is_zero()) pieces.push_back(kept * product);
+    pieces.reserve(groups_[i].size());
+    for (const Group& g : groups_[i]) {
+        const Poly& product = product_through(g.product, m)[m];
+        if (!product.is_zero()) pieces.push_back(g.scalar ? *g.scalar * product : g.kept * product);
     }
     return balanced_sum(std::move(pieces), ring_);
 }

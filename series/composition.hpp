@@ -37,17 +37,29 @@ public:
     Poly coefficient(std::size_t i, std::size_t m);
 
 private:
-    // Products prod_v images[v]^{e_v}, memoised by exponent vector and formed coefficient by coefficient on
-    // demand: coefficient d of a product from the product of one degree less.
-    const std::vector<Poly>& product_through(const SparseExponents& e, std::size_t d);
+    // A product prod_v images[v]^{e_v} of the images, formed coefficient by coefficient on demand from the
+    // product with one factor fewer (lower: its index; factor: the variable of the missing factor). Index 0
+    // is the empty product 1.
+    struct Product {
+        std::uint32_t factor = 0, lower = 0;
+        std::vector<Poly> c;
+    };
+    // One term of f_i by its substituted part: kept * products_[product], kept over the kept variables (a
+    // constant kept is used as a scalar).
+    struct Group {
+        std::uint32_t product;
+        Poly kept;
+        std::optional<Rational> scalar;
+    };
+    std::uint32_t product_index(const SparseExponents& e, std::map<SparseExponents, std::uint32_t>& index);
+    const std::vector<Poly>& product_through(std::uint32_t p, std::size_t d);
 
     RingPtr ring_;
     std::size_t N_;
     std::vector<std::optional<Series>> images_;
-    // f_i = sum_e kept_{i,e}(kept variables) prod_v v^{e_v} over the substituted variables
-    std::vector<std::vector<std::pair<SparseExponents, Poly>>> groups_;
-    std::map<SparseExponents, std::vector<Poly>> products_;
-    long composed_through_ = -1;  // the highest order asked for so far
+    std::vector<std::vector<Group>> groups_;  // f_i = sum over groups_[i]
+    std::vector<Product> products_;           // fixed once constructed: references into it stay valid
+    long composed_through_ = -1;              // the highest order asked for so far
 };
 
 /// f with the variable v replaced by images[v] where images[v] is set, + O(e^N); the other variables

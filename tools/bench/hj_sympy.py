@@ -1,7 +1,10 @@
 #!/usr/bin/env python3
-"""The exact phase of pgi written twice in sympy, as the baselines of tools/bench/bench_exact.py:
-- RingImpl: sympy's sparse polynomial rings (sympy.polys.rings.ring over QQ), the same graded
-  algorithm as pgi (truncated Cauchy products, composition by cached powers);
+"""The exact phase of pgi written in sympy, as the baselines of tools/bench/bench_exact.py:
+- RingImpl: sympy's sparse polynomial rings (sympy.polys.rings.ring over QQ), the graded algorithm
+  (truncated Cauchy products, composition by cached powers) recomposing every lower order at each term,
+  as pgi did before its composition order by order;
+- RingByOrderImpl: the same rings and pgi's present algorithm (series/composition.hpp): each composition
+  completed one order at a time, each product coefficient formed once;
 - ExprImpl: plain sympy expressions (expand / subs / diff / coeff), grading by an auxiliary symbol.
 Both compute the Lie-Poisson closed form or the radial realisation (docs/math.md 3-4) and the
 Hamilton-Jacobi terms (docs/math.md 5). `--check-log-canonical` prints the independent derivation used in
@@ -180,6 +183,80 @@ class RingImpl:
         M = self.magnus(h, m + 1)
         return [str(M[j + 1].as_expr()) for j in range(m + 1)]
 
+
+class ByOrder:
+    """f_i(images) one order at a time, as pgi's ComposeByOrder: products of the images memoised by exponent
+    and formed one coefficient at a time; the caller completes the images (lists it keeps) as orders are read."""
+
+    def __init__(self, R, fs, images):
+        self.R, self.images = R, images
+        self.groups = []
+        for f in fs:
+            g = {}
+            for monom, c in f.items():
+                key = tuple((v, e) for v, e in enumerate(monom) if e and v in images)
+                kept = tuple(0 if v in images else e for v, e in enumerate(monom))
+                g[key] = g.get(key, R.zero) + R({kept: c})
+            self.groups.append(list(g.items()))
+        self.products = {(): [R.one]}
+
+    def product(self, key, d):
+        c = self.products.setdefault(key, [])
+        if not key:
+            c.extend([self.R.zero] * (d + 1 - len(c)))
+            return c
+        if len(c) > d:
+            return c
+        v, e = key[0]
+        low = self.product((((v, e - 1),) if e > 1 else ()) + key[1:], d)
+        image = self.images[v]
+        for k in range(len(c), d + 1):
+            c.append(sum((low[i] * image[k - i] for i in range(k + 1) if low[i] and image[k - i]), self.R.zero))
+        return c
+
+    def coefficient(self, i, m):
+        return sum((kept * p for key, kept in self.groups[i] for p in [self.product(key, m)[m]] if p), self.R.zero)
+
+
+class RingByOrderImpl(RingImpl):
+    def radial(self, D):
+        n = self.n
+        alpha = [[self.X[i]] + [self.R.zero] * D for i in range(n)]
+        entries = [(i, j) for i in range(n) for j in range(i + 1, n)]  # R is skew like pi
+        pi_of_alpha = ByOrder(self.R, [self.pi[i][j] for i, j in entries], {l: alpha[l] for l in range(n)})
+        for m in range(D):
+            nxt = [self.R.zero] * n
+            for entry, (i, j) in enumerate(entries):
+                R = pi_of_alpha.coefficient(entry, m)
+                for a in range(1, m + 1):
+                    R -= self.can(alpha[i][a], alpha[j][m + 1 - a])
+                nxt[j] += self.P[i] * R
+                nxt[i] -= self.P[j] * R
+            for j in range(n):
+                alpha[j][m + 1] = nxt[j] * QQ(1, m + 2)
+        return alpha
+
+    def hamilton_jacobi(self, alpha, H, k):
+        n, zero = self.n, self.R.zero
+        H = self.parse(H)
+        p_images = {n + l: [zero] * k for l in range(n)}
+        x_images = {l: [zero] * k for l in range(n)}
+        parts = [alpha[l][d] if d < len(alpha[l]) else zero for l in range(n) for d in range(k)]
+        along_gradient, H_along_alpha = ByOrder(self.R, parts, p_images), ByOrder(self.R, [H], x_images)
+
+        def alpha_coefficient(l, i):
+            return sum((along_gradient.coefficient(l * k + d, i) for d in range(i + 1)), zero)
+
+        for l in range(n):
+            x_images[l][0] = alpha_coefficient(l, 0)
+        S = [H]
+        for i in range(1, k):
+            for l in range(n):
+                p_images[n + l][i] = S[i - 1].diff(self.X[l])
+            for l in range(n):
+                x_images[l][i] = alpha_coefficient(l, i)
+            S.append(H_along_alpha.coefficient(0, i) * QQ(1, i + 1))
+        return [str(s.as_expr()).replace("**", "^") for s in S]
 
 class ExprImpl:
     def __init__(self, coords, brackets):
