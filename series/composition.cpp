@@ -36,21 +36,6 @@ std::map<SparseExponents, Poly> substitution_groups(const Poly& f, const std::ve
     return groups;
 }
 
-// The sum of the pieces, added in pairs: each term is copied O(log count) times, where adding them one by one
-// into a growing result copies it count times (quadratic for H = x_1 + ... + x_n composed with a lattice's images).
-Poly balanced_sum(std::vector<Poly> pieces, const RingPtr& ring) {
-    if (pieces.empty()) return Poly(ring);
-    while (pieces.size() > 1) {
-        std::size_t kept = 0;
-        for (std::size_t i = 0; i < pieces.size(); i += 2, ++kept) {
-            if (i + 1 < pieces.size()) pieces[i] += pieces[i + 1];  // in place: no third polynomial
-            if (kept != i) pieces[kept] = std::move(pieces[i]);
-        }
-        pieces.erase(pieces.begin() + std::ptrdiff_t(kept), pieces.end());
-    }
-    return std::move(pieces.front());
-}
-
 void check_images(std::size_t nvars, const std::vector<std::optional<Series>>& images, std::size_t N) {
     if (images.size() != nvars) throw std::invalid_argument("pgi::compose: need one (optional) image per variable");
     for (const auto& im : images)
@@ -112,10 +97,10 @@ const std::vector<Poly>& ComposeByOrder::product_through(std::uint32_t p, std::s
     }
     const std::vector<Poly>& low = product_through(product.lower, d);
     for (std::size_t k = c.size(); k <= d; ++k) {
-        Poly r(ring_);
+        std::vector<Poly> terms;
         for (std::size_t i = 0; i <= k; ++i)
-            if (!low[i].is_zero() && !image[k - i].is_zero()) r += low[i] * image[k - i];
-        c.push_back(std::move(r));
+            if (!low[i].is_zero() && !image[k - i].is_zero()) terms.push_back(low[i] * image[k - i]);
+        c.push_back(sum(std::move(terms), ring_));
     }
     return c;
 }
@@ -130,7 +115,7 @@ Poly ComposeByOrder::coefficient(std::size_t i, std::size_t m) {
         const Poly& product = product_through(g.product, m)[m];
         if (!product.is_zero()) pieces.push_back(g.scalar ? *g.scalar * product : g.kept * product);
     }
-    return balanced_sum(std::move(pieces), ring_);
+    return sum(std::move(pieces), ring_);
 }
 
 std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::optional<Series>>& images, std::size_t N) {

@@ -163,6 +163,42 @@ Poly operator*(const Poly& a, const Poly& b) {
 }
 Poly operator*(const Rational& c, const Poly& a) { Poly r(a); r *= c; return r; }
 
+Poly sum(std::vector<Poly> pieces, const RingPtr& ring) {
+    std::erase_if(pieces, [](const Poly& p) { return p.is_zero(); });
+    if (pieces.empty()) return Poly(ring);
+    if (pieces.size() == 1) return std::move(pieces.front());
+    const fmpz_mpoly_ctx_struct* zctx = ring->ctx()->zctx;
+    Rational common(1);  // its numerator: the lcm D of the contents' denominators
+    fmpz* D = fmpq_numref(common.get_mut());
+    for (const Poly& p : pieces) {
+        require_same_ring(p, pieces.front(), "pgi::sum");
+        fmpz_lcm(D, D, fmpq_denref(p.get()->content));
+    }
+    Rational scale;
+    for (Poly& p : pieces) {  // p = content * Z  ->  content = 1, Z scaled by content * D (an integer)
+        fmpq* c = p.get_mut()->content;
+        fmpz_divexact(fmpq_numref(scale.get_mut()), D, fmpq_denref(c));
+        fmpz_mul(fmpq_numref(scale.get_mut()), fmpq_numref(scale.get_mut()), fmpq_numref(c));
+        if (!fmpz_is_one(fmpq_numref(scale.get_mut())))
+            fmpz_mpoly_scalar_mul_fmpz(p.get_mut()->zpoly, p.get()->zpoly, fmpq_numref(scale.get_mut()), zctx);
+        fmpq_one(c);
+    }
+    while (pieces.size() > 1) {  // in pairs: each term is copied O(log count) times
+        std::size_t kept = 0;
+        for (std::size_t i = 0; i < pieces.size(); i += 2, ++kept) {
+            if (i + 1 < pieces.size())
+                fmpz_mpoly_add(pieces[i].get_mut()->zpoly, pieces[i].get()->zpoly, pieces[i + 1].get()->zpoly, zctx);
+            if (kept != i) pieces[kept] = std::move(pieces[i]);
+        }
+        pieces.erase(pieces.begin() + static_cast<std::ptrdiff_t>(kept), pieces.end());
+    }
+    Poly r = std::move(pieces.front());
+    fmpz_one(fmpq_numref(r.get_mut()->content));
+    fmpz_set(fmpq_denref(r.get_mut()->content), D);
+    fmpq_mpoly_reduce(r.get_mut(), r.ctx());  // the canonical content, once
+    return accounted(std::move(r), "a sum");
+}
+
 Poly pow(const Poly& f, unsigned long k) {
     // f^k has at most binomial(length + k - 1, k) terms (multisets of k terms of f) and at most the
     // monomials of degree k deg f; its coefficients at most k times as many bits, plus k log2(length).

@@ -119,6 +119,10 @@ Poly operator-(const Poly& a);
 /// length(b), at most the monomials of its degree) or bytes exceed the budget.
 Poly operator*(const Poly& a, const Poly& b);
 Poly operator*(const Rational& c, const Poly& a);
+/// The sum of the pieces (all in ring): over one common denominator, the integer parts added in pairs and
+/// the content reduced once, where repeated += rescales and reduces at every addition and copies a growing
+/// result each time (quadratic for many pieces).
+Poly sum(std::vector<Poly> pieces, const RingPtr& ring);
 /// f^k, estimated before it is formed. Throws std::overflow_error when an exponent overflows.
 Poly pow(const Poly& f, unsigned long k);
 /// d f / d x_var.

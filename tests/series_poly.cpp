@@ -93,6 +93,27 @@ TEST_CASE("poly: derivative obeys the product rule on random inputs (FLINT t-der
     }
 }
 
+TEST_CASE("poly: sum over one denominator equals adding one by one, in canonical form (zero, one, many pieces)") {
+    auto r = xyz();
+    std::mt19937 gen(20261124);
+    CHECK(sum({}, r).is_zero());
+    for (int trial = 0; trial < 20; ++trial) {
+        CAPTURE(trial);
+        std::vector<Poly> pieces;
+        Poly expected(r);
+        for (int i = 0; i < 1 + trial % 9; ++i) {
+            // contents with different denominators and signs, some pieces cancelling others
+            Poly p = (i % 4 == 3) ? -pieces.back() : random_poly(r, gen, 1 + i % 5, 3) * Poly::constant(r, Rational(i % 2 ? -7 : 3, 2 + i));
+            expected += p;
+            pieces.push_back(std::move(p));
+        }
+        pieces.push_back(Poly(r));  // a zero piece is skipped
+        const Poly s = sum(pieces, r);
+        CHECK(s == expected);  // == compares FLINT's canonical content: sum must have reduced it
+        CHECK(s.to_string() == expected.to_string());
+    }
+}
+
 TEST_CASE("poly: substitution is a ring morphism") {
     auto r = xyz();
     std::mt19937 gen(7);
