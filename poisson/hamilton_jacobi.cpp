@@ -6,6 +6,18 @@
 
 namespace pgi {
 
+namespace {
+
+// alpha_l's part of p-degree d at l * k + d, d < k (the higher degrees are O(t^k)).
+std::vector<Poly> graded_parts(const Realisation& r, std::size_t k) {
+    std::vector<Poly> parts;
+    for (const Series& a : r.alpha)
+        for (std::size_t d = 0; d < k; ++d) parts.push_back(a[d]);
+    return parts;
+}
+
+}  // namespace
+
 std::vector<Poly> hamilton_jacobi_terms(const PhaseSpace& M, const Realisation& r, const Poly& H, std::size_t k) {
     if (k < 1) throw std::invalid_argument("hamilton_jacobi_terms: the order k must be at least 1");
     if (r.degree + 1 < k)
@@ -14,19 +26,17 @@ std::vector<Poly> hamilton_jacobi_terms(const PhaseSpace& M, const Realisation& 
     // S_{i+1} = 1/(i+1) [t^i] H(alpha(x, grad S_t(x))), S_t = sum_j t^j S_j: [t^i] alpha(x, grad S_t) reads
     // grad S_1..S_i only (p = O(t)), and [t^i] H(alpha) reads alpha's orders 0..i, so both compositions are
     // completed one order per term (docs/math.md 5) and each of their products is formed once.
-    std::vector<Poly> alpha;  // alpha_l's part of p-degree d at l * k + d, d < k: the higher degrees are O(t^k)
     std::vector<std::optional<Series>> p_images(M.ring()->size()), x_images(M.ring()->size());
     for (std::size_t l = 0; l < M.dim(); ++l) {
-        for (std::size_t d = 0; d < k; ++d) alpha.push_back(r.alpha[l][d]);
         p_images[M.p(l)] = Series(M.ring(), k);  // p_l -> sum_{j=1..i} t^j d_l S_j
         x_images[M.x(l)] = Series(M.ring(), k);  // x_l -> alpha_l(x, grad S_t)
     }
-    ComposeByOrder alpha_along_gradient(alpha, std::move(p_images), k);
+    ComposeByOrder alpha_along_gradient(graded_parts(r, k), std::move(p_images), k);
     // [t^i] alpha_l(x, grad S_t): the part of p-degree d is O(t^d)
     auto alpha_coefficient = [&](std::size_t l, std::size_t i) {
-        Poly c = alpha_along_gradient.coefficient(l * k, i);
-        for (std::size_t d = 1; d <= i; ++d) c += alpha_along_gradient.coefficient(l * k + d, i);
-        return c;
+        std::vector<Poly> parts;
+        for (std::size_t d = 0; d <= i; ++d) parts.push_back(alpha_along_gradient.coefficient(l * k + d, i));
+        return sum(std::move(parts), M.ring());
     };
     ComposeByOrder H_along_alpha({H}, std::move(x_images), k);
     for (std::size_t l = 0; l < M.dim(); ++l) H_along_alpha.set_image(M.x(l), 0, alpha_coefficient(l, 0));

@@ -48,6 +48,7 @@ ComposeByOrder::ComposeByOrder(const std::vector<Poly>& fs, std::vector<std::opt
     : N_(N), images_(std::move(images)) {
     if (fs.empty()) return;
     ring_ = fs.front().ring();
+    one_.emplace(Poly::constant(ring_, 1)), zero_.emplace(ring_);
     check_images(ring_->size(), images_, N);
     products_.emplace_back();  // the empty product
     std::map<SparseExponents, std::uint32_t> index{{SparseExponents{}, 0}};
@@ -80,29 +81,23 @@ void ComposeByOrder::set_image(std::size_t v, std::size_t m, Poly c) {
     (*images_[v])[m] = std::move(c);
 }
 
-const std::vector<Poly>& ComposeByOrder::product_through(std::uint32_t p, std::size_t d) {
+const Poly& ComposeByOrder::product_coefficient(std::uint32_t p, std::size_t m) {
+    if (p == 0) return m == 0 ? *one_ : *zero_;
     Product& product = products_[p];
-    std::vector<Poly>& c = product.c;
-    if (c.size() > d) return c;
-    c.reserve(N_);  // grown one order at a time: no moves of the lower orders
-    if (p == 0) {  // the constant 1
-        if (c.empty()) c.push_back(Poly::constant(ring_, 1));
-        while (c.size() <= d) c.emplace_back(ring_);
-        return c;
-    }
     const Series& image = *images_[product.factor];
-    if (product.lower == 0) {  // the image itself
-        while (c.size() <= d) c.push_back(image[c.size()]);
-        return c;
-    }
-    const std::vector<Poly>& low = product_through(product.lower, d);
-    for (std::size_t k = c.size(); k <= d; ++k) {
+    if (product.lower == 0) return image[m];
+    std::vector<Poly>& c = product.c;
+    if (c.size() > m) return c[m];
+    c.reserve(N_);
+    for (std::size_t k = c.size(); k <= m; ++k) {
         std::vector<Poly> terms;
-        for (std::size_t i = 0; i <= k; ++i)
-            if (!low[i].is_zero() && !image[k - i].is_zero()) terms.push_back(low[i] * image[k - i]);
+        for (std::size_t i = 0; i <= k; ++i) {
+            const Poly& low = product_coefficient(product.lower, i);
+            if (!low.is_zero() && !image[k - i].is_zero()) terms.push_back(low * image[k - i]);
+        }
         c.push_back(sum(std::move(terms), ring_));
     }
-    return c;
+    return c[m];
 }
 
 Poly ComposeByOrder::coefficient(std::size_t i, std::size_t m) {
@@ -112,7 +107,7 @@ Poly ComposeByOrder::coefficient(std::size_t i, std::size_t m) {
     std::vector<Poly> pieces;
     pieces.reserve(groups_[i].size());
     for (const Group& g : groups_[i]) {
-        const Poly& product = product_through(g.product, m)[m];
+        const Poly& product = product_coefficient(g.product, m);
         if (!product.is_zero()) pieces.push_back(g.scalar ? *g.scalar * product : g.kept * product);
     }
     return sum(std::move(pieces), ring_);

@@ -39,10 +39,10 @@ public:
 private:
     // A product prod_v images[v]^{e_v} of the images, formed coefficient by coefficient on demand from the
     // product with one factor fewer (lower: its index; factor: the variable of the missing factor). Index 0
-    // is the empty product 1.
+    // is the empty product 1; a single factor is read from its image, not copied.
     struct Product {
         std::uint32_t factor = 0, lower = 0;
-        std::vector<Poly> c;
+        std::vector<Poly> c;  // reserved to N once used: references to its coefficients stay valid
     };
     // One term of f_i by its substituted part: kept * products_[product], kept over the kept variables (a
     // constant kept is used as a scalar).
@@ -52,9 +52,11 @@ private:
         std::optional<Rational> scalar;
     };
     std::uint32_t product_index(const SparseExponents& e, std::map<SparseExponents, std::uint32_t>& index);
-    const std::vector<Poly>& product_through(std::uint32_t p, std::size_t d);
+    // Coefficient m of product p, formed (with the ones below it) on first use.
+    const Poly& product_coefficient(std::uint32_t p, std::size_t m);
 
     RingPtr ring_;
+    std::optional<Poly> one_, zero_;  // the empty product's coefficients
     std::size_t N_;
     std::vector<std::optional<Series>> images_;
     std::vector<std::vector<Group>> groups_;  // f_i = sum over groups_[i]
