@@ -36,6 +36,14 @@ std::map<SparseExponents, Poly> substitution_groups(const Poly& f, const std::ve
     return groups;
 }
 
+// The coefficients 0..N-1 of each series, one after the other (a temporary for ComposeByOrder to group).
+std::vector<Poly> coefficients(const std::vector<Series>& fs, std::size_t N) {
+    std::vector<Poly> out;
+    for (const auto& f : fs)
+        for (std::size_t m = 0; m < std::min(f.order(), N); ++m) out.push_back(f[m]);
+    return out;
+}
+
 void check_images(std::size_t nvars, const std::vector<std::optional<Series>>& images, std::size_t N) {
     if (images.size() != nvars) throw std::invalid_argument("pgi::compose: need one (optional) image per variable");
     for (const auto& im : images)
@@ -133,11 +141,7 @@ std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std
     std::vector<Series> out;
     if (fs.empty()) return out;
     const RingPtr& ring = fs.front().ring();
-    // all coefficients at once, so they share the products of the images
-    std::vector<Poly> coefficients;
-    for (const auto& f : fs)
-        for (std::size_t m = 0; m < std::min(f.order(), N); ++m) coefficients.push_back(f[m]);
-    const auto composed = compose(coefficients, images, N);
+    const auto composed = compose(coefficients(fs, N), images, N);  // all at once: they share the image products
     std::size_t next = 0;
     for (const auto& f : fs) {
         Series r(ring, N);
@@ -161,10 +165,7 @@ std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const st
     // v <- -u(id + v) recomputed every lower order at every sweep, ~N times the work).
     std::vector<std::optional<Series>> images(ring->size());
     for (std::size_t i = 0; i < vars.size(); ++i) images[vars[i]] = Series::constant(Poly::gen(ring, vars[i]), N);
-    std::vector<Poly> parts;  // u_i's e^m part at i * N + m
-    for (const auto& ui : u)
-        for (std::size_t m = 0; m < N; ++m) parts.push_back(ui[m]);
-    ComposeByOrder u_after_v(parts, std::move(images), N);
+    ComposeByOrder u_after_v(coefficients(u, N), std::move(images), N);  // u_i's e^m part at i * N + m
     std::vector<Series> v(u.size(), Series(ring, std::min<std::size_t>(N, 1)));
     for (std::size_t s = 1; s < N; ++s) {
         std::vector<Poly> next(u.size(), Poly(ring));
