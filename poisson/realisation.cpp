@@ -158,14 +158,12 @@ struct Gradient {
     }
 };
 
-// {F, G}_can from the gradients of F and G.
-Poly canonical_bracket(const PhaseSpace& M, const Gradient& F, const Gradient& G) {
-    Poly r(M.ring());
-    for (std::size_t l = 0; l < M.dim(); ++l) {
-        if (!F.dx[l].is_zero() && !G.dp[l].is_zero()) r += F.dx[l] * G.dp[l];
-        if (!F.dp[l].is_zero() && !G.dx[l].is_zero()) r -= F.dp[l] * G.dx[l];
+// The products whose sum is sign * {F, G}_can, from the gradients of F and G, appended to terms.
+void append_canonical_bracket(const Gradient& F, const Gradient& G, const Rational& sign, std::vector<Poly>& terms) {
+    for (std::size_t l = 0; l < F.dx.size(); ++l) {
+        if (!F.dx[l].is_zero() && !G.dp[l].is_zero()) (terms.push_back(F.dx[l] * G.dp[l]), terms.back() *= sign);
+        if (!F.dp[l].is_zero() && !G.dx[l].is_zero()) (terms.push_back(F.dp[l] * G.dx[l]), terms.back() *= -sign);
     }
-    return r;
 }
 
 }  // namespace
@@ -185,19 +183,22 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
     ComposeByOrder pi_of_alpha(entries, std::move(images), D + 1);  // all entries share the image products
     for (std::size_t m = 0; m < D; ++m) {
         BudgetStage stage(M.ring()->budget(), "radial realisation, terms of degree " + std::to_string(m + 1) + " in p", m + 1, D);
-        std::vector<Poly> next(n, Poly(M.ring()));
+        std::vector<std::vector<Poly>> next(n);  // the terms of (m+2) A_{m+1,j}, summed once (poly.hpp's sum)
         for (std::size_t i = 0, entry = 0; i < n; ++i) {
             for (std::size_t j = i + 1; j < n; ++j, ++entry) {
                 // R_ij = [pi_ij(A_0 + ... + A_m)]_deg m - sum_{a+b=m+1, 1<=a,b<=m} {A_a,i, A_b,j}_can
-                Poly R = pi_of_alpha.coefficient(entry, m);
-                for (std::size_t a = 1; a <= m; ++a) R -= canonical_bracket(M, grad[i][a - 1], grad[j][m - a]);
-                next[j] += M.p_gen(i) * R;
-                next[i] -= M.p_gen(j) * R;
+                std::vector<Poly> terms{pi_of_alpha.coefficient(entry, m)};
+                for (std::size_t a = 1; a <= m; ++a) append_canonical_bracket(grad[i][a - 1], grad[j][m - a], Rational(-1), terms);
+                const Poly R = sum(std::move(terms), M.ring());
+                if (R.is_zero()) continue;
+                next[j].push_back(M.p_gen(i) * R);
+                next[i].push_back(M.p_gen(j) * R);
+                next[i].back() *= Rational(-1);
             }
         }
         for (std::size_t j = 0; j < n; ++j) {
             // A_{m+1,j} = 1/(m+2) sum_i p_i R_ij
-            alpha[j][m + 1] = Rational(1, static_cast<unsigned long>(m + 2)) * next[j];
+            alpha[j][m + 1] = Rational(1, static_cast<unsigned long>(m + 2)) * sum(std::move(next[j]), M.ring());
             grad[j].emplace_back(M, alpha[j][m + 1]);
             pi_of_alpha.set_image(M.x(j), m + 1, alpha[j][m + 1]);
         }
