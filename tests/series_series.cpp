@@ -2,6 +2,8 @@
 
 #include <doctest/doctest.h>
 
+#include <random>
+
 using namespace pgi;
 
 namespace {
@@ -93,4 +95,33 @@ TEST_CASE("series: ComposeByOrder completed order by order equals compose of the
     }
     CHECK_THROWS_AS(by_order.set_image(2, 0, Poly(r)), std::invalid_argument);  // p has no image
     CHECK_THROWS_AS(by_order.coefficient(0, N), std::out_of_range);
+}
+
+TEST_CASE("series: compose of random polynomials is graded substitution, with kept variables and images of every degree") {
+    // Identity test (FLINT style): for f in x, y, z and images of x and y graded by their degree in p,
+    // compose(f, images, N) = the p-graded parts of f(gx, gy, z) below N; z is kept.
+    auto r = make_ring({"x", "y", "z", "p"});
+    const VarMask p_only{false, false, false, true};
+    std::mt19937 gen(20261124);
+    std::uniform_int_distribution<long> coeff(-5, 5);
+    std::uniform_int_distribution<unsigned long> den(1, 4), ex(0, 2);
+    auto random_poly = [&](int terms, bool with_p) {
+        Poly f(r);
+        for (int t = 0; t < terms; ++t) {
+            Poly m = Poly::constant(r, Rational(coeff(gen), den(gen)));
+            for (std::size_t v = 0; v < (with_p ? 4u : 3u); ++v) m = m * pow(Poly::gen(r, v), ex(gen));
+            f += m;
+        }
+        return f;
+    };
+    for (int trial = 0; trial < 12; ++trial) {
+        CAPTURE(trial);
+        const Poly f = random_poly(5, false), gx = random_poly(4, true), gy = random_poly(3, true);
+        const Poly substituted = substitute(f, {gx, gy, Poly::gen(r, 2), Poly::gen(r, 3)});
+        for (std::size_t N : {1u, 3u, 6u}) {
+            std::vector<std::optional<Series>> images(4);
+            images[0] = Series::graded(gx, p_only, N), images[1] = Series::graded(gy, p_only, N);
+            CHECK(compose(f, images, N) == Series::graded(substituted, p_only, N));
+        }
+    }
 }
