@@ -63,6 +63,12 @@ void DtSeriesMap::horner(const double* stacked, std::size_t stride, double* out)
     for (std::size_t o = 0; o < w; ++o) out[o] *= f;
 }
 
+std::vector<CompiledMap*> DtSeriesMap::compiled_maps() {
+    if (powers_.empty()) return {};
+    if (planned_dt_ != 0) return {&planned_, &map_};
+    return {&map_};
+}
+
 void DtSeriesMap::eval(const double* in, double dt, double* out) const {
     if (powers_.empty()) {
         std::fill(out, out + width_, 0.0);

@@ -32,6 +32,8 @@ public:
     /// The same at the planned dt.
     std::size_t planned_cost() const { return planned_dt_ ? planned_.num_terms() + planned_.num_monomials() : cost(); }
 
+    /// The compiled maps eval runs, the planned one first (where there is one), then the stacked one: for native code.
+    std::vector<CompiledMap*> compiled_maps();
     /// The map compiled at the planned dt, if there is one, else null.
     const CompiledMap* planned() const { return planned_dt_ != 0 ? &planned_ : nullptr; }
     /// The same if dt is the planned dt (what eval and eval_batch then run), else null.

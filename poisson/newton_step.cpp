@@ -70,6 +70,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     const bool closed = realisation_form(pi.structure_class(), opt.realisation) != RealisationForm::radial;
     s.predictor_ = Predictor::choose(M, probe, S, opt, cost, x_typical, closed ? realisation : RealisationSource{});
     s.info_.predictor_order = s.predictor_.order();
+    if (opt.jit) s.info_.native_maps = attach_native_code(s.compiled_maps());
     s.size_scratch(n);
     if (!s.sparse_ && s.realisation_.has_lane_form()) {
         switch (n) {
@@ -93,6 +94,22 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
     };
     const auto S = hamilton_jacobi_terms(pi.phase_space(), source(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, pi.dim())), H, opt.k);
     return build(pi, S, source, opt, x_typical);
+}
+
+// Those a step at the build's dt runs first (the Newton system's, the predictor's, the realisation's), then those of
+// other steps and the acceptance test's rarer ones: native code takes them in this order while they fit.
+std::vector<CompiledMap*> NewtonStepper::compiled_maps() {
+    const std::vector<DtSeriesMap*> series = {&gradient_.with_hessian, &predictor_.series(), &gradient_.gradient, &gradient_.gradient_size};
+    std::vector<CompiledMap*> maps, later;
+    for (DtSeriesMap* m : series) {
+        const std::vector<CompiledMap*> c = m->compiled_maps();
+        if (c.empty()) continue;
+        maps.push_back(c.front());
+        later.insert(later.end(), c.begin() + 1, c.end());
+    }
+    for (CompiledMap* c : realisation_.compiled_maps()) maps.push_back(c);
+    maps.insert(maps.end(), later.begin(), later.end());
+    return maps;
 }
 
 void NewtonStepper::size_lane_maps(BatchScratch& scratch) const {

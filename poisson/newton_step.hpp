@@ -11,6 +11,7 @@
 #include "poisson/sparse_hessian.hpp"
 #include "poisson/step_options.hpp"
 #include "poisson/truncation_degree.hpp"
+#include "series/native.hpp"
 
 #include <Eigen/Dense>
 
@@ -37,7 +38,8 @@ public:
     /// predictor's u_m compiled to double, dt a run-time argument. S = S_1..S_k (opt.k of them). opt.dt is
     /// the largest dt the caller plans: the degree and the predictor's order are chosen for it (a larger dt
     /// at run time is guarded by the acceptance test). Requires pi to satisfy Jacobi. Throws
-    /// std::invalid_argument on k < 1, S of another length, dt <= 0 or a bad x_typical.
+    /// std::invalid_argument on k < 1, S of another length, dt <= 0 or a bad x_typical. opt.jit: the compiled maps
+    /// then run native code (series/native.hpp; info().native_maps says how many), NativeCodeError if it cannot be built.
     static NewtonStepper build(const PoissonStructure& pi, const std::vector<Poly>& S, const RealisationSource& realisation,
                                const StepOptions& opt, const Eigen::VectorXd& x_typical);
     /// The same from H: the realisation and S_1..S_k computed here (poisson-level callers and tests).
@@ -112,6 +114,7 @@ private:
     StepStatus finish(double x_norm, Eigen::VectorXd& increment);
     bool solve(bool again);
     void size_scratch(std::size_t n);
+    std::vector<CompiledMap*> compiled_maps();  // every map the step evaluates, for native code (StepOptions::jit)
     void assemble();  // J at the point evaluate_at saw
     const Eigen::VectorXd& evaluated_alpha() const { return sparse_ ? sparse_values_.alpha : v_.alpha; }
     const Eigen::VectorXd& evaluated_delta() const { return sparse_ ? sparse_values_.delta : v_.delta; }

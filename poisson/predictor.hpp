@@ -45,6 +45,7 @@ public:
     std::size_t order() const { return order_; }
     /// sum_m dt^m u_m (eval adds x to it).
     const DtSeriesMap& series() const { return map_; }
+    DtSeriesMap& series() { return map_; }
     /// xb = x + sum_m dt^m u_m(x). Allocates nothing.
     void eval(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& xb) const { eval(x.data(), dt, xb.data()); }
     /// The same on dim() values (xb and x do not overlap).

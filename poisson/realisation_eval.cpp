@@ -235,6 +235,11 @@ std::size_t RealisationEvaluator::cost(bool sparse) const {
     return map_.num_terms() + map_.num_monomials();
 }
 
+std::vector<CompiledMap*> RealisationEvaluator::compiled_maps() {
+    if (form_ != Form::polynomial) return {};
+    return {&map_, &values_map_, &size_map_};
+}
+
 const double* RealisationEvaluator::eval_polynomial(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha,
                                                    Eigen::VectorXd& delta) const {
     const auto n = static_cast<Eigen::Index>(n_);

@@ -78,6 +78,8 @@ public:
     /// One evaluation's cost in multiply-adds, roughly (transcendentals counted as 20): for cost models;
     /// sparse: of the evaluation on the patterns.
     std::size_t cost(bool sparse = false) const;
+    /// The compiled maps of the polynomial form (none for the closed forms): for native code.
+    std::vector<CompiledMap*> compiled_maps();
 
     /// Writes every block of v. Allocates nothing.
     void eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;

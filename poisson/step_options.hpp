@@ -18,6 +18,7 @@ struct StepOptions {
     double truncation_bound = 1e-12;      // a truncated realisation's neglected terms at the solution, relative to |x|
     std::size_t predictor_order = 0;      // P of the base point's series; 0 chooses it by cost, up to max(k + 1, 8)
     NewtonSolverChoice solver = NewtonSolverChoice::automatic;  // the Newton matrix dense or sparse (NewtonMatrix::choose)
+    bool jit = false;                     // the step's compiled maps as native code (series/native.hpp): the same bits, faster
 };
 
 /// How the step was built: the realisation's method and degree, and the size of the neglected
@@ -29,6 +30,7 @@ struct StepInfo {
     double truncation_estimate = 0;       // max_{m > D} |A_m(x, grad S_dt(x))|_inf / |x|_inf at the typical state (probed degrees)
     std::size_t predictor_order = 0;      // the base point is predicted by its exact series in dt to this order
     NewtonSolver solver = NewtonSolver::dense;  // sparse: J, Hess S_dt and the realisation's derivatives on their patterns
+    std::size_t native_maps = 0;          // the compiled maps that run native code (StepOptions::jit)
 };
 
 }  // namespace pgi

@@ -23,7 +23,7 @@ struct StepperEntry {
     NewtonStepper stepper;
     std::uint64_t used;
     bool serves(const StepOptions& o, double x_scale) const {
-        return o.dt <= options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order && o.solver == options.solver &&
+        return o.dt <= options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order && o.solver == options.solver && o.jit == options.jit &&
                o.max_degree == options.max_degree && o.newton_max_iter == options.newton_max_iter &&
                o.newton_tol == options.newton_tol && o.truncation_bound == options.truncation_bound;
     }

@@ -481,7 +481,12 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
     }
 }
 
-void CompiledMap::eval(const double* in, double* out) const { eval_with(in, out, mono_.data()); }
+void CompiledMap::eval(const double* in, double* out) const {
+    if (native_)
+        native_(in, out);
+    else
+        eval_with(in, out, mono_.data());
+}
 
 void CompiledMap::eval_batch(const double* in, double* out, std::size_t m, std::vector<double>& scratch) const {
     // Blocks of W lanes: the monomials of one block (W num_monomials() doubles) stay in cache whatever m is.

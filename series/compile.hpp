@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace pgi {
@@ -27,8 +28,15 @@ public:
     /// of each group of outputs evaluated together (four at a time).
     std::size_t num_terms() const { return term_coeff_.size() + group_monomial_.size(); }
 
-    /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch).
+    /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch), unless
+    /// native.
     void eval(const double* in, double* out) const;
+
+    /// What eval runs once native code is attached (series/native.hpp): the same outputs, bit for bit.
+    using NativeEval = void (*)(const double* in, double* out);
+    /// eval() runs f from now on, library keeping its code loaded (shared by the copies of this map).
+    void attach_native(std::shared_ptr<const void> library, NativeEval f) { native_library_ = std::move(library), native_ = f; }
+    bool native() const { return native_ != nullptr; }
     /// m points at once, structure of arrays: in[v m + j] is input v of point j, out[o m + j] is output o
     /// of point j. Every point's outputs are bit for bit eval()'s on it (the same operations in the same
     /// order, lane by lane; the loops over the points are the inner ones, which the compiler vectorises).
@@ -78,6 +86,8 @@ private:
     std::vector<std::uint32_t> lane_monomial_;
     std::vector<double> lane_coeff_;
     mutable std::vector<double> mono_;
+    std::shared_ptr<const void> native_library_;
+    NativeEval native_ = nullptr;
     void group_outputs();
     void split_sums();
     template <class T>

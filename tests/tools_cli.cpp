@@ -620,3 +620,37 @@ TEST_CASE("--plot: gnuplot failing after the run is an output failure (exit 6), 
     for (const auto& e : fs::directory_iterator(dir)) CHECK_MESSAGE(e.path().filename() == "bin", e.path());
     fs::remove_all(dir);
 }
+
+TEST_CASE("cli: integrate --jit (or integrator.jit) ends where the interpreted run ends, bit for bit; a missing compiler is exit 7") {
+    TempDir cache("jit_cache");
+    const std::string env = "PGI_JIT_CACHE='" + cache.path.string() + "'";
+    const std::string lv = test::scene_path("lotka_volterra");
+    const std::vector<std::string> args = {"integrate", lv, "--order", "6", "--t-end", "5", "--json"};
+    Run plain = pgi_run(args, env);
+    std::vector<std::string> with_jit = args;
+    with_jit.push_back("--jit");
+    Run jit = pgi_run(with_jit, env);
+    REQUIRE(plain.exit_code == 0);
+    REQUIRE(jit.exit_code == 0);
+    const auto a = nlohmann::json::parse(plain.out), b = nlohmann::json::parse(jit.out);
+    CHECK(a["native_maps"].get<int>() == 0);
+    CHECK(b["native_maps"].get<int>() > 0);
+    CHECK(a["x"] == b["x"]);  // printed in the shortest form that reads back: equal text, equal doubles
+    CHECK(a["steps"] == b["steps"]);
+    // the scene's own switch, and a wrong type for it
+    std::string text = slurp(lv);
+    const auto at = text.find("[integrator]");
+    REQUIRE(at != std::string::npos);
+    TempScene yes("jit_yes", std::string(text).insert(at + 13, "jit = true\n"));
+    Run from_scene = pgi_run({"integrate", yes.path.string(), "--order", "6", "--t-end", "5", "--json"}, env);
+    REQUIRE(from_scene.exit_code == 0);
+    CHECK(nlohmann::json::parse(from_scene.out)["x"] == a["x"]);
+    TempScene bad("jit_bad", std::string(text).insert(at + 13, "jit = \"yes\"\n"));
+    Run refused = pgi_run({"integrate", bad.path.string(), "--json"}, env);
+    CHECK(refused.exit_code == 2);
+    CHECK(refused.err.find("integrator.jit") != std::string::npos);
+    Run no_compiler = pgi_run(with_jit, env + " PGI_CXX=/nonexistent/pgi-cc");
+    CHECK(no_compiler.exit_code == 7);
+    CHECK(no_compiler.out.empty());
+    CHECK(no_compiler.err.find("/nonexistent/pgi-cc") != std::string::npos);
+}

@@ -31,6 +31,9 @@ inline int exit_code_of_current_exception(const std::string& program, const std:
     } catch (const OutputError& e) {
         std::cerr << program << ": " << e.what() << "\n";
         return 6;
+    } catch (const NativeCodeError& e) {
+        std::cerr << at << e.what() << "\n";
+        return 7;
     } catch (const std::bad_alloc&) {
         std::cerr << at << "out of memory (an allocation failed within the budget; lower --max-terms)\n";
         return 5;

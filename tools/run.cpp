@@ -27,7 +27,7 @@ Eigen::VectorXd to_vector(const std::vector<double>& v) { return Eigen::Map<cons
 std::vector<double> to_std(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
 
 NewtonStepper build_stepper(const Scene& scene) {
-    NewtonStepper s = scene.scheme->stepper(scene.dt, to_vector(require_x0(scene)));
+    NewtonStepper s = scene.scheme->stepper(scene.step_options(), to_vector(require_x0(scene)));
     // NOTE: said on stderr, never silently: past the series' range the step is not Poisson to round-off.
     if (s.info().truncation_estimate > 1e-15)
         std::cerr << fmt::format("pgi: {}: warning: the {} realisation truncated at p-degree {} leaves terms of relative size "
@@ -39,7 +39,7 @@ NewtonStepper build_stepper(const Scene& scene) {
 json stepper_info(const Scene& scene, const NewtonStepper& s) {
     return {{"order", scene.order}, {"realisation", s.info().method}, {"degree", s.info().degree}, {"exact_realisation", s.info().exact_realisation},
             {"truncation_estimate", s.info().truncation_estimate}, {"method_order", s.order()},
-            {"predictor_order", s.info().predictor_order}};
+            {"predictor_order", s.info().predictor_order}, {"native_maps", s.info().native_maps}};
 }
 
 // A one-line progress indication on a terminal, for runs longer than about a second and a half.

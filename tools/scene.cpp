@@ -66,7 +66,7 @@ public:
                 casimirs.push_back(poly(M, key, *s));
             }
         }
-        Scene scene{file_, name, std::move(pi), std::move(H), std::move(casimirs), 2, 0.1, "1/10", RealisationChoice::automatic, std::nullopt, std::nullopt, std::nullopt, std::nullopt, nullptr};
+        Scene scene{file_, name, std::move(pi), std::move(H), std::move(casimirs), 2, 0.1, "1/10", RealisationChoice::automatic, false, std::nullopt, std::nullopt, std::nullopt, std::nullopt, nullptr};
         read_integrator(doc, scene);
         read_run(doc, scene);
         read_magnus(doc, scene);
@@ -235,7 +235,12 @@ private:
 
     void read_integrator(const toml::table& doc, Scene& scene) const {
         const toml::table& t = table_at(doc, "integrator", false);
-        check_keys(t, "integrator", {"order", "dt", "realisation"});
+        check_keys(t, "integrator", {"order", "dt", "realisation", "jit"});
+        if (const toml::node* n = t.get("jit")) {
+            if (!n->is_boolean()) fail("integrator.jit", "must be true or false");
+            scene.jit = *n->value<bool>();
+        }
+        scene.jit = scene.jit || ov_.jit;
         if (ov_.order) {
             try {
                 std::size_t pos = 0;
@@ -333,6 +338,15 @@ private:
 };
 
 }  // namespace
+
+StepOptions Scene::step_options() const {
+    StepOptions opt;
+    opt.k = order;
+    opt.dt = dt;
+    opt.realisation = realisation;
+    opt.jit = jit;
+    return opt;
+}
 
 Scene load_scene(const std::filesystem::path& file, const SceneOverrides& overrides) {
     return SceneReader(file, overrides).read();

@@ -34,6 +34,7 @@ struct SceneOverrides {
     double max_seconds = BudgetLimits::default_max_seconds;  // --max-seconds: its algebra's time (none; pgi: 60)
     Budget::ProgressSink progress;                      // progress lines of a long exact phase
     bool trust_jacobi = false;                          // --trust-jacobi: the Jacobi identity is not checked
+    bool jit = false;                                   // --jit: the step's maps as native code (integrator.jit)
 };
 
 struct Scene {
@@ -46,6 +47,7 @@ struct Scene {
     double dt = 0.1;
     std::string dt_text = "1/10";               // as written, for reports
     RealisationChoice realisation = RealisationChoice::automatic;
+    bool jit = false;                           // [integrator] jit: the step's compiled maps as native code (series/native.hpp)
     std::optional<std::vector<double>> x0;
     std::optional<double> t_end;
     std::optional<Series> magnus_h;             // [magnus] h, a t-series
@@ -55,6 +57,8 @@ struct Scene {
     std::shared_ptr<const Scheme> scheme;
 
     const PhaseSpace& phase_space() const { return pi.phase_space(); }
+    /// The step's options the scene asks for: its order, dt, realisation and jit.
+    StepOptions step_options() const;
 };
 
 /// Reads and checks a scene. Throws SceneError for anything malformed: syntax, missing keys, wrong

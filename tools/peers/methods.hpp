@@ -7,8 +7,9 @@
 
 namespace pgi::peers {
 
-/// pgi at order k with the scene's realisation ("pgi-k4"), or with the one given ("pgi-k4-radial").
-Method pgi_method(std::size_t k, std::optional<RealisationChoice> realisation = std::nullopt);
+/// pgi at order k with the scene's realisation ("pgi-k4"), or with the one given ("pgi-k4-radial"); jit: its maps as
+/// native code (StepOptions::jit, "pgi-k4-jit"), built before the clock starts, as the exact phase.
+Method pgi_method(std::size_t k, std::optional<RealisationChoice> realisation = std::nullopt, bool jit = false);
 /// rk2imp (implicit midpoint), rk4imp (2-stage Gauss, order 4): fixed step; rk8pd, rkf45, msbdf: adaptive.
 std::vector<Method> gsl_methods();
 /// runge_kutta4: fixed step; runge_kutta_dopri5 (controlled), bulirsch_stoer: adaptive.

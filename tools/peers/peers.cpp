@@ -2,7 +2,7 @@
 // part of the core library: only this program links the peers. The same compiled vector field (pi grad
 // H, and its Jacobian for the implicit peers) feeds every method, so the comparison measures the methods.
 //
-//   pgi_peers SCENE [--orders 2,4,6] [--realisations radial] [--peers rk4imp,rk8pd,...] [--dts ...] [--tols ...]
+//   pgi_peers SCENE [--orders 2,4,6] [--realisations radial] [--jit] [--peers rk4imp,rk8pd,...] [--dts ...] [--tols ...]
 //                   [--order K] [--dt DT] [--x0 A,B,...] [--t-end T] [--watch POLY]...
 //                   [--csv FILE] [--plot FILE.svg] [--drift FILE] [--drift-t-end T2] [--long T3] [--suite]
 //
@@ -41,7 +41,7 @@ using nlohmann::json;
 // pgi at each order (with the scene's realisation, then with each extra one), then the peers named
 // (all of them if none is); an unknown name is an error.
 std::vector<Method> select_methods(const std::vector<std::size_t>& orders, const std::vector<pgi::RealisationChoice>& extra,
-                                   const std::vector<std::string>& names) {
+                                   const std::vector<std::string>& names, bool jit) {
     std::vector<Method> peers = gsl_methods(), chosen;
     for (auto& o : odeint_methods()) peers.push_back(std::move(o));
     for (const auto& name : names)
@@ -51,6 +51,8 @@ std::vector<Method> select_methods(const std::vector<std::size_t>& orders, const
             throw std::invalid_argument("--peers: unknown peer '" + name + "' (known:" + known + ")");
         }
     for (std::size_t k : orders) chosen.push_back(pgi_method(k));
+    if (jit)
+        for (std::size_t k : orders) chosen.push_back(pgi_method(k, std::nullopt, true));
     for (auto r : extra)
         for (std::size_t k : orders) chosen.push_back(pgi_method(k, r));
     for (auto& m : peers)
@@ -271,6 +273,8 @@ int main(int argc, char** argv) {
     app.add_option("--drift", drift_file, "drift samples: method, t, energy error, Casimir error");
     app.add_option("--drift-t-end", drift_t_end, "final time of the drift runs (default 1e4)");
     app.add_option("--long", long_t_end, "the long-run table to this final time (e.g. 1e5)");
+    bool jit = false;
+    app.add_flag("--jit", jit, "pgi also with its compiled maps as native code (pgi-k4-jit: the same numbers, faster)");
     app.add_flag("--suite", run_suite, "one run of every method with its outcome, instead of the work-precision ladders");
     app.add_option("--tol", suite_tol, "the adaptive peers' tolerance in --suite (default 1e-6)");
     CLI11_PARSE(app, argc, argv);
@@ -304,12 +308,12 @@ int main(int argc, char** argv) {
         const State x0 = *scene.x0;
         json summary{{"scene", scene.name}, {"dt", scene.dt}, {"x0", x0}, {"watched", watched_text}};
         if (run_suite) {
-            const auto methods = select_methods({scene.order}, extra, peer_names);
+            const auto methods = select_methods({scene.order}, extra, peer_names, jit);
             summary["suite"] = suite(pr, methods, x0, t_end_opt.value_or(scene.t_end.value_or(100.0)), suite_tol);
         } else {
             const double dt = scene.dt;
             const Ladders ladders{dts.empty() ? std::vector<double>{4 * dt, 2 * dt, dt, dt / 2, dt / 4, dt / 8} : dts, tols};
-            const auto methods = select_methods(orders, extra, peer_names);
+            const auto methods = select_methods(orders, extra, peer_names, jit);
             summary["work_precision"] = work_precision(pr, methods, ladders, x0, t_end_opt.value_or(100.0), csv_file);
             if (!plot_file.empty()) plot_work_precision(csv_file, plot_file, scene.name);
             if (!drift_file.empty()) summary["drift"] = drift(pr, methods, x0, drift_t_end, drift_file);

@@ -11,12 +11,13 @@
 
 namespace pgi::peers {
 
-Method pgi_method(std::size_t k, std::optional<RealisationChoice> realisation) {
-    const std::string name = realisation ? fmt::format("pgi-k{}-{}", k, to_string(*realisation)) : fmt::format("pgi-k{}", k);
-    return {name, true, [k, realisation](const Problem& pr, const State& x0, double T, double dt, Samples* samples) {
+Method pgi_method(std::size_t k, std::optional<RealisationChoice> realisation, bool jit) {
+    const std::string name = (realisation ? fmt::format("pgi-k{}-{}", k, to_string(*realisation)) : fmt::format("pgi-k{}", k)) + (jit ? "-jit" : "");
+    return {name, true, [k, realisation, jit](const Problem& pr, const State& x0, double T, double dt, Samples* samples) {
                 StepOptions opt;
                 opt.k = k;
                 opt.dt = dt;
+                opt.jit = jit;
                 opt.realisation = realisation.value_or(pr.scene.realisation);
                 Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(x0.data(), Eigen::Index(x0.size()));
                 const auto setup = Clock::now();

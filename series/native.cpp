@@ -1,0 +1,296 @@
+#include "series/native.hpp"
+
+#include <dlfcn.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <thread>
+
+extern char** environ;
+
+namespace pgi {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// A coefficient as a C++ hexadecimal literal: the double itself, no decimal rounding in between.
+std::string literal(double c) {
+    char buffer[40];
+    std::snprintf(buffer, sizeof buffer, "%a", c);
+    return buffer;
+}
+
+// The terms of output o, each with the partial sum (0..3) the interpreter adds it to, in its order: a row's
+// first L - L mod 4 terms round-robin and the rest into sum 0 (eval_with), a grouped output's from its lane
+// row (split_sums: the group's zero padding left out, which adds nothing to a sum started at +0).
+struct Term {
+    int sum;
+    std::uint32_t monomial;
+    double coeff;
+};
+std::vector<Term> output_terms(const CompiledMap::Tape& tape, std::size_t o) {
+    std::vector<Term> terms;
+    const CompiledMap::LaneRow& row = tape.lane_row[o];
+    if (row.start == UINT32_MAX) {
+        const std::uint32_t start = tape.row_start[o], L = tape.row_start[o + 1] - start, rounds = L / 4 * 4;
+        for (std::uint32_t i = 0; i < L; ++i) terms.push_back({i < rounds ? int(i % 4) : 0, tape.term_monomial[start + i], tape.term_coeff[start + i]});
+        return terms;
+    }
+    std::uint32_t t = row.start;
+    for (std::uint32_t q = 0; q < row.quads; ++q)
+        for (int s = 0; s < 4; ++s, ++t) terms.push_back({s, tape.lane_monomial[t], tape.lane_coeff[t]});
+    for (int s = 0; s < 4; ++s)
+        for (std::uint32_t i = 0; i < row.tail[s]; ++i, ++t) terms.push_back({s, tape.lane_monomial[t], tape.lane_coeff[t]});
+    return terms;
+}
+
+std::string env_or(const char* name, const std::string& fallback) {
+    const char* v = std::getenv(name);
+    return v && *v ? std::string(v) : fallback;
+}
+
+std::string compiler_of(const NativeOptions& o) {
+    if (!o.compiler.empty()) return o.compiler;
+    return env_or("PGI_CXX", env_or("CXX", "c++"));
+}
+
+const std::vector<std::string>& compiler_flags() {
+    static const std::vector<std::string> flags = {"-O2", "-ffp-contract=off", "-fPIC", "-shared", "-w"};
+    return flags;
+}
+
+// The directory kept libraries go to (NativeOptions::cache_dir), created if missing.
+fs::path cache_directory(const NativeOptions& o) {
+    std::vector<fs::path> candidates;
+    if (!o.cache_dir.empty()) {
+        candidates.push_back(o.cache_dir);
+    } else {
+        if (const char* d = std::getenv("PGI_JIT_CACHE"); d && *d) candidates.push_back(d);
+        if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d) candidates.push_back(fs::path(d) / "pgi" / "jit");
+        if (const char* d = std::getenv("HOME"); d && *d) candidates.push_back(fs::path(d) / ".cache" / "pgi" / "jit");
+        std::error_code ec;
+        const fs::path tmp = fs::temp_directory_path(ec);
+        if (!ec) candidates.push_back(tmp / ("pgi-jit-" + std::to_string(::getuid())));
+    }
+    for (const fs::path& d : candidates) {
+        std::error_code ec;
+        fs::create_directories(d, ec);
+        if (!ec && ::access(d.c_str(), W_OK | X_OK) == 0) return d;
+    }
+    throw NativeCodeError("native code: no writable directory for the compiled libraries (tried " +
+                          (candidates.empty() ? std::string("none") : candidates.front().string()) + " first)");
+}
+
+// FNV-1a: the cache key of a source and its command (the kept source is compared in full before its library is used).
+std::string key_of(const std::string& text) {
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    for (unsigned char c : text) h = (h ^ c) * 0x100000001b3ull;
+    char buffer[20];
+    std::snprintf(buffer, sizeof buffer, "%016llx", static_cast<unsigned long long>(h));
+    return buffer;
+}
+
+std::string read_all(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+void write_all(const fs::path& p, const std::string& text) {
+    std::ofstream out(p, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) throw NativeCodeError("native code: cannot write " + p.string());
+}
+
+std::string last_lines(const std::string& text, std::size_t n) {
+    std::size_t pos = text.size();
+    for (std::size_t i = 0; i <= n && pos > 0; ++i) pos = text.rfind('\n', pos - 1);
+    return pos == std::string::npos ? text : text.substr(pos + 1);
+}
+
+// Runs argv (argv[0] searched on PATH) with its output to log, at most timeout; "" when it exits 0, else what happened.
+std::string run(const std::vector<std::string>& argv, const fs::path& log, std::chrono::seconds timeout) {
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+    pid_t pid = 0;
+    const int spawned = posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (spawned != 0) return "cannot be run (" + std::string(std::strerror(spawned)) + ")";
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    int status = 0;
+    for (auto pause = std::chrono::milliseconds(2);; pause = std::min(2 * pause, std::chrono::milliseconds(50))) {
+        const pid_t r = ::waitpid(pid, &status, WNOHANG);
+        if (r == pid) break;
+        if (r < 0 && errno != EINTR) return "lost (waitpid: " + std::string(std::strerror(errno)) + ")";
+        if (std::chrono::steady_clock::now() > deadline) {
+            ::kill(pid, SIGKILL);
+            ::waitpid(pid, &status, 0);
+            return "stopped after " + std::to_string(timeout.count()) + " s";
+        }
+        std::this_thread::sleep_for(pause);
+    }
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return "";
+    if (WIFEXITED(status)) return "exited with status " + std::to_string(WEXITSTATUS(status));
+    return "was killed by signal " + std::to_string(WTERMSIG(status));
+}
+
+// A name no other process picks: for files written and then renamed into place.
+std::string unique_suffix() {
+    std::random_device rd;
+    return std::to_string(::getpid()) + "-" + std::to_string(rd());
+}
+
+// The library of source in dir: the kept one if its source is the same, else compiled now (written under a temporary
+// name, then renamed into place: a concurrent build of the same source writes the same bytes).
+fs::path library_for(const std::string& source, const NativeOptions& o) {
+    const std::string compiler = compiler_of(o);
+    std::string command = compiler;
+    for (const std::string& f : compiler_flags()) command += " " + f;
+    const fs::path dir = cache_directory(o);
+    const std::string key = key_of(command + "\n" + source);
+    const fs::path kept_source = dir / (key + ".cpp"), library = dir / (key + ".so");
+    std::error_code ec;
+    if (fs::exists(library, ec) && fs::exists(kept_source, ec) && read_all(kept_source) == source) return library;
+    const std::string tmp = unique_suffix();
+    const fs::path src = dir / (key + "." + tmp + ".cpp"), lib = dir / (key + "." + tmp + ".so"), log = dir / (key + "." + tmp + ".log");
+    write_all(src, source);
+    std::vector<std::string> argv = {compiler};
+    argv.insert(argv.end(), compiler_flags().begin(), compiler_flags().end());
+    argv.insert(argv.end(), {"-o", lib.string(), src.string()});
+    const std::string failure = run(argv, log, o.timeout);
+    const std::string output = read_all(log);
+    fs::remove(log, ec);
+    if (!failure.empty()) {
+        fs::remove(src, ec), fs::remove(lib, ec);
+        throw NativeCodeError("native code: the compiler `" + command + "` " + failure + (output.empty() ? "" : ":\n" + last_lines(output, 10)));
+    }
+    fs::rename(lib, library, ec);
+    if (!ec) fs::rename(src, kept_source, ec);
+    if (ec) {
+        fs::remove(src, ec), fs::remove(lib, ec);
+        throw NativeCodeError("native code: cannot keep the library in " + dir.string());
+    }
+    return library;
+}
+
+}  // namespace
+
+namespace {
+
+// The outputs' sums: the sums start at +0 as the interpreter's do (a first term of -0 leaves +0).
+template <class Name>
+void write_output(std::ostream& o, std::size_t out, const std::vector<Term>& terms, Name name) {
+    o << "  { double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;\n";
+    for (const Term& t : terms) o << "    s" << t.sum << " += " << literal(t.coeff) << " * " << name(t.monomial) << ";\n";
+    o << "    out[" << out << "] = (s0 + s1) + (s2 + s3); }\n";
+}
+
+// A small map: one function, the monomials named values (kept in registers where the compiler can).
+void write_single(std::ostream& o, const CompiledMap::Tape& tape, const std::string& symbol) {
+    const auto name = [](std::uint32_t k) { return "m" + std::to_string(k); };
+    o << "extern \"C\" void " << symbol << "(const double* __restrict in, double* __restrict out) {\n  const double m0 = 1.0;\n";
+    for (std::size_t v = 0; v < tape.inputs; ++v) o << "  const double m" << v + 1 << " = in[" << v << "];\n";
+    for (std::size_t k = 0; k < tape.products; ++k)
+        o << "  const double " << name(std::uint32_t(1 + tape.inputs + k)) << " = " << name(tape.left[k]) << " * " << name(tape.right[k]) << ";\n";
+    for (std::size_t out = 0; out < tape.outputs; ++out) write_output(o, out, output_terms(tape, out), name);
+    o << "}\n";
+}
+
+// A large map: pieces of about piece_size statements, each its own function over the monomials in memory. One
+// function of thousands of live values costs the compiler's register allocator time quadratic in them (the radial
+// Nambu scene's maps: 47 s for one 33 000-line source); pieces keep it linear.
+void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::string& symbol) {
+    constexpr std::size_t piece_size = 256;
+    const auto name = [](std::uint32_t k) { return "m[" + std::to_string(k) + "]"; };
+    std::ostringstream call;
+    std::size_t pieces = 0, statements = 0;
+    const auto open_piece = [&] {
+        o << "static __attribute__((noinline)) void " << symbol << "_" << pieces << "(double* __restrict m, double* __restrict out) {\n";
+        call << "  " << symbol << "_" << pieces++ << "(m, out);\n";
+        statements = 0;
+    };
+    const auto next_statements = [&](std::size_t count) {
+        if (statements + count > piece_size && statements > 0) o << "}\n", open_piece();
+        statements += count;
+    };
+    open_piece();
+    for (std::size_t k = 0; k < tape.products; ++k) {
+        next_statements(1);
+        o << "  " << name(std::uint32_t(1 + tape.inputs + k)) << " = " << name(tape.left[k]) << " * " << name(tape.right[k]) << ";\n";
+    }
+    for (std::size_t out = 0; out < tape.outputs; ++out) {
+        const std::vector<Term> terms = output_terms(tape, out);
+        next_statements(terms.size() + 1);
+        write_output(o, out, terms, name);
+    }
+    o << "}\nextern \"C\" void " << symbol << "(const double* __restrict in, double* __restrict out) {\n";
+    o << "  double m[" << 1 + tape.inputs + tape.products << "];\n  m[0] = 1.0;\n";
+    for (std::size_t v = 0; v < tape.inputs; ++v) o << "  m[" << v + 1 << "] = in[" << v << "];\n";
+    o << call.str() << "}\n";
+}
+
+// Maps up to this many terms and monomials are written as one function.
+constexpr std::size_t single_function_size = 2000;
+
+}  // namespace
+
+std::string native_source(const CompiledMap& map, const std::string& symbol) {
+    std::ostringstream o;
+    if (map.num_terms() + map.num_monomials() <= single_function_size)
+        write_single(o, map.tape(), symbol);
+    else
+        write_pieces(o, map.tape(), symbol);
+    return o.str();
+}
+
+std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
+    std::vector<CompiledMap*> todo;
+    std::size_t native = 0, budget = options.max_size;
+    for (CompiledMap* m : maps) {
+        const std::size_t size = m->num_terms() + m->num_monomials();
+        if (m->native()) {
+            ++native;
+        } else if (m->num_outputs() > 0 && size <= budget) {
+            todo.push_back(m);
+            budget -= size;
+        }
+    }
+    if (todo.empty()) return native;
+    std::string source = "// pgi: compiled maps as straight-line code (series/native.hpp)\n";
+    for (std::size_t i = 0; i < todo.size(); ++i) source += native_source(*todo[i], "pgi_map_" + std::to_string(i));
+    const fs::path library = library_for(source, options);
+    void* handle = ::dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!handle) throw NativeCodeError("native code: cannot load " + library.string() + ": " + ::dlerror());
+    const std::shared_ptr<const void> loaded(handle, [](const void* h) { ::dlclose(const_cast<void*>(h)); });
+    std::vector<CompiledMap::NativeEval> found;
+    for (std::size_t i = 0; i < todo.size(); ++i) {
+        void* f = ::dlsym(handle, ("pgi_map_" + std::to_string(i)).c_str());
+        if (!f) throw NativeCodeError("native code: " + library.string() + " lacks pgi_map_" + std::to_string(i));
+        found.push_back(reinterpret_cast<CompiledMap::NativeEval>(f));
+    }
+    for (std::size_t i = 0; i < todo.size(); ++i) todo[i]->attach_native(loaded, found[i]);
+    return native + todo.size();
+}
+
+}  // namespace pgi

@@ -1,0 +1,169 @@
+// Native code for compiled maps (series/native.hpp): the same bits as the interpreter on random maps (rows,
+// groups, signed zeros, overflow), the step with jit the same trajectory as without, a failing compiler a
+// NativeCodeError that leaves the maps interpreted, and a kept library loaded instead of compiled again.
+#include "series/native.hpp"
+#include "series/poly.hpp"
+#include "test_util.hpp"
+
+#include <doctest/doctest.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <limits>
+#include <random>
+
+using namespace pgi;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
+
+// A fresh directory for this process's kept libraries (so no test reads another run's).
+NativeOptions test_options(const std::string& name) {
+    NativeOptions o;
+    o.cache_dir = (fs::temp_directory_path() / ("pgi-native-test-" + std::to_string(::getpid()) + "-" + name)).string();
+    fs::remove_all(o.cache_dir);
+    return o;
+}
+
+// Outputs of every kind the interpreter has: empty, constant, short rows, long rows (the four sums and their
+// remainder), and groups of outputs sharing monomials (split into four partial sums with zero padding).
+std::vector<Poly> mixed_outputs(const RingPtr& r, std::mt19937& gen) {
+    std::uniform_int_distribution<long> coeff(-999, 999);
+    std::uniform_int_distribution<unsigned long> ex(0, 3);
+    const auto random_poly = [&](int terms) {
+        Poly f(r);
+        for (int t = 0; t < terms; ++t) {
+            Poly m = Poly::constant(r, Rational(coeff(gen), static_cast<unsigned long>(1 + std::abs(coeff(gen)))));
+            for (std::size_t v = 0; v < 3; ++v) m = m * pow(Poly::gen(r, v + 1), ex(gen));
+            f += m;
+        }
+        return f;
+    };
+    std::vector<Poly> outputs{Poly(r), Poly::constant(r, Rational(-7, 3))};
+    for (int terms : {1, 3, 5, 11, 30}) outputs.push_back(random_poly(terms));
+    const Poly shared = random_poly(40);
+    for (long c : {2, -3, 5, 7, -11}) outputs.push_back(Poly::constant(r, Rational(c, 8)) * shared + random_poly(2));
+    return outputs;
+}
+
+}  // namespace
+
+TEST_CASE("native: every output is the interpreter's, bit for bit, on random maps with rows and groups") {
+    const auto r = make_ring({"unused", "a", "b", "c"});
+    std::mt19937 gen(21);
+    std::uniform_real_distribution<double> input(-2.0, 2.0);
+    std::vector<CompiledMap> maps;
+    for (int trial = 0; trial < 4; ++trial) maps.push_back(CompiledMap::build(mixed_outputs(r, gen), {3, 1, 2}));
+    const std::vector<CompiledMap> interpreted = maps;
+    std::vector<CompiledMap*> pointers;
+    for (auto& m : maps) pointers.push_back(&m);
+    REQUIRE(attach_native_code(pointers, test_options("random")) == maps.size());
+    std::size_t compared = 0;
+    for (std::size_t i = 0; i < maps.size(); ++i) {
+        CHECK(maps[i].native());
+        CHECK_FALSE(interpreted[i].native());
+        const std::size_t O = maps[i].num_outputs();
+        std::vector<double> a(O), b(O);
+        for (int point = 0; point < 200; ++point) {
+            double x[3] = {input(gen), input(gen), input(gen)};
+            if (point == 1) x[0] = -0.0, x[1] = 0.0;                                       // signed zeros
+            if (point == 2) x[2] = 1e120;                                                   // overflowing monomials
+            if (point == 3) x[1] = std::numeric_limits<double>::quiet_NaN();
+            interpreted[i].eval(x, a.data());
+            maps[i].eval(x, b.data());
+            for (std::size_t o = 0; o < O; ++o) {
+                CAPTURE(i);
+                CAPTURE(point);
+                CAPTURE(o);
+                CHECK(bits(a[o]) == bits(b[o]));
+                ++compared;
+            }
+        }
+    }
+    CHECK(compared > 5000);
+}
+
+TEST_CASE("native: a copy shares the loaded code; a kept library is loaded, not compiled again") {
+    const auto r = make_ring({"x", "y"});
+    const Poly f = pow(Poly::gen(r, 0), 3) - Poly::constant(r, Rational(1, 3)) * Poly::gen(r, 1);
+    const NativeOptions options = test_options("cache");
+    CompiledMap first = CompiledMap::build({f}, {0, 1});
+    REQUIRE(attach_native_code({&first}, options) == 1);
+    std::vector<fs::path> kept;
+    for (const auto& e : fs::directory_iterator(options.cache_dir)) kept.push_back(e.path());
+    REQUIRE(kept.size() == 2);  // the source and its library, nothing left over
+    const auto written = fs::last_write_time(kept[0]);
+    // the same map again, with a "compiler" that would fail if it were run: the kept library serves
+    CompiledMap second = CompiledMap::build({f}, {0, 1});
+    NativeOptions no_compiler = options;
+    no_compiler.compiler = "c++";  // the same command as the first build (the key includes it) ...
+    CHECK(attach_native_code({&second}, no_compiler) == 1);
+    std::size_t files = 0;
+    for ([[maybe_unused]] const auto& e : fs::directory_iterator(options.cache_dir)) ++files;
+    CHECK(files == 2);
+    CHECK(fs::last_write_time(kept[0]) == written);
+    const CompiledMap copy = second;
+    const double x[2] = {0.5, 3};
+    double y = 0;
+    copy.eval(x, &y);
+    CHECK(copy.native());
+    CHECK(y == 0.125 - 1.0);
+    fs::remove_all(options.cache_dir);
+}
+
+TEST_CASE("native: a compiler that fails or does not exist is a NativeCodeError naming it; the maps stay interpreted") {
+    const auto r = make_ring({"x"});
+    CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+    for (const std::string compiler : {"false", "/nonexistent/pgi-cc"}) {
+        CAPTURE(compiler);
+        NativeOptions o = test_options("failing");
+        o.compiler = compiler;
+        try {
+            attach_native_code({&map}, o);
+            FAIL("no error");
+        } catch (const NativeCodeError& e) {
+            CHECK(std::string(e.what()).find(compiler) != std::string::npos);
+        }
+        CHECK_FALSE(map.native());
+        for (const auto& e : fs::directory_iterator(o.cache_dir)) FAIL("left behind: " << e.path());  // nothing half-written
+        fs::remove_all(o.cache_dir);
+    }
+    const double x = 3;
+    double y = 0;
+    map.eval(&x, &y);
+    CHECK(y == 9);
+}
+
+TEST_CASE("native: the step with jit takes the interpreted step's trajectory bit for bit, on every bundled scene") {
+    const std::string cache = test_options("steps").cache_dir;
+    ::setenv("PGI_JIT_CACHE", cache.c_str(), 1);
+    for (const std::string& name : test::bundled_names()) {
+        CAPTURE(name);
+        const Scene s = test::bundled(name);
+        if (!s.x0) continue;
+        const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
+        StepOptions opt;
+        opt.k = s.scheme->order();
+        opt.dt = s.dt;
+        opt.realisation = s.scheme->realisation_choice();
+        NewtonStepper interpreted = s.scheme->stepper(opt, x0);
+        opt.jit = true;
+        NewtonStepper native = s.scheme->stepper(opt, x0);
+        CHECK(interpreted.info().native_maps == 0);
+        CHECK(native.info().native_maps > 0);  // every scene has at least S_dt's maps
+        Eigen::VectorXd x = x0, y = x0, dx(x0.size()), dy(x0.size());
+        for (int n = 0; n < 50; ++n) {
+            const double dt = n % 5 == 4 ? 0.6 * s.dt : s.dt;  // the planned map, and the stacked one with Horner
+            REQUIRE(interpreted.step(x, dt, dx) == native.step(y, dt, dy));
+            x += dx, y += dy;
+            for (Eigen::Index i = 0; i < x.size(); ++i) REQUIRE(bits(x[i]) == bits(y[i]));
+        }
+    }
+    ::unsetenv("PGI_JIT_CACHE");
+    fs::remove_all(cache);
+}
