@@ -271,7 +271,7 @@ std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const Nati
         const std::size_t size = m->num_terms() + m->num_monomials();
         if (m->native()) {
             ++native;
-        } else if (m->num_outputs() > 0 && size <= budget) {
+        } else if (m->num_outputs() > 0 && size <= options.max_map_size && size <= budget) {
             todo.push_back(m);
             budget -= size;
         }
