@@ -167,3 +167,37 @@ TEST_CASE("native: the step with jit takes the interpreted step's trajectory bit
     ::unsetenv("PGI_JIT_CACHE");
     fs::remove_all(cache);
 }
+
+TEST_CASE("native: a map written in pieces (above 2000 terms and monomials, limits raised) keeps the interpreter's bits") {
+    const auto r = make_ring({"a", "b", "c", "d"});
+    std::mt19937 gen(8);
+    std::uniform_int_distribution<long> coeff(-99, 99);
+    std::uniform_int_distribution<unsigned long> ex(0, 4);
+    std::vector<Poly> outputs;
+    for (int o = 0; o < 7; ++o) {
+        Poly f(r);
+        for (int t = 0; t < 350; ++t) {
+            Poly m = Poly::constant(r, Rational(coeff(gen), 7));
+            for (std::size_t v = 0; v < 4; ++v) m = m * pow(Poly::gen(r, v), ex(gen));
+            f += m;
+        }
+        outputs.push_back(f);
+    }
+    CompiledMap map = CompiledMap::build(outputs, {0, 1, 2, 3});
+    const CompiledMap interpreted = map;
+    REQUIRE(map.num_terms() + map.num_monomials() > 2000);
+    NativeOptions o = test_options("pieces");
+    CHECK(attach_native_code({&map}, o) == 0);  // above the default limits: interpreted
+    o.max_map_size = o.max_size = 100000;
+    REQUIRE(attach_native_code({&map}, o) == 1);
+    CHECK(native_source(map, "f").find("noinline") != std::string::npos);  // in pieces
+    std::uniform_real_distribution<double> input(-1.5, 1.5);
+    std::vector<double> a(outputs.size()), b(outputs.size());
+    for (int point = 0; point < 100; ++point) {
+        const double x[4] = {input(gen), input(gen), input(gen), input(gen)};
+        interpreted.eval(x, a.data());
+        map.eval(x, b.data());
+        for (std::size_t i = 0; i < a.size(); ++i) CHECK(bits(a[i]) == bits(b[i]));
+    }
+    fs::remove_all(o.cache_dir);
+}
