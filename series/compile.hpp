@@ -60,11 +60,22 @@ public:
         const LaneRow* lane_row;
         const std::uint32_t* lane_monomial;
         const double* lane_coeff;
+        /// The groups as eval() reads them (series/native writes them the same way): group g's outputs (no_output
+        /// where fewer than group_width), its terms group_start[g] .. group_start[g + 1] - 1, term t reading
+        /// monomial group_monomial[t] times group_coeff[t group_width + i] for its output i (0: padding).
+        std::size_t groups;
+        const std::array<std::uint32_t, 4>* group_output;
+        const std::uint32_t *group_start, *group_monomial;
+        const double* group_coeff;
     };
     Tape tape() const {
-        return {num_inputs_,         left_.size(),        num_outputs(),        left_.data(), right_.data(), row_start_.data(),
-                term_monomial_.data(), term_coeff_.data(), lane_row_.data(), lane_monomial_.data(), lane_coeff_.data()};
+        return {num_inputs_,          left_.size(),           num_outputs(),         left_.data(),          right_.data(),
+                row_start_.data(),    term_monomial_.data(),  term_coeff_.data(),    lane_row_.data(),      lane_monomial_.data(),
+                lane_coeff_.data(),   group_output_.size(),   group_output_.data(),  group_start_.data(),   group_monomial_.data(),
+                group_coeff_.data()};
     }
+    static constexpr std::size_t group_width = 4;
+    static constexpr std::uint32_t no_output = UINT32_MAX;
     /// The same polynomials (with the same double coefficients) in long double, for reference
     /// solutions of the problem the double evaluator defines; scratch is resized as needed.
     void eval(const long double* in, long double* out, std::vector<long double>& scratch) const;
@@ -76,8 +87,6 @@ private:
     std::vector<double> term_coeff_;
     // groups of up to group_width outputs read together: group g's terms group_start_[g] .. group_start_[g + 1] - 1,
     // term t reading monomial group_monomial_[t] times group_coeff_[t group_width + i] for its output i
-    static constexpr std::size_t group_width = 4;
-    static constexpr std::uint32_t no_output = UINT32_MAX;
     std::vector<std::array<std::uint32_t, group_width>> group_output_;
     std::vector<std::uint32_t> group_start_, group_monomial_;
     std::vector<double> group_coeff_;

@@ -33,27 +33,17 @@ std::string literal(double c) {
     return buffer;
 }
 
-// The terms of output o, each with the partial sum (0..3) the interpreter adds it to, in its order: a row's
-// first L - L mod 4 terms round-robin and the rest into sum 0 (eval_with), a grouped output's from its lane
-// row (split_sums: the group's zero padding left out, which adds nothing to a sum started at +0).
+// The terms of an output the interpreter evaluates from its row (eval_with), each with the partial sum (0..3) it
+// adds it to, in its order: the first L - L mod 4 terms round-robin, the rest into sum 0.
 struct Term {
     int sum;
     std::uint32_t monomial;
     double coeff;
 };
-std::vector<Term> output_terms(const CompiledMap::Tape& tape, std::size_t o) {
+std::vector<Term> row_terms(const CompiledMap::Tape& tape, std::size_t o) {
     std::vector<Term> terms;
-    const CompiledMap::LaneRow& row = tape.lane_row[o];
-    if (row.start == UINT32_MAX) {
-        const std::uint32_t start = tape.row_start[o], L = tape.row_start[o + 1] - start, rounds = L / 4 * 4;
-        for (std::uint32_t i = 0; i < L; ++i) terms.push_back({i < rounds ? int(i % 4) : 0, tape.term_monomial[start + i], tape.term_coeff[start + i]});
-        return terms;
-    }
-    std::uint32_t t = row.start;
-    for (std::uint32_t q = 0; q < row.quads; ++q)
-        for (int s = 0; s < 4; ++s, ++t) terms.push_back({s, tape.lane_monomial[t], tape.lane_coeff[t]});
-    for (int s = 0; s < 4; ++s)
-        for (std::uint32_t i = 0; i < row.tail[s]; ++i, ++t) terms.push_back({s, tape.lane_monomial[t], tape.lane_coeff[t]});
+    const std::uint32_t start = tape.row_start[o], L = tape.row_start[o + 1] - start, rounds = L / 4 * 4;
+    for (std::uint32_t i = 0; i < L; ++i) terms.push_back({i < rounds ? int(i % 4) : 0, tape.term_monomial[start + i], tape.term_coeff[start + i]});
     return terms;
 }
 
@@ -198,51 +188,99 @@ fs::path library_for(const std::string& source, const NativeOptions& o) {
 
 namespace {
 
-// The outputs' sums: the sums start at +0 as the interpreter's do (a first term of -0 leaves +0).
+// A statement of the generated code, and how many operations it holds (for the pieces).
+struct Statement {
+    std::string text;
+    std::size_t size;
+};
+
+// An output evaluated from its row: four sums started at +0 as the interpreter's (a first term of -0 leaves +0).
 template <class Name>
-void write_output(std::ostream& o, std::size_t out, const std::vector<Term>& terms, Name name) {
+Statement row_statement(const CompiledMap::Tape& tape, std::size_t out, Name name) {
+    std::ostringstream o;
+    const std::vector<Term> terms = row_terms(tape, out);
     o << "  { double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;\n";
     for (const Term& t : terms) o << "    s" << t.sum << " += " << literal(t.coeff) << " * " << name(t.monomial) << ";\n";
     o << "    out[" << out << "] = (s0 + s1) + (s2 + s3); }\n";
+    return {o.str(), terms.size() + 1};
+}
+
+// A group of four outputs as eval_with's GroupSums: two pairs of lanes (lo: outputs 0, 1; hi: 2, 3) and four partial
+// sums of each, term p of the group's L into sum p mod 4 (the last L mod 4 into sum 0), each term the product of
+// its coefficient pair and the monomial, masked to +0 in a lane whose coefficient is zero (as GroupSums::add: a
+// padding zero adds nothing, even times an infinite monomial); a pair of zeros adds +0 and is left out.
+template <class Name>
+Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name name) {
+    std::ostringstream o;
+    const std::uint32_t start = tape.group_start[g], L = tape.group_start[g + 1] - start, rounds = L / 4 * 4;
+    std::size_t size = 2;
+    o << "  { pgi_v2 l0 = {0.0, 0.0}, l1 = l0, l2 = l0, l3 = l0, h0 = l0, h1 = l0, h2 = l0, h3 = l0;\n";
+    for (std::uint32_t p = 0; p < L; ++p) {
+        const std::uint32_t t = start + p;
+        const int sum = p < rounds ? int(p % 4) : 0;
+        for (int half = 0; half < 2; ++half) {
+            const double a = tape.group_coeff[4 * std::size_t(t) + 2 * half], b = tape.group_coeff[4 * std::size_t(t) + 2 * half + 1];
+            if (a == 0 && b == 0) continue;
+            const std::string product = "pgi_v2{" + literal(a) + ", " + literal(b) + "} * " + name(tape.group_monomial[t]);
+            o << "    " << (half ? 'h' : 'l') << sum << " += ";
+            if (a != 0 && b != 0)
+                o << product << ";\n";
+            else
+                o << "(pgi_v2)((pgi_m2)(" << product << ") & pgi_m2{" << (a != 0 ? -1 : 0) << ", " << (b != 0 ? -1 : 0) << "});\n";
+            ++size;
+        }
+    }
+    o << "    const pgi_v2 l = (l0 + l1) + (l2 + l3), h = (h0 + h1) + (h2 + h3);\n";
+    for (int i = 0; i < 4; ++i)
+        if (tape.group_output[g][std::size_t(i)] != CompiledMap::no_output)
+            o << "    out[" << tape.group_output[g][std::size_t(i)] << "] = " << (i < 2 ? 'l' : 'h') << "[" << i % 2 << "];\n";
+    o << "  }\n";
+    return {o.str(), size};
+}
+
+// Every statement of the map after its inputs: the products, the rows, the groups (eval_with's order).
+template <class Name>
+std::vector<Statement> statements(const CompiledMap::Tape& tape, Name name) {
+    std::vector<Statement> all;
+    for (std::size_t k = 0; k < tape.products; ++k)
+        all.push_back({"  " + name(std::uint32_t(1 + tape.inputs + k), true) + " = " + name(tape.left[k], false) + " * " + name(tape.right[k], false) + ";\n", 1});
+    for (std::size_t out = 0; out < tape.outputs; ++out)
+        if (tape.lane_row[out].start == UINT32_MAX) all.push_back(row_statement(tape, out, [&](std::uint32_t k) { return name(k, false); }));
+    for (std::size_t g = 0; g < tape.groups; ++g) all.push_back(group_statement(tape, g, [&](std::uint32_t k) { return name(k, false); }));
+    return all;
 }
 
 // A small map: one function, the monomials named values (kept in registers where the compiler can).
 void write_single(std::ostream& o, const CompiledMap::Tape& tape, const std::string& symbol) {
-    const auto name = [](std::uint32_t k) { return "m" + std::to_string(k); };
+    const auto name = [](std::uint32_t k, bool defined) {
+        std::string n = defined ? "const double m" : "m";
+        n += std::to_string(k);
+        return n;
+    };
     o << "extern \"C\" void " << symbol << "(const double* __restrict in, double* __restrict out) {\n  const double m0 = 1.0;\n";
     for (std::size_t v = 0; v < tape.inputs; ++v) o << "  const double m" << v + 1 << " = in[" << v << "];\n";
-    for (std::size_t k = 0; k < tape.products; ++k)
-        o << "  const double " << name(std::uint32_t(1 + tape.inputs + k)) << " = " << name(tape.left[k]) << " * " << name(tape.right[k]) << ";\n";
-    for (std::size_t out = 0; out < tape.outputs; ++out) write_output(o, out, output_terms(tape, out), name);
+    for (const Statement& s : statements(tape, name)) o << s.text;
     o << "}\n";
 }
 
-// A large map: pieces of about piece_size statements, each its own function over the monomials in memory. One
+// A large map: pieces of about piece_size operations, each its own function over the monomials in memory. One
 // function of thousands of live values costs the compiler's register allocator time quadratic in them (the radial
 // Nambu scene's maps: 47 s for one 33 000-line source); pieces keep it linear.
 void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::string& symbol) {
     constexpr std::size_t piece_size = 256;
-    const auto name = [](std::uint32_t k) { return "m[" + std::to_string(k) + "]"; };
+    const auto name = [](std::uint32_t k, bool) { return "m[" + std::to_string(k) + "]"; };
     std::ostringstream call;
-    std::size_t pieces = 0, statements = 0;
+    std::size_t pieces = 0, size = 0;
     const auto open_piece = [&] {
         o << "static __attribute__((noinline)) void " << symbol << "_" << pieces << "(double* __restrict m, double* __restrict out) {\n";
         call << "  " << symbol << "_" << pieces++ << "(m, out);\n";
-        statements = 0;
-    };
-    const auto next_statements = [&](std::size_t count) {
-        if (statements + count > piece_size && statements > 0) o << "}\n", open_piece();
-        statements += count;
+        size = 0;
     };
     open_piece();
-    for (std::size_t k = 0; k < tape.products; ++k) {
-        next_statements(1);
-        o << "  " << name(std::uint32_t(1 + tape.inputs + k)) << " = " << name(tape.left[k]) << " * " << name(tape.right[k]) << ";\n";
-    }
-    for (std::size_t out = 0; out < tape.outputs; ++out) {
-        const std::vector<Term> terms = output_terms(tape, out);
-        next_statements(terms.size() + 1);
-        write_output(o, out, terms, name);
+    for (const Statement& s : statements(tape, name)) {
+        if (size + s.size > piece_size && size > 0) o << "}\n", open_piece();
+        o << s.text;
+        size += s.size;
     }
     o << "}\nextern \"C\" void " << symbol << "(const double* __restrict in, double* __restrict out) {\n";
     o << "  double m[" << 1 + tape.inputs + tape.products << "];\n  m[0] = 1.0;\n";
@@ -253,9 +291,12 @@ void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::str
 // Maps up to this many terms and monomials are written as one function.
 constexpr std::size_t single_function_size = 2000;
 
-}  // namespace
+// What every source starts with: a group's pairs of lanes as GCC's vector extension (SSE2 on x86-64), as GroupSums.
+const char* const preamble = "// pgi: compiled maps as straight-line code (series/native.hpp)\n"
+                             "typedef double pgi_v2 __attribute__((vector_size(16)));\n"
+                             "typedef long long pgi_m2 __attribute__((vector_size(16)));\n";
 
-std::string native_source(const CompiledMap& map, const std::string& symbol) {
+std::string map_source(const CompiledMap& map, const std::string& symbol) {
     std::ostringstream o;
     if (map.num_terms() + map.num_monomials() <= single_function_size)
         write_single(o, map.tape(), symbol);
@@ -263,6 +304,10 @@ std::string native_source(const CompiledMap& map, const std::string& symbol) {
         write_pieces(o, map.tape(), symbol);
     return o.str();
 }
+
+}  // namespace
+
+std::string native_source(const CompiledMap& map, const std::string& symbol) { return preamble + map_source(map, symbol); }
 
 std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
     std::vector<CompiledMap*> todo;
@@ -277,8 +322,8 @@ std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const Nati
         }
     }
     if (todo.empty()) return native;
-    std::string source = "// pgi: compiled maps as straight-line code (series/native.hpp)\n";
-    for (std::size_t i = 0; i < todo.size(); ++i) source += native_source(*todo[i], "pgi_map_" + std::to_string(i));
+    std::string source = preamble;
+    for (std::size_t i = 0; i < todo.size(); ++i) source += map_source(*todo[i], "pgi_map_" + std::to_string(i));
     const fs::path library = library_for(source, options);
     void* handle = ::dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!handle) throw NativeCodeError("native code: cannot load " + library.string() + ": " + ::dlerror());

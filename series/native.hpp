@@ -42,7 +42,7 @@ struct NativeOptions {
     std::size_t max_map_size = 1000;
 };
 
-/// The C++ source of map's evaluator: extern "C" void symbol(const double* in, double* out), the interpreter's
+/// The C++ source of map's evaluator, a translation unit of its own: extern "C" void symbol(const double* in, double* out), the interpreter's
 /// operations in its order (CompiledMap::eval_with and the lane rows of split_sums).
 std::string native_source(const CompiledMap& map, const std::string& symbol);
 
