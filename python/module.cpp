@@ -54,9 +54,10 @@ std::vector<std::string> texts(const std::vector<pgi::Poly>& v, bool latex) {
 
 PyScheme from_values(std::vector<std::string> coordinates, const py::dict& brackets, std::string hamiltonian,
                      std::vector<std::string> casimirs, long order, std::string realisation, std::optional<double> dt,
-                     std::optional<Eigen::VectorXd> x0, std::optional<double> t_end, std::size_t max_terms, bool trust_jacobi) {
+                     std::optional<Eigen::VectorXd> x0, std::optional<double> t_end, std::size_t max_terms, bool trust_jacobi, bool jit) {
     pgi::SchemeValues v;
     v.trust_jacobi = trust_jacobi;
+    v.jit = jit;
     v.coordinates = std::move(coordinates);
     for (auto [k, value] : brackets) {
         if (!py::isinstance<py::str>(k) || !py::isinstance<py::str>(value))
@@ -318,14 +319,16 @@ PYBIND11_MODULE(_pgi, m) {
     auto& input_error = py::register_exception<pgi::InputError>(m, "InputError", PyExc_ValueError);
     py::register_exception<pgi::SceneError>(m, "SceneError", input_error.ptr());
     py::register_exception<pgi::ResourceLimitError>(m, "ResourceLimitError", PyExc_RuntimeError);
+    py::register_exception<pgi::NativeCodeError>(m, "NativeCodeError", PyExc_RuntimeError);
 
     py::class_<PyScheme>(m, "Scheme")
         .def(py::init(&from_values), "coordinates"_a, "brackets"_a, "hamiltonian"_a, "casimirs"_a = std::vector<std::string>{},
              "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(), "x0"_a = py::none(), "t_end"_a = py::none(),
-             "max_terms"_a = pgi::Ring::default_max_terms, "trust_jacobi"_a = false)
+             "max_terms"_a = pgi::Ring::default_max_terms, "trust_jacobi"_a = false, "jit"_a = false)
         .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false)
         .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a, "trust_jacobi"_a = false)
         .def_property_readonly("jacobi_trusted", [](const PyScheme& s) { return s.scheme->jacobi_trusted(); })
+        .def_property_readonly("jit", [](const PyScheme& s) { return s.scheme->jit(); })
         .def_property_readonly("name", [](const PyScheme& s) { return s.name; })
         .def_property_readonly("coordinates", [](const PyScheme& s) { return s.M().coordinates(); })
         .def_property_readonly("order", [](const PyScheme& s) { return s.scheme->order(); })

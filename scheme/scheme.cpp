@@ -45,9 +45,9 @@ struct Scheme::Cache {
 };
 
 Scheme::Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order, RealisationChoice choice,
-               bool trust_jacobi)
+               bool trust_jacobi, bool jit)
     : pi_(std::move(pi)), H_(std::move(H)), casimirs_(std::move(casimirs)), k_(check_order("order", long(order))),
-      choice_(choice), trust_jacobi_(trust_jacobi), cache_(std::make_unique<Cache>()) {
+      choice_(choice), trust_jacobi_(trust_jacobi), jit_(jit), cache_(std::make_unique<Cache>()) {
     if (H_.ring() != phase_space().ring()) throw InputError("hamiltonian.H", "not a polynomial of the scheme's phase space");
     for (std::size_t i = 0; i < casimirs_.size(); ++i)
         if (casimirs_[i].ring() != phase_space().ring())
@@ -73,11 +73,11 @@ Scheme Scheme::from_values(const SchemeValues& v) {
     } catch (const std::invalid_argument& e) {
         throw InputError("realisation", e.what());
     }
-    return Scheme(std::move(pi), std::move(H), std::move(casimirs), check_order("order", v.order), choice, v.trust_jacobi);
+    return Scheme(std::move(pi), std::move(H), std::move(casimirs), check_order("order", v.order), choice, v.trust_jacobi, v.jit);
 }
 
 Scheme::Scheme(const Scheme& o)
-    : pi_(o.pi_), H_(o.H_), casimirs_(o.casimirs_), k_(o.k_), choice_(o.choice_), trust_jacobi_(o.trust_jacobi_), cache_(std::make_unique<Cache>()) {}
+    : pi_(o.pi_), H_(o.H_), casimirs_(o.casimirs_), k_(o.k_), choice_(o.choice_), trust_jacobi_(o.trust_jacobi_), jit_(o.jit_), cache_(std::make_unique<Cache>()) {}
 Scheme& Scheme::operator=(const Scheme& o) {
     if (this != &o) *this = Scheme(o);
     return *this;
@@ -186,6 +186,7 @@ NewtonStepper Scheme::stepper(double dt, const Eigen::VectorXd& x_typical) const
     opt.k = k_;
     opt.dt = dt;
     opt.realisation = choice_;
+    opt.jit = jit_;
     return stepper(opt, x_typical);
 }
 

@@ -27,6 +27,7 @@ struct SchemeValues {
     std::string realisation = "auto";                            // "auto" | "closed-form" | "radial"
     std::size_t max_terms = Ring::default_max_terms;             // bound on every product of the exact phase
     bool trust_jacobi = false;                                   // skip the Jacobi check: the caller vouches for pi
+    bool jit = false;                                            // the steps' compiled maps as native code (StepOptions::jit)
 };
 
 /// The verdicts of the exact checks (docs/math.md sections 1 and 2).
@@ -57,7 +58,7 @@ public:
     /// trust_jacobi: the caller vouches for the Jacobi identity of pi, which is then not checked (checks() says
     /// so in jacobi_checked); every other check still runs.
     Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order,
-           RealisationChoice choice = RealisationChoice::automatic, bool trust_jacobi = false);
+           RealisationChoice choice = RealisationChoice::automatic, bool trust_jacobi = false, bool jit = false);
     /// From strings; InputError names the entry at fault ("brackets.\"x1,x2\"", "hamiltonian.H", ...).
     static Scheme from_values(const SchemeValues& values);
     explicit Scheme(const SchemeValues& values) : Scheme(from_values(values)) {}
@@ -79,6 +80,8 @@ public:
     RealisationChoice realisation_choice() const { return choice_; }
     RealisationForm realisation_form() const;
     bool jacobi_trusted() const { return trust_jacobi_; }
+    /// Whether stepper(dt, x_typical) builds its compiled maps as native code (StepOptions::jit, series/native.hpp).
+    bool jit() const { return jit_; }
 
     // The artefacts, each computed once, on first use (thread-safe).
     /// Class, Jacobi, the Casimirs and (when Jacobi holds) the realisation identities below degree k.
@@ -100,6 +103,7 @@ public:
     /// run-time argument of the compiled step: a build serves every dt up to the one it was built for and
     /// every typical state up to twice its own in norm; only a larger dt or state builds again. At most
     /// stepper_cache_size builds are kept (the least recently used is dropped). Requires pi to satisfy Jacobi.
+    /// Native code when the scheme was made with jit (NativeCodeError if it cannot be built).
     NewtonStepper stepper(double dt, const Eigen::VectorXd& x_typical) const;
     /// The same with the step's tuning (predictor_order, max_degree, Newton's and the truncation's bounds)
     /// from opt; opt.k and opt.realisation are the scheme's (InputError if they differ), opt.dt is dt.
@@ -121,6 +125,7 @@ private:
     std::size_t k_;
     RealisationChoice choice_;
     bool trust_jacobi_ = false;
+    bool jit_ = false;
     std::unique_ptr<Cache> cache_;
 };
 

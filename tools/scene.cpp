@@ -71,7 +71,7 @@ public:
         read_run(doc, scene);
         read_magnus(doc, scene);
         read_splitting(doc, scene);
-        scene.scheme = std::make_shared<const Scheme>(scene.pi, scene.H, scene.casimirs, scene.order, scene.realisation, ov_.trust_jacobi);
+        scene.scheme = std::make_shared<const Scheme>(scene.pi, scene.H, scene.casimirs, scene.order, scene.realisation, ov_.trust_jacobi, scene.jit);
         return scene;
     }
 

@@ -173,3 +173,20 @@ def test_trust_jacobi_skips_the_check_as_the_command_line_does_and_survives_pick
     for flag in (1, "yes", None):
         with pytest.raises(ValueError, match="trust_jacobi: must be True or False"):
             pgi.Scheme(**RIGID_BODY, trust_jacobi=flag)
+
+
+def test_jit_takes_the_interpreted_trajectory_bit_for_bit_and_survives_pickling(tmp_path, monkeypatch):
+    monkeypatch.setenv("PGI_JIT_CACHE", str(tmp_path / "jit"))
+    run = {**RIGID_BODY, "order": 8, "dt": 0.2, "x0": [0.6, 0.0, 0.8], "t_end": 5}
+    plain, native = pgi.Scheme(**run), pgi.Scheme(**run, jit=True)
+    assert native.jit and not plain.jit
+    a, b = plain.integrate(), native.integrate()
+    assert np.array_equal(a.x, b.x) and a.steps == b.steps  # the same doubles, not merely close
+    assert any(p.suffix == ".so" for p in (tmp_path / "jit").iterdir())  # the native code was built
+    assert pickle.loads(pickle.dumps(native)).jit
+    with pytest.raises(ValueError, match="jit: must be True or False"):
+        pgi.Scheme(**RIGID_BODY, jit="yes")
+    monkeypatch.setenv("PGI_CXX", "/nonexistent/pgi-cc")
+    monkeypatch.setenv("PGI_JIT_CACHE", str(tmp_path / "other"))
+    with pytest.raises(pgi.NativeCodeError, match="/nonexistent/pgi-cc"):
+        pgi.Scheme(**{**run, "order": 6}, jit=True).integrate()
