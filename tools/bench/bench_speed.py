@@ -5,7 +5,7 @@ Usage: /usr/bin/python3 tools/bench/bench_speed.py [--build build] [--json FILE]
                                                   [--sizes 50,100,200,500,1000] [--skip-wp] [--skip-lattice] [--skip-dmv]
 
 (a) Work-precision against GSL's rk8pd, T = 100, stepping only: pgi_peers (tools/peers: the same compiled
-    field, Monitor and long double Fehlberg 7(8) reference) runs pgi at k = 2, 4, 6, 8, 10 on a dt ladder
+    field, Monitor and long double Fehlberg 7(8) reference) runs pgi at k = 2, 4, ..., 16 on a dt ladder
     and rk8pd on a tolerance ladder on the rigid body, the cyclic Lotka-Volterra system and Henon-Heiles.
     Odd k are not scanned: the step is symmetric and S_2j = 0, so k = 2j-1 and 2j are the same method.
     For a target error each method's time is interpolated log-log between the first two runs of its
@@ -45,8 +45,11 @@ TARGETS = [1e-10, 1e-12]
 MEMORY_LIMIT = 4 << 30  # address space of each lattice child: the machine is shared
 
 
-def dt_ladder(dt):
-    return [dt * 2 ** e for e in (2, 1, 0, -1, -2, -3, -4)]
+def dt_ladder(dt, t_end=100):
+    """From 8 dt down to dt/16, by factors of sqrt(2) above dt (where pgi's best orders reach the targets: a ladder
+    stopping at 4 dt left the rigid body's k = 12 at 3.6e-12 for a 1e-10 target) and of 2 below; each dt divides
+    t_end exactly (dt = t_end / N), so every run ends at t_end."""
+    return [t_end / round(t_end / (dt * 2 ** e)) for e in (3, 2.5, 2, 1.5, 1, 0.5, 0, -1, -2, -3, -4)]
 
 
 def run_child(argv, timeout, memory_limit=None):
