@@ -45,7 +45,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.k_ = opt.k;
     s.dt_ = s.step_dt_ = opt.dt;
     s.opt_ = opt;
-    s.gradient_ = compile_gradient(M, S, opt.dt);
+    s.gradient_ = compile_gradient(M, S, opt.dt, std::span<const double>(x_typical.data(), std::size_t(x_typical.size())));
 
     // the truncation degree (and evaluator), sized at p0 = grad S_dt(x_typical): docs/math.md 4 and 6
     Eigen::VectorXd p0(static_cast<Eigen::Index>(n));
@@ -70,6 +70,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     const bool closed = realisation_form(pi.structure_class(), opt.realisation) != RealisationForm::radial;
     s.predictor_ = Predictor::choose(M, probe, S, opt, cost, x_typical, closed ? realisation : RealisationSource{});
     s.info_.predictor_order = s.predictor_.order();
+    s.info_.hessian_terms = s.gradient_.hessian_terms;
     if (opt.jit) s.info_.native_maps = attach_native_code(s.compiled_maps());
     s.size_scratch(n);
     if (!s.sparse_ && s.realisation_.has_lane_form()) {
@@ -388,6 +389,14 @@ Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
     Eigen::VectorXd inc(x.size());
     if (step(x, inc) != StepStatus::ok) throw std::runtime_error("NewtonStepper::tangent_map: the step failed");
     jacobian_at(xb_);
+    if (!gradient_.full_hessian.empty()) {  // the Newton matrix's Hessian was truncated: the whole one here
+        std::vector<double> upper(gradient_.full_hessian.width());
+        gradient_.full_hessian.eval(xb_.data(), step_dt_, upper.data());
+        expand_hessian(gradient_, upper.data(), hessian_.data());
+        if (!sparse_) gradient_.hessian.scatter(hessian_.data(), hess_);
+        assemble();
+        if (sparse_) J_ = matrix_.dense();
+    }
     if (sparse_) {  // the dense blocks from the patterns: a tangent map is dense anyway
         v_ = RealisationValues(dim());
         realisation_.eval(xb_, p_, v_);

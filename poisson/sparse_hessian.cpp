@@ -2,11 +2,37 @@
 
 #include "poisson/realisation_eval.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace pgi {
 
-CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt) {
+namespace {
+
+// The fewest m whose Hessian terms past S_m are negligible at x (compile_gradient); hessians[j] holds Hess S_{j+1}'s
+// entries r <= c.
+std::size_t hessian_terms_needed(const PhaseSpace& M, const std::vector<std::vector<Poly>>& hessians, double dt, std::span<const double> x_typical) {
+    std::vector<double> x(M.ring()->size(), 0.0);  // the coordinates at x_typical, the momenta (unread) at 0
+    const auto vars = M.coordinate_vars();
+    for (std::size_t i = 0; i < vars.size(); ++i) x[vars[i]] = x_typical[i];
+    std::vector<double> size(hessians.size(), 0.0);
+    double total = 0;
+    for (std::size_t j = 0; j < hessians.size(); ++j) {
+        for (const Poly& h : hessians[j]) size[j] = std::max(size[j], std::abs(evaluate(h, x)));
+        size[j] *= std::pow(dt, double(j + 1));
+        total += size[j];
+    }
+    if (!std::isfinite(total)) return hessians.size();
+    double tail = 0;
+    std::size_t m = hessians.size();
+    while (m > 1 && tail + size[m - 1] <= hessian_truncation * total) tail += size[--m];
+    return m;
+}
+
+}  // namespace
+
+CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt, std::span<const double> x_typical) {
     const std::size_t n = M.dim();
     std::vector<std::vector<Poly>> grad(S.size()), sizes(S.size()), with_hessian(S.size());
     std::vector<std::vector<int>> columns(n);
@@ -34,13 +60,19 @@ CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& 
             if (mirror < 0) throw std::logic_error("compile_gradient: the Hessian's pattern is not symmetric");
             g.hessian_value[std::size_t(k)] = g.hessian_value[std::size_t(mirror)];
         }
-    for (std::size_t j = 0; j < S.size(); ++j) {
-        with_hessian[j] = grad[j];
+    std::vector<std::vector<Poly>> hessians(S.size());
+    for (std::size_t j = 0; j < S.size(); ++j)
         for (std::size_t c = 0; c < n; ++c)
             for (int k = P.outer[c]; k < P.outer[c + 1]; ++k)
-                if (const auto r = std::size_t(P.inner[std::size_t(k)]); r <= c) with_hessian[j].push_back(derivative(grad[j][c], M.x(r)));
-    }
+                if (const auto r = std::size_t(P.inner[std::size_t(k)]); r <= c) hessians[j].push_back(derivative(grad[j][c], M.x(r)));
+    g.hessian_terms = S.size();
+    if (!x_typical.empty() && n <= hessian_truncation_dim && planned_dt > 0) g.hessian_terms = hessian_terms_needed(M, hessians, planned_dt, x_typical);
     const auto inputs = M.coordinate_vars();
+    for (std::size_t j = 0; j < S.size(); ++j) {
+        with_hessian[j] = grad[j];
+        for (const Poly& h : hessians[j]) with_hessian[j].push_back(j < g.hessian_terms ? h : Poly(M.ring()));
+    }
+    if (g.hessian_terms < S.size()) g.full_hessian = DtSeriesMap::build(hessians, inputs, planned_dt);
     g.with_hessian = DtSeriesMap::build(with_hessian, inputs, planned_dt);
     g.gradient = DtSeriesMap::build(grad, inputs, planned_dt);
     g.gradient_size = DtSeriesMap::build(sizes, inputs);  // read at |x| and |dt|: no planned sum

@@ -9,6 +9,7 @@
 #include "poisson/sparse_pattern.hpp"
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace pgi {
@@ -21,12 +22,24 @@ struct CompiledGradient {
     DtSeriesMap with_hessian;    // (x, dt) -> grad S_dt (n values), then Hess S_dt's entries r <= c (pattern order)
     DtSeriesMap gradient;        // (x, dt) -> grad S_dt
     DtSeriesMap gradient_size;   // (|x|, dt) -> the sizes of grad S_dt's terms (every coefficient made positive)
+    /// How many of S_1..S_k with_hessian's Hessian reads (k unless truncated, see compile_gradient), and, when fewer,
+    /// the whole Hess S_dt's entries r <= c (what the tangent map needs; empty otherwise).
+    std::size_t hessian_terms = 0;
+    DtSeriesMap full_hessian;
 };
 
 /// The Hessian's values in pattern order (hessian.nonzeros() of them) from with_hessian's outputs past the gradient.
 void expand_hessian(const CompiledGradient& g, const double* upper, double* values);
 
 /// S = S_1..S_k, polynomials in the coordinates of M; planned_dt as for DtSeriesMap (the build's dt).
-CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt = 0);
+/// x_typical given (dense problems of at most hessian_truncation_dim coordinates): with_hessian's Hessian reads only
+/// S_1..S_m, the fewest whose neglected terms sum_{j>m} dt^j |Hess S_j(x_typical)| are at most hessian_truncation
+/// times sum_j dt^j |Hess S_j(x_typical)| (max norms, dt = planned_dt). The Hessian serves only the Newton matrix,
+/// whose error then contracts Newton by about that factor more (a predicted base point off by 1e-9 |x| is corrected
+/// to 1e-17 |x|), and the acceptance test certifies every step as before; grad S_dt stays whole.
+CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt = 0,
+                                  std::span<const double> x_typical = {});
+inline constexpr double hessian_truncation = 1e-8;
+inline constexpr std::size_t hessian_truncation_dim = 8;
 
 }  // namespace pgi

@@ -31,6 +31,7 @@ struct StepInfo {
     std::size_t predictor_order = 0;      // the base point is predicted by its exact series in dt to this order
     NewtonSolver solver = NewtonSolver::dense;  // sparse: J, Hess S_dt and the realisation's derivatives on their patterns
     std::size_t native_maps = 0;          // the compiled maps that run native code (StepOptions::jit)
+    std::size_t hessian_terms = 0;        // the S_j the Newton matrix's Hess S_dt reads (k unless truncated: compile_gradient)
 };
 
 }  // namespace pgi

@@ -529,3 +529,76 @@ TEST_CASE("issue 11.9: the one-step error against the exact flow scales as dt^(p
         }
     }
 }
+
+TEST_CASE("newton_step: the Newton matrix's Hessian truncated where its tail is below 1e-8; steps still at round-off, the tangent map whole") {
+    for (const std::string name : {"henon_heiles", "rigid_body", "lotka_volterra"}) {
+        CAPTURE(name);
+        Scene s = test::bundled(name);
+        const Eigen::VectorXd x = vec(*s.x0);
+        const auto n = x.size();
+        const std::size_t k = 10;
+        auto st = stepper(s, k, s.dt, x);
+        CHECK(st.info().hessian_terms < k);  // truncated: the tail S_j of these scenes at dt is far below 1e-8
+        CHECK(st.info().hessian_terms >= 1);
+        // the truncation is what the rule says: at x, the neglected dt^j Hess S_j sum to at most 1e-8 of all of them
+        const PhaseSpace& M = s.phase_space();
+        const std::vector<Poly> S = Scheme(s.pi, s.H, s.casimirs, k).terms();  // the S_1..S_10 the stepper reads
+        REQUIRE(S.size() == k);
+        std::vector<double> point(M.ring()->size(), 0.0);
+        std::copy(x.data(), x.data() + n, point.begin());
+        double tail = 0, total = 0, last_kept = 0;
+        for (std::size_t j = 0; j < k; ++j) {
+            double size = 0;
+            for (std::size_t a = 0; a < std::size_t(n); ++a)
+                for (std::size_t b = 0; b < std::size_t(n); ++b)
+                    size = std::max(size, std::abs(evaluate(derivative(derivative(S[j], M.x(a)), M.x(b)), point)));
+            size *= std::pow(s.dt, double(j + 1));
+            total += size;
+            if (j >= st.info().hessian_terms) tail += size;
+            if (j + 1 == st.info().hessian_terms) last_kept = size;
+        }
+        CHECK(tail <= hessian_truncation * total);
+        CHECK(tail + last_kept > hessian_truncation * total);  // and no more terms kept than the rule needs
+        // steps solved to round-off with the truncated matrix, in one Newton iteration on these scenes
+        Eigen::VectorXd y = x, inc(n);
+        for (int i = 0; i < 20; ++i) {
+            REQUIRE(st.step(y, inc) == StepStatus::ok);
+            CHECK(st.last_residual_ratio() <= 1);
+            CHECK(st.last_iterations() == 1);
+            y += inc;
+        }
+        // the tangent map reads the whole Hessian: a Poisson map to round-off (the truncated one is off by ~1e-9)
+        auto pi_at = [&](const Eigen::VectorXd& z) {
+            std::vector<double> p(z.data(), z.data() + n);
+            p.resize(M.ring()->size(), 0.0);
+            Eigen::MatrixXd P(n, n);
+            for (Eigen::Index i = 0; i < n; ++i)
+                for (Eigen::Index j = 0; j < n; ++j) P(i, j) = evaluate(s.pi(std::size_t(i), std::size_t(j)), p);
+            return P;
+        };
+        // (built for states a thousand times smaller, the matrix keeps one or two terms: Newton takes more iterations
+        // at x, and a tangent map from that Hessian would be off by far more than round-off)
+        auto coarse = stepper(s, k, s.dt, 1e-3 * x);
+        if (name == std::string("rigid_body")) CHECK(coarse.info().hessian_terms == 1);  // homogeneous S_j: Hess S_j(x) ~ |x|^(j-1)
+        for (NewtonStepper* t : {&st, &coarse}) {
+            REQUIRE(t->step(x, inc) == StepStatus::ok);
+            const Eigen::MatrixXd Dphi = t->tangent_map(x);
+            const Eigen::MatrixXd defect = Dphi * pi_at(x) * Dphi.transpose() - pi_at(x + inc);
+            CAPTURE(defect.lpNorm<Eigen::Infinity>());
+            CHECK(defect.lpNorm<Eigen::Infinity>() <= 1e-14 * (pi_at(x).lpNorm<Eigen::Infinity>() + 1.0));
+            // (any symmetric matrix in Hess S_dt's place gives a Poisson tangent map: the derivative itself is checked
+            // against central differences of the step, h = 1e-5: truncation h^2 ~ 1e-10, round-off u / h ~ 1e-11)
+            const double h = 1e-5;
+            Eigen::MatrixXd fd(n, n);
+            for (Eigen::Index j = 0; j < n; ++j) {
+                Eigen::VectorXd e = Eigen::VectorXd::Zero(n), plus(n), minus(n);
+                e[j] = h;
+                REQUIRE(t->step(x + e, plus) == StepStatus::ok);
+                REQUIRE(t->step(x - e, minus) == StepStatus::ok);
+                fd.col(j) = (x + e + plus - (x - e + minus)) / (2 * h);
+            }
+            CAPTURE((Dphi - fd).lpNorm<Eigen::Infinity>());
+            CHECK((Dphi - fd).lpNorm<Eigen::Infinity>() <= 1e-8);
+        }
+    }
+}

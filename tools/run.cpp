@@ -39,7 +39,8 @@ NewtonStepper build_stepper(const Scene& scene) {
 json stepper_info(const Scene& scene, const NewtonStepper& s) {
     return {{"order", scene.order}, {"realisation", s.info().method}, {"degree", s.info().degree}, {"exact_realisation", s.info().exact_realisation},
             {"truncation_estimate", s.info().truncation_estimate}, {"method_order", s.order()},
-            {"predictor_order", s.info().predictor_order}, {"native_maps", s.info().native_maps}};
+            {"predictor_order", s.info().predictor_order}, {"native_maps", s.info().native_maps},
+            {"hessian_terms", s.info().hessian_terms}};
 }
 
 // A one-line progress indication on a terminal, for runs longer than about a second and a half.
