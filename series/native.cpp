@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -151,6 +152,26 @@ std::string unique_suffix() {
     return std::to_string(::getpid()) + "-" + std::to_string(rd());
 }
 
+// Removes the oldest kept sources and libraries (by last write, the pair of key spared) while dir holds more than
+// limit bytes. Best effort: a file another process removes first, or cannot be read, is passed over.
+void trim_cache(const fs::path& dir, const std::string& key, std::uintmax_t limit) {
+    std::error_code ec;
+    std::vector<std::pair<fs::file_time_type, fs::path>> files;
+    std::uintmax_t total = 0;
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+        const std::uintmax_t size = e.file_size(ec);
+        if (ec) continue;
+        total += size;
+        if (e.path().stem() != key) files.push_back({e.last_write_time(ec), e.path()});
+    }
+    std::sort(files.begin(), files.end());
+    for (const auto& [time, path] : files) {
+        if (total <= limit) break;
+        const std::uintmax_t size = fs::file_size(path, ec);
+        if (!ec && fs::remove(path, ec)) total -= size;
+    }
+}
+
 // The library of source in dir: the kept one if its source is the same, else compiled now (written under a temporary
 // name, then renamed into place: a concurrent build of the same source writes the same bytes).
 fs::path library_for(const std::string& source, const NativeOptions& o) {
@@ -181,6 +202,7 @@ fs::path library_for(const std::string& source, const NativeOptions& o) {
         fs::remove(src, ec), fs::remove(lib, ec);
         throw NativeCodeError("native code: cannot keep the library in " + dir.string());
     }
+    trim_cache(dir, key, o.cache_limit_bytes);
     return library;
 }
 

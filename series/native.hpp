@@ -10,6 +10,7 @@
 #include "series/compile.hpp"
 
 #include <chrono>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -31,6 +32,9 @@ struct NativeOptions {
     /// loads the kept library instead of compiling): empty means $PGI_JIT_CACHE, else $XDG_CACHE_HOME/pgi/jit, else
     /// $HOME/.cache/pgi/jit, else a directory under the system's temporary directory.
     std::string cache_dir;
+    /// After a library is added, the oldest kept ones (by last write) are removed while the directory holds more than
+    /// this (a library loaded by a running process stays mapped: only its name goes).
+    std::uintmax_t cache_limit_bytes = std::uintmax_t(256) << 20;
     /// The compiler is stopped past this.
     std::chrono::seconds timeout{300};
     /// The terms and monomials compiled at most, over all maps: the maps are taken in the order given while they

@@ -201,3 +201,27 @@ TEST_CASE("native: a map written in pieces (above 2000 terms and monomials, limi
     }
     fs::remove_all(o.cache_dir);
 }
+
+TEST_CASE("native: past the cache's limit the oldest kept libraries go, the newest stays") {
+    const auto r = make_ring({"x"});
+    NativeOptions o = test_options("limit");
+    CompiledMap first = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+    REQUIRE(attach_native_code({&first}, o) == 1);
+    std::size_t files = 0;
+    for ([[maybe_unused]] const auto& e : fs::directory_iterator(o.cache_dir)) ++files;
+    REQUIRE(files == 2);
+    o.cache_limit_bytes = 1;  // below any library: every older one goes
+    CompiledMap second = CompiledMap::build({pow(Poly::gen(r, 0), 3)}, {0});
+    REQUIRE(attach_native_code({&second}, o) == 1);
+    std::vector<fs::path> kept;
+    for (const auto& e : fs::directory_iterator(o.cache_dir)) kept.push_back(e.path());
+    REQUIRE(kept.size() == 2);  // the second map's source and library only
+    CHECK(kept[0].stem() == kept[1].stem());
+    const double x = 2;
+    double y1 = 0, y2 = 0;
+    first.eval(&x, &y1);   // still loaded, though its file is gone
+    second.eval(&x, &y2);
+    CHECK(y1 == 4);
+    CHECK(y2 == 8);
+    fs::remove_all(o.cache_dir);
+}
