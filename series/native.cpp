@@ -7,10 +7,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdint>
-#include <cstdio>
 #include <algorithm>
 #include <cerrno>
+#include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -63,13 +63,16 @@ const std::vector<std::string>& compiler_flags() {
     return flags;
 }
 
-// The directory kept libraries go to (NativeOptions::cache_dir), created if missing.
+// The directory kept libraries go to (NativeOptions::cache_dir), created if missing. One the caller names
+// (cache_dir or $PGI_JIT_CACHE) is the only candidate: unusable, it is an error naming it, not a silent fallback.
 fs::path cache_directory(const NativeOptions& o) {
     std::vector<fs::path> candidates;
+    const char* named = std::getenv("PGI_JIT_CACHE");
     if (!o.cache_dir.empty()) {
         candidates.push_back(o.cache_dir);
+    } else if (named && *named) {
+        candidates.push_back(named);
     } else {
-        if (const char* d = std::getenv("PGI_JIT_CACHE"); d && *d) candidates.push_back(d);
         if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d) candidates.push_back(fs::path(d) / "pgi" / "jit");
         if (const char* d = std::getenv("HOME"); d && *d) candidates.push_back(fs::path(d) / ".cache" / "pgi" / "jit");
         std::error_code ec;
@@ -81,8 +84,9 @@ fs::path cache_directory(const NativeOptions& o) {
         fs::create_directories(d, ec);
         if (!ec && ::access(d.c_str(), W_OK | X_OK) == 0) return d;
     }
-    throw NativeCodeError("native code: no writable directory for the compiled libraries (tried " +
-                          (candidates.empty() ? std::string("none") : candidates.front().string()) + " first)");
+    std::string tried;
+    for (const fs::path& d : candidates) tried += (tried.empty() ? "" : ", ") + d.string();
+    throw NativeCodeError("native code: no writable directory for the compiled libraries (tried " + (tried.empty() ? "none" : tried) + ")");
 }
 
 // FNV-1a: the cache key of a source and its command (the kept source is compared in full before its library is used).

@@ -30,7 +30,8 @@ struct NativeOptions {
     std::string compiler;
     /// Where built libraries are kept, keyed by a hash of their source and command (a later build of the same maps
     /// loads the kept library instead of compiling): empty means $PGI_JIT_CACHE, else $XDG_CACHE_HOME/pgi/jit, else
-    /// $HOME/.cache/pgi/jit, else a directory under the system's temporary directory.
+    /// $HOME/.cache/pgi/jit, else a directory under the system's temporary directory. A directory named here or by
+    /// $PGI_JIT_CACHE that cannot be created or written is a NativeCodeError naming it.
     std::string cache_dir;
     /// After a library is added, the oldest kept ones (by last write) are removed while the directory holds more than
     /// this (a library loaded by a running process stays mapped: only its name goes).

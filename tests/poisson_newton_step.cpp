@@ -26,6 +26,17 @@ struct VectorField {
     }
 };
 
+// pi(z), the structure's matrix evaluated at the state z (the momenta, unread, at 0).
+Eigen::MatrixXd pi_at(const Scene& s, const Eigen::VectorXd& z) {
+    const auto n = z.size();
+    std::vector<double> point(z.data(), z.data() + n);
+    point.resize(s.phase_space().ring()->size(), 0.0);
+    Eigen::MatrixXd P(n, n);
+    for (Eigen::Index i = 0; i < n; ++i)
+        for (Eigen::Index j = 0; j < n; ++j) P(i, j) = evaluate(s.pi(std::size_t(i), std::size_t(j)), point);
+    return P;
+}
+
 // Classical RK4 (the non-Poisson baseline, and with a tiny step the reference solution).
 Eigen::VectorXd rk4(const VectorField& f, Eigen::VectorXd x, double h, std::size_t N) {
     for (std::size_t n = 0; n < N; ++n) {
@@ -139,14 +150,7 @@ TEST_CASE("newton_step: one step is a Poisson map to round-off, Dphi pi(x) Dphi^
         Scene s = test::bundled(name);
         const Eigen::VectorXd x = vec(*s.x0);
         const auto n = x.size();
-        auto pi_at = [&](const Eigen::VectorXd& y) {
-            std::vector<double> point(y.data(), y.data() + n);
-            point.resize(2 * std::size_t(n), 0.0);
-            Eigen::MatrixXd P(n, n);
-            for (Eigen::Index i = 0; i < n; ++i)
-                for (Eigen::Index j = 0; j < n; ++j) P(i, j) = evaluate(s.pi(std::size_t(i), std::size_t(j)), point);
-            return P;
-        };
+        const auto pi = [&](const Eigen::VectorXd& y) { return pi_at(s, y); };
         for (std::size_t k : {1, 4}) {
             CAPTURE(name);
             CAPTURE(k);
@@ -154,8 +158,8 @@ TEST_CASE("newton_step: one step is a Poisson map to round-off, Dphi pi(x) Dphi^
             Eigen::VectorXd inc(n);
             REQUIRE(st.step(x, inc) == StepStatus::ok);
             const Eigen::MatrixXd Dphi = st.tangent_map(x);
-            const Eigen::MatrixXd defect = Dphi * pi_at(x) * Dphi.transpose() - pi_at(x + inc);
-            const double size = pi_at(x).lpNorm<Eigen::Infinity>() + 1.0;
+            const Eigen::MatrixXd defect = Dphi * pi(x) * Dphi.transpose() - pi(x + inc);
+            const double size = pi(x).lpNorm<Eigen::Infinity>() + 1.0;
             CAPTURE(defect.lpNorm<Eigen::Infinity>());
             CHECK(defect.lpNorm<Eigen::Infinity>() <= 1e-14 * size);
             // and the step is not the identity: the check has something to check
@@ -568,14 +572,7 @@ TEST_CASE("newton_step: the Newton matrix's Hessian truncated where its tail is 
             y += inc;
         }
         // the tangent map reads the whole Hessian: a Poisson map to round-off (the truncated one is off by ~1e-9)
-        auto pi_at = [&](const Eigen::VectorXd& z) {
-            std::vector<double> p(z.data(), z.data() + n);
-            p.resize(M.ring()->size(), 0.0);
-            Eigen::MatrixXd P(n, n);
-            for (Eigen::Index i = 0; i < n; ++i)
-                for (Eigen::Index j = 0; j < n; ++j) P(i, j) = evaluate(s.pi(std::size_t(i), std::size_t(j)), p);
-            return P;
-        };
+        const auto pi = [&](const Eigen::VectorXd& z) { return pi_at(s, z); };
         // (built for states a thousand times smaller, the matrix keeps one or two terms: Newton takes more iterations
         // at x, and a tangent map from that Hessian would be off by far more than round-off)
         auto coarse = stepper(s, k, s.dt, 1e-3 * x);
@@ -583,9 +580,9 @@ TEST_CASE("newton_step: the Newton matrix's Hessian truncated where its tail is 
         for (NewtonStepper* t : {&st, &coarse}) {
             REQUIRE(t->step(x, inc) == StepStatus::ok);
             const Eigen::MatrixXd Dphi = t->tangent_map(x);
-            const Eigen::MatrixXd defect = Dphi * pi_at(x) * Dphi.transpose() - pi_at(x + inc);
+            const Eigen::MatrixXd defect = Dphi * pi(x) * Dphi.transpose() - pi(x + inc);
             CAPTURE(defect.lpNorm<Eigen::Infinity>());
-            CHECK(defect.lpNorm<Eigen::Infinity>() <= 1e-14 * (pi_at(x).lpNorm<Eigen::Infinity>() + 1.0));
+            CHECK(defect.lpNorm<Eigen::Infinity>() <= 1e-14 * (pi(x).lpNorm<Eigen::Infinity>() + 1.0));
             // (any symmetric matrix in Hess S_dt's place gives a Poisson tangent map: the derivative itself is checked
             // against central differences of the step, h = 1e-5: truncation h^2 ~ 1e-10, round-off u / h ~ 1e-11)
             const double h = 1e-5;

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <random>
 
@@ -224,4 +225,22 @@ TEST_CASE("native: past the cache's limit the oldest kept libraries go, the newe
     CHECK(y1 == 4);
     CHECK(y2 == 8);
     fs::remove_all(o.cache_dir);
+}
+
+TEST_CASE("native: a cache directory named by PGI_JIT_CACHE that cannot be used is an error naming it, not a silent fallback") {
+    const auto r = make_ring({"x"});
+    CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+    const fs::path file = fs::temp_directory_path() / ("pgi-native-test-file-" + std::to_string(::getpid()));
+    std::ofstream(file) << "not a directory";
+    ::setenv("PGI_JIT_CACHE", (file / "jit").c_str(), 1);  // under a regular file: cannot be created
+    try {
+        attach_native_code({&map});
+        FAIL("no error");
+    } catch (const NativeCodeError& e) {
+        CHECK(std::string(e.what()).find(file.string()) != std::string::npos);
+    }
+    ::unsetenv("PGI_JIT_CACHE");
+    CHECK_FALSE(map.native());
+    CHECK(fs::file_size(file) == std::string("not a directory").size());  // untouched
+    fs::remove(file);
 }
