@@ -86,7 +86,7 @@ void scene_options(CLI::App* cmd, Options& o, unsigned uses) {
     if (uses & use::jit)
         cmd->add_flag("--jit", o.overrides.jit,
                       "the step's compiled maps as native code from the system C++ compiler: the same numbers, faster steps, "
-                      "0.1-2 s more set-up (kept in ~/.cache/pgi/jit; integrator.jit)");
+                      "0.1-3 s more set-up the first time (kept in ~/.cache/pgi/jit; integrator.jit)");
     cmd->add_option("--max-terms", o.max_terms, "bound on the terms of any product of the exact phase (default 2e7)");
     cmd->add_option("--max-memory-mb", o.max_memory_mb,
                     "memory budget of the exact phase in MB (default: half the physical memory, at most 3/4 of ulimit -v)");

@@ -27,7 +27,7 @@ Eigen::VectorXd to_vector(const std::vector<double>& v) { return Eigen::Map<cons
 std::vector<double> to_std(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
 
 NewtonStepper build_stepper(const Scene& scene) {
-    NewtonStepper s = scene.scheme->stepper(scene.step_options(), to_vector(require_x0(scene)));
+    NewtonStepper s = scene.scheme->stepper(scene.dt, to_vector(require_x0(scene)));  // the scheme carries k, realisation, jit
     // NOTE: said on stderr, never silently: past the series' range the step is not Poisson to round-off.
     if (s.info().truncation_estimate > 1e-15)
         std::cerr << fmt::format("pgi: {}: warning: the {} realisation truncated at p-degree {} leaves terms of relative size "

@@ -339,15 +339,6 @@ private:
 
 }  // namespace
 
-StepOptions Scene::step_options() const {
-    StepOptions opt;
-    opt.k = order;
-    opt.dt = dt;
-    opt.realisation = realisation;
-    opt.jit = jit;
-    return opt;
-}
-
 Scene load_scene(const std::filesystem::path& file, const SceneOverrides& overrides) {
     return SceneReader(file, overrides).read();
 }

@@ -57,8 +57,6 @@ struct Scene {
     std::shared_ptr<const Scheme> scheme;
 
     const PhaseSpace& phase_space() const { return pi.phase_space(); }
-    /// The step's options the scene asks for: its order, dt, realisation and jit.
-    StepOptions step_options() const;
 };
 
 /// Reads and checks a scene. Throws SceneError for anything malformed: syntax, missing keys, wrong

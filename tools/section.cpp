@@ -26,7 +26,7 @@ json section_report(const Scene& scene, const SectionOptions& options) {
     const auto start = std::chrono::steady_clock::now();
     Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
     const std::size_t N = step_count(scene, options.max_steps);  // refused above the step budget, before any work
-    NewtonStepper stepper = scene.scheme->stepper(scene.step_options(), x);
+    NewtonStepper stepper = scene.scheme->stepper(scene.dt, x);
     EventDetector detector(std::move(events), DenseOutput::build(scene.pi, scene.H, stepper.order()), options.samples);
     json crossings = json::array();
     RunLoop loop(*scene.scheme);  // the run loop of pgi integrate, with the events and no other observer
