@@ -6,46 +6,32 @@
 
 namespace pgi {
 
-namespace {
-
-// alpha_l's part of p-degree d at l * k + d, d < k (the higher degrees are O(t^k)).
-std::vector<Poly> graded_parts(const Realisation& r, std::size_t k) {
-    std::vector<Poly> parts;
-    for (const Series& a : r.alpha)
-        for (std::size_t d = 0; d < k; ++d) parts.push_back(a[d]);
-    return parts;
-}
-
-}  // namespace
-
 std::vector<Poly> hamilton_jacobi_terms(const PhaseSpace& M, const Realisation& r, const Poly& H, std::size_t k) {
     if (k < 1) throw std::invalid_argument("hamilton_jacobi_terms: the order k must be at least 1");
     if (r.degree + 1 < k)
         throw std::invalid_argument("hamilton_jacobi_terms: order " + std::to_string(k) + " needs a realisation of p-degree " +
                                     std::to_string(k - 1) + ", got " + std::to_string(r.degree));
-    // S_{i+1} = 1/(i+1) [t^i] H(alpha(x, grad S_t(x))), S_t = sum_j t^j S_j: [t^i] alpha(x, grad S_t) reads
-    // grad S_1..S_i only (p = O(t)), and [t^i] H(alpha) reads alpha's orders 0..i, so both compositions are
-    // completed one order per term (docs/math.md 5) and each of their products is formed once.
-    std::vector<std::optional<Series>> p_images(M.ring()->size()), x_images(M.ring()->size());
+    // S_{i+1} = 1/(i+1) [t^i] G(x, grad S_t(x)) with G = H o alpha, graded by p-degree (docs/math.md 5): G's
+    // part of p-degree d is O(t^d) along p = grad S_t = O(t), so [t^i] reads G_0..G_i and grad S_1..S_i only,
+    // and the composition is completed one order per term, each product of gradients formed once. Composing
+    // H with alpha once, before the gradients, replaces the composition of every alpha_l along the gradient
+    // and then of H along those: one polynomial G_d where there were dim of them.
+    std::vector<std::optional<Series>> alpha_images(M.ring()->size()), p_images(M.ring()->size());
     for (std::size_t l = 0; l < M.dim(); ++l) {
-        p_images[M.p(l)] = Series(M.ring(), k);  // p_l -> sum_{j=1..i} t^j d_l S_j
-        x_images[M.x(l)] = Series(M.ring(), k);  // x_l -> alpha_l(x, grad S_t)
+        alpha_images[M.x(l)] = r.alpha[l].truncated(k);  // x_l -> alpha_l, graded by p-degree
+        p_images[M.p(l)] = Series(M.ring(), k);           // p_l -> sum_{j=1..i} t^j d_l S_j
     }
-    ComposeByOrder alpha_along_gradient(graded_parts(r, k), std::move(p_images), k);
-    // [t^i] alpha_l(x, grad S_t): the part of p-degree d is O(t^d)
-    auto alpha_coefficient = [&](std::size_t l, std::size_t i) {
-        std::vector<Poly> parts;
-        for (std::size_t d = 0; d <= i; ++d) parts.push_back(alpha_along_gradient.coefficient(l * k + d, i));
-        return sum(std::move(parts), M.ring());
-    };
-    ComposeByOrder H_along_alpha({H}, std::move(x_images), k);
-    for (std::size_t l = 0; l < M.dim(); ++l) H_along_alpha.set_image(M.x(l), 0, alpha_coefficient(l, 0));
+    ComposeByOrder H_along_alpha({H}, std::move(alpha_images), k);  // G_d = [p-degree d] H(alpha)
+    ComposeByOrder G_along_gradient(M.ring(), std::move(p_images), k);
+    G_along_gradient.append(H_along_alpha.coefficient(0, 0));
     std::vector<Poly> S{H};
     for (std::size_t i = 1; i < k; ++i) {
         BudgetStage stage(M.ring()->budget(), "Hamilton-Jacobi term S_" + std::to_string(i + 1), i + 1, k);  // names refusals, progress
-        for (std::size_t l = 0; l < M.dim(); ++l) alpha_along_gradient.set_image(M.p(l), i, derivative(S[i - 1], M.x(l)));
-        for (std::size_t l = 0; l < M.dim(); ++l) H_along_alpha.set_image(M.x(l), i, alpha_coefficient(l, i));
-        S.push_back(Rational(1, static_cast<unsigned long>(i + 1)) * H_along_alpha.coefficient(0, i));
+        G_along_gradient.append(H_along_alpha.coefficient(0, i));  // S_(i+1) is the first to read G_i
+        for (std::size_t l = 0; l < M.dim(); ++l) G_along_gradient.set_image(M.p(l), i, derivative(S[i - 1], M.x(l)));
+        std::vector<Poly> parts;
+        for (std::size_t d = 0; d <= i; ++d) parts.push_back(G_along_gradient.coefficient(d, i));
+        S.push_back(Rational(1, static_cast<unsigned long>(i + 1)) * sum(std::move(parts), M.ring()));
     }
     return S;
 }

@@ -52,32 +52,38 @@ void check_images(std::size_t nvars, const std::vector<std::optional<Series>>& i
 
 }  // namespace
 
-ComposeByOrder::ComposeByOrder(const std::vector<Poly>& fs, std::vector<std::optional<Series>> images, std::size_t N)
-    : N_(N), images_(std::move(images)) {
-    if (fs.empty()) return;
-    ring_ = fs.front().ring();
+ComposeByOrder::ComposeByOrder(RingPtr ring, std::vector<std::optional<Series>> images, std::size_t N)
+    : ring_(std::move(ring)), N_(N), images_(std::move(images)) {
     one_.emplace(Poly::constant(ring_, 1)), zero_.emplace(ring_);
     check_images(ring_->size(), images_, N);
     products_.emplace_back();  // the empty product
-    std::map<SparseExponents, std::uint32_t> index{{SparseExponents{}, 0}};
-    for (const Poly& f : fs) {
-        if (f.ring() != ring_) throw std::invalid_argument("pgi::compose: the polynomials belong to different rings");
-        auto& groups = groups_.emplace_back();
-        for (auto& [e, kept] : substitution_groups(f, images_)) {
-            std::optional<Rational> scalar;
-            if (fmpq_mpoly_is_fmpq(kept.get(), kept.ctx())) fmpq_mpoly_get_fmpq(scalar.emplace().get_mut(), kept.get(), kept.ctx());
-            groups.push_back(Group{product_index(e, index), std::move(kept), std::move(scalar)});
-        }
-    }
+    product_of_.emplace(SparseExponents{}, 0);
 }
 
-std::uint32_t ComposeByOrder::product_index(const SparseExponents& e, std::map<SparseExponents, std::uint32_t>& index) {
-    if (auto it = index.find(e); it != index.end()) return it->second;
+ComposeByOrder::ComposeByOrder(const std::vector<Poly>& fs, std::vector<std::optional<Series>> images, std::size_t N) : N_(N) {
+    if (fs.empty()) return;
+    *this = ComposeByOrder(fs.front().ring(), std::move(images), N);
+    for (const Poly& f : fs) append(f);
+}
+
+std::size_t ComposeByOrder::append(const Poly& f) {
+    if (f.ring() != ring_) throw std::invalid_argument("pgi::compose: the polynomials belong to different rings");
+    auto& groups = groups_.emplace_back();
+    for (auto& [e, kept] : substitution_groups(f, images_)) {
+        std::optional<Rational> scalar;
+        if (fmpq_mpoly_is_fmpq(kept.get(), kept.ctx())) fmpq_mpoly_get_fmpq(scalar.emplace().get_mut(), kept.get(), kept.ctx());
+        groups.push_back(Group{product_index(e), std::move(kept), std::move(scalar)});
+    }
+    return groups_.size() - 1;
+}
+
+std::uint32_t ComposeByOrder::product_index(const SparseExponents& e) {
+    if (auto it = product_of_.find(e); it != product_of_.end()) return it->second;
     SparseExponents lower = e;
     if (--lower.front().second == 0) lower.erase(lower.begin());
-    const std::uint32_t low = product_index(lower, index);
+    const std::uint32_t low = product_index(lower);
     products_.push_back(Product{e.front().first, low, {}});
-    return index[e] = static_cast<std::uint32_t>(products_.size() - 1);
+    return product_of_[e] = static_cast<std::uint32_t>(products_.size() - 1);
 }
 
 void ComposeByOrder::set_image(std::size_t v, std::size_t m, Poly c) {

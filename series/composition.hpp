@@ -27,6 +27,12 @@ public:
     /// Throws std::invalid_argument unless there is one (optional) image per variable of the fs' ring,
     /// each of order N.
     ComposeByOrder(const std::vector<Poly>& fs, std::vector<std::optional<Series>> images, std::size_t N);
+    /// No polynomial yet (append adds them), in ring's variables.
+    ComposeByOrder(RingPtr ring, std::vector<std::optional<Series>> images, std::size_t N);
+
+    /// Adds f as the next polynomial (its index is returned) for a recursion that makes its polynomials as it
+    /// goes; it shares the products formed so far. Throws std::invalid_argument if f is of another ring.
+    std::size_t append(const Poly& f);
 
     std::size_t order() const { return N_; }
     /// Sets coefficient m of the image of variable v. Throws std::logic_error if an order >= m has
@@ -51,7 +57,7 @@ private:
         Poly kept;
         std::optional<Rational> scalar;
     };
-    std::uint32_t product_index(const SparseExponents& e, std::map<SparseExponents, std::uint32_t>& index);
+    std::uint32_t product_index(const SparseExponents& e);
     // Coefficient m of product p, formed (with the ones below it) on first use.
     const Poly& product_coefficient(std::uint32_t p, std::size_t m);
 
@@ -60,7 +66,8 @@ private:
     std::size_t N_;
     std::vector<std::optional<Series>> images_;
     std::vector<std::vector<Group>> groups_;  // f_i = sum over groups_[i]
-    std::vector<Product> products_;           // fixed once constructed: references into it stay valid
+    std::vector<Product> products_;  // only grows (append); product_coefficient's references into each c stay valid
+    std::map<SparseExponents, std::uint32_t> product_of_;  // products_'s index by exponents
     long composed_through_ = -1;              // the highest order asked for so far
 };
 

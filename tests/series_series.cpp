@@ -95,6 +95,17 @@ TEST_CASE("series: ComposeByOrder completed order by order equals compose of the
     }
     CHECK_THROWS_AS(by_order.set_image(2, 0, Poly(r)), std::invalid_argument);  // p has no image
     CHECK_THROWS_AS(by_order.coefficient(0, N), std::out_of_range);
+
+    // polynomials appended as the recursion goes (f_i after order i - 1 was read) share the products formed
+    // before them and give compose's coefficients
+    ComposeByOrder appended(r, empty, N);
+    for (std::size_t m = 0; m < N; ++m) {
+        if (m < fs.size()) CHECK(appended.append(fs[m]) == m);
+        appended.set_image(0, m, Poly::parse(r, ix[m]));
+        appended.set_image(1, m, Poly::parse(r, iy[m]));
+        for (std::size_t i = 0; i < std::min(m + 1, fs.size()); ++i) CHECK(appended.coefficient(i, m) == expected[i][m]);
+    }
+    CHECK_THROWS_AS(appended.append(Poly(make_ring({"x", "y", "p"}))), std::invalid_argument);  // another ring
 }
 
 TEST_CASE("series: compose of random polynomials is graded substitution, with kept variables and images of every degree") {
