@@ -234,7 +234,8 @@ Statement row_statement(const CompiledMap::Tape& tape, std::size_t out, Name nam
 // A group of four outputs as eval_with's GroupSums: two pairs of lanes (lo: outputs 0, 1; hi: 2, 3) and four partial
 // sums of each, term p of the group's L into sum p mod 4 (the last L mod 4 into sum 0), each term the product of
 // its coefficient pair and the monomial, masked to +0 in a lane whose coefficient is zero (as GroupSums::add: a
-// padding zero adds nothing, even times an infinite monomial); a pair of zeros adds +0 and is left out.
+// padding zero adds nothing, even times an infinite monomial) unless the lane has no output; a pair of zeros adds
+// +0 and is left out.
 template <class Name>
 Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name name) {
     std::ostringstream o;
@@ -248,11 +249,13 @@ Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name nam
             const double a = tape.group_coeff[4 * std::size_t(t) + 2 * half], b = tape.group_coeff[4 * std::size_t(t) + 2 * half + 1];
             if (a == 0 && b == 0) continue;
             const std::string product = "pgi_v2{" + literal(a) + ", " + literal(b) + "} * " + name(tape.group_monomial[t]);
+            // a lane without an output is never read: it needs no mask
+            const auto masked = [&](int lane, double c) { return c == 0 && tape.group_output[g][std::size_t(2 * half + lane)] != CompiledMap::no_output; };
             o << "    " << (half ? 'h' : 'l') << sum << " += ";
-            if (a != 0 && b != 0)
+            if (!masked(0, a) && !masked(1, b))
                 o << product << ";\n";
             else
-                o << "(pgi_v2)((pgi_m2)(" << product << ") & pgi_m2{" << (a != 0 ? -1 : 0) << ", " << (b != 0 ? -1 : 0) << "});\n";
+                o << "(pgi_v2)((pgi_m2)(" << product << ") & pgi_m2{" << (masked(0, a) ? 0 : -1) << ", " << (masked(1, b) ? 0 : -1) << "});\n";
             ++size;
         }
     }
