@@ -58,8 +58,14 @@ std::string compiler_of(const NativeOptions& o) {
     return env_or("PGI_CXX", env_or("CXX", "c++"));
 }
 
-const std::vector<std::string>& compiler_flags() {
-    static const std::vector<std::string> flags = {"-O2", "-ffp-contract=off", "-fPIC", "-shared", "-w"};
+bool wide(NativeVectors v) {
+    if (v == NativeVectors::automatic) return __builtin_cpu_supports("avx2");
+    return v == NativeVectors::avx2;
+}
+
+std::vector<std::string> compiler_flags(bool wide) {
+    std::vector<std::string> flags = {"-O2", "-ffp-contract=off", "-fPIC", "-shared", "-w"};
+    if (wide) flags.push_back("-mavx2");
     return flags;
 }
 
@@ -180,8 +186,9 @@ void trim_cache(const fs::path& dir, const std::string& key, std::uintmax_t limi
 // name, then renamed into place: a concurrent build of the same source writes the same bytes).
 fs::path library_for(const std::string& source, const NativeOptions& o) {
     const std::string compiler = compiler_of(o);
+    const std::vector<std::string> flags = compiler_flags(wide(o.vectors));
     std::string command = compiler;
-    for (const std::string& f : compiler_flags()) command += " " + f;
+    for (const std::string& f : flags) command += " " + f;
     const fs::path dir = cache_directory(o);
     const std::string key = key_of(command + "\n" + source);
     const fs::path kept_source = dir / (key + ".cpp"), library = dir / (key + ".so");
@@ -191,7 +198,7 @@ fs::path library_for(const std::string& source, const NativeOptions& o) {
     const fs::path src = dir / (key + "." + tmp + ".cpp"), lib = dir / (key + "." + tmp + ".so"), log = dir / (key + "." + tmp + ".log");
     write_all(src, source);
     std::vector<std::string> argv = {compiler};
-    argv.insert(argv.end(), compiler_flags().begin(), compiler_flags().end());
+    argv.insert(argv.end(), flags.begin(), flags.end());
     argv.insert(argv.end(), {"-o", lib.string(), src.string()});
     const std::string failure = run(argv, log, o.timeout);
     const std::string output = read_all(log);
@@ -235,52 +242,66 @@ Statement row_statement(const CompiledMap::Tape& tape, std::size_t out, Name nam
 // sums of each, term p of the group's L into sum p mod 4 (the last L mod 4 into sum 0), each term the product of
 // its coefficient pair and the monomial, masked to +0 in a lane whose coefficient is zero (as GroupSums::add: a
 // padding zero adds nothing, even times an infinite monomial) unless the lane has no output; a pair of zeros adds
-// +0 and is left out.
+// +0 and is left out. wide: the four lanes as one AVX2 vector, the same operations lane by lane (a masked +0 added
+// to a sum begun at +0 leaves it as it is: such a sum is never -0).
 template <class Name>
-Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name name) {
+Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name name, bool wide) {
     std::ostringstream o;
     const std::uint32_t start = tape.group_start[g], L = tape.group_start[g + 1] - start, rounds = L / 4 * 4;
+    const auto has_output = [&](std::size_t lane) { return tape.group_output[g][lane] != CompiledMap::no_output; };
     std::size_t size = 2;
-    o << "  { pgi_v2 l0 = {0.0, 0.0}, l1 = l0, l2 = l0, l3 = l0, h0 = l0, h1 = l0, h2 = l0, h3 = l0;\n";
+    o << (wide ? "  { pgi_v4 s0 = {0.0, 0.0, 0.0, 0.0}, s1 = s0, s2 = s0, s3 = s0;\n"
+               : "  { pgi_v2 l0 = {0.0, 0.0}, l1 = l0, l2 = l0, l3 = l0, h0 = l0, h1 = l0, h2 = l0, h3 = l0;\n");
     for (std::uint32_t p = 0; p < L; ++p) {
         const std::uint32_t t = start + p;
         const int sum = p < rounds ? int(p % 4) : 0;
-        for (int half = 0; half < 2; ++half) {
-            const double a = tape.group_coeff[4 * std::size_t(t) + 2 * half], b = tape.group_coeff[4 * std::size_t(t) + 2 * half + 1];
-            if (a == 0 && b == 0) continue;
-            const std::string product = "pgi_v2{" + literal(a) + ", " + literal(b) + "} * " + name(tape.group_monomial[t]);
-            // a lane without an output is never read: it needs no mask
-            const auto masked = [&](int lane, double c) { return c == 0 && tape.group_output[g][std::size_t(2 * half + lane)] != CompiledMap::no_output; };
-            o << "    " << (half ? 'h' : 'l') << sum << " += ";
-            if (!masked(0, a) && !masked(1, b))
+        const double* c = &tape.group_coeff[4 * std::size_t(t)];
+        const std::size_t width = wide ? 4 : 2;
+        for (std::size_t first = 0; first < 4; first += width) {
+            std::string coeffs, mask;
+            bool any = false, masked = false;
+            for (std::size_t lane = first; lane < first + width; ++lane) {
+                const bool zero = c[lane] == 0, keep = !zero || !has_output(lane);  // a lane without an output is never read
+                any = any || !zero;
+                masked = masked || !keep;
+                coeffs += (lane > first ? ", " : "") + literal(c[lane]);
+                mask += std::string(lane > first ? ", " : "") + (keep ? "-1" : "0");
+            }
+            if (!any) continue;
+            const std::string product = (wide ? "pgi_v4{" : "pgi_v2{") + coeffs + "} * " + name(tape.group_monomial[t]);
+            o << "    " << (wide ? "s" : first ? "h" : "l") << sum << " += ";
+            if (!masked)
                 o << product << ";\n";
+            else if (wide)
+                o << "(pgi_v4)((pgi_m4)(" << product << ") & pgi_m4{" << mask << "});\n";
             else
-                o << "(pgi_v2)((pgi_m2)(" << product << ") & pgi_m2{" << (masked(0, a) ? 0 : -1) << ", " << (masked(1, b) ? 0 : -1) << "});\n";
+                o << "(pgi_v2)((pgi_m2)(" << product << ") & pgi_m2{" << mask << "});\n";
             ++size;
         }
     }
-    o << "    const pgi_v2 l = (l0 + l1) + (l2 + l3), h = (h0 + h1) + (h2 + h3);\n";
-    for (int i = 0; i < 4; ++i)
-        if (tape.group_output[g][std::size_t(i)] != CompiledMap::no_output)
-            o << "    out[" << tape.group_output[g][std::size_t(i)] << "] = " << (i < 2 ? 'l' : 'h') << "[" << i % 2 << "];\n";
+    o << (wide ? "    const pgi_v4 s = (s0 + s1) + (s2 + s3);\n" : "    const pgi_v2 l = (l0 + l1) + (l2 + l3), h = (h0 + h1) + (h2 + h3);\n");
+    for (std::size_t i = 0; i < 4; ++i)
+        if (has_output(i))
+            o << "    out[" << tape.group_output[g][i] << "] = " << (wide ? "s[" + std::to_string(i) : std::string(i < 2 ? "l[" : "h[") + std::to_string(i % 2))
+              << "];\n";
     o << "  }\n";
     return {o.str(), size};
 }
 
 // Every statement of the map after its inputs: the products, the rows, the groups (eval_with's order).
 template <class Name>
-std::vector<Statement> statements(const CompiledMap::Tape& tape, Name name) {
+std::vector<Statement> statements(const CompiledMap::Tape& tape, Name name, bool wide) {
     std::vector<Statement> all;
     for (std::size_t k = 0; k < tape.products; ++k)
         all.push_back({"  " + name(std::uint32_t(1 + tape.inputs + k), true) + " = " + name(tape.left[k], false) + " * " + name(tape.right[k], false) + ";\n", 1});
     for (std::size_t out = 0; out < tape.outputs; ++out)
         if (tape.lane_row[out].start == UINT32_MAX) all.push_back(row_statement(tape, out, [&](std::uint32_t k) { return name(k, false); }));
-    for (std::size_t g = 0; g < tape.groups; ++g) all.push_back(group_statement(tape, g, [&](std::uint32_t k) { return name(k, false); }));
+    for (std::size_t g = 0; g < tape.groups; ++g) all.push_back(group_statement(tape, g, [&](std::uint32_t k) { return name(k, false); }, wide));
     return all;
 }
 
 // A small map: one function, the monomials named values (kept in registers where the compiler can).
-void write_single(std::ostream& o, const CompiledMap::Tape& tape, const std::string& symbol) {
+void write_single(std::ostream& o, const CompiledMap::Tape& tape, const std::string& symbol, bool wide) {
     const auto name = [](std::uint32_t k, bool defined) {
         std::string n = defined ? "const double m" : "m";
         n += std::to_string(k);
@@ -288,14 +309,14 @@ void write_single(std::ostream& o, const CompiledMap::Tape& tape, const std::str
     };
     o << "extern \"C\" void " << symbol << "(const double* __restrict in, double* __restrict out) {\n  const double m0 = 1.0;\n";
     for (std::size_t v = 0; v < tape.inputs; ++v) o << "  const double m" << v + 1 << " = in[" << v << "];\n";
-    for (const Statement& s : statements(tape, name)) o << s.text;
+    for (const Statement& s : statements(tape, name, wide)) o << s.text;
     o << "}\n";
 }
 
 // A large map: pieces of about piece_size operations, each its own function over the monomials in memory. One
 // function of thousands of live values costs the compiler's register allocator time quadratic in them (the radial
 // Nambu scene's maps: 47 s for one 33 000-line source); pieces keep it linear.
-void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::string& symbol) {
+void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::string& symbol, bool wide) {
     constexpr std::size_t piece_size = 256;
     const auto name = [](std::uint32_t k, bool) { return "m[" + std::to_string(k) + "]"; };
     std::ostringstream call;
@@ -306,7 +327,7 @@ void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::str
         size = 0;
     };
     open_piece();
-    for (const Statement& s : statements(tape, name)) {
+    for (const Statement& s : statements(tape, name, wide)) {
         if (size + s.size > piece_size && size > 0) o << "}\n", open_piece();
         o << s.text;
         size += s.size;
@@ -320,23 +341,32 @@ void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::str
 // Maps up to this many terms and monomials are written as one function.
 constexpr std::size_t single_function_size = 2000;
 
-// What every source starts with: a group's pairs of lanes as GCC's vector extension (SSE2 on x86-64), as GroupSums.
-const char* const preamble = "// pgi: compiled maps as straight-line code (series/native.hpp)\n"
-                             "typedef double pgi_v2 __attribute__((vector_size(16)));\n"
-                             "typedef long long pgi_m2 __attribute__((vector_size(16)));\n";
+// What every source starts with: a group's lanes as GCC's vector extension, pairs (SSE2 on x86-64, as GroupSums)
+// or, wide, fours (AVX2).
+std::string preamble(bool wide) {
+    std::string p = "// pgi: compiled maps as straight-line code (series/native.hpp)\n"
+                    "typedef double pgi_v2 __attribute__((vector_size(16)));\n"
+                    "typedef long long pgi_m2 __attribute__((vector_size(16)));\n";
+    if (wide)
+        p += "typedef double pgi_v4 __attribute__((vector_size(32)));\n"
+             "typedef long long pgi_m4 __attribute__((vector_size(32)));\n";
+    return p;
+}
 
-std::string map_source(const CompiledMap& map, const std::string& symbol) {
+std::string map_source(const CompiledMap& map, const std::string& symbol, bool wide) {
     std::ostringstream o;
     if (map.num_terms() + map.num_monomials() <= single_function_size)
-        write_single(o, map.tape(), symbol);
+        write_single(o, map.tape(), symbol, wide);
     else
-        write_pieces(o, map.tape(), symbol);
+        write_pieces(o, map.tape(), symbol, wide);
     return o.str();
 }
 
 }  // namespace
 
-std::string native_source(const CompiledMap& map, const std::string& symbol) { return preamble + map_source(map, symbol); }
+std::string native_source(const CompiledMap& map, const std::string& symbol, NativeVectors vectors) {
+    return preamble(wide(vectors)) + map_source(map, symbol, wide(vectors));
+}
 
 std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
     std::vector<CompiledMap*> todo;
@@ -351,8 +381,8 @@ std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const Nati
         }
     }
     if (todo.empty()) return native;
-    std::string source = preamble;
-    for (std::size_t i = 0; i < todo.size(); ++i) source += map_source(*todo[i], "pgi_map_" + std::to_string(i));
+    std::string source = preamble(wide(options.vectors));
+    for (std::size_t i = 0; i < todo.size(); ++i) source += map_source(*todo[i], "pgi_map_" + std::to_string(i), wide(options.vectors));
     const fs::path library = library_for(source, options);
     void* handle = ::dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!handle) throw NativeCodeError("native code: cannot load " + library.string() + ": " + ::dlerror());

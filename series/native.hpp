@@ -24,10 +24,19 @@ public:
     using std::runtime_error::runtime_error;
 };
 
+/// How a group of four outputs is written: AVX2's four lanes (one multiply, mask and add a term) or SSE2's two pairs
+/// (two of each, the interpreter's GroupSums). Either gives the interpreter's bits: each lane does its operations.
+enum class NativeVectors {
+    automatic,  ///< AVX2 where the processor running pgi has it (the library is built for and loaded on it), else SSE2
+    sse2,
+    avx2,
+};
+
 struct NativeOptions {
     /// The compiler: empty means $PGI_CXX, else $CXX, else "c++" (searched on PATH). Called as
-    /// `compiler -O2 -ffp-contract=off -fPIC -shared -w -o LIB SOURCE`.
+    /// `compiler -O2 -ffp-contract=off -fPIC -shared -w [-mavx2] -o LIB SOURCE`.
     std::string compiler;
+    NativeVectors vectors = NativeVectors::automatic;
     /// Where built libraries are kept, keyed by a hash of their source and command (a later build of the same maps
     /// loads the kept library instead of compiling): empty means $PGI_JIT_CACHE, else $XDG_CACHE_HOME/pgi/jit, else
     /// $HOME/.cache/pgi/jit, else a directory under the system's temporary directory. A directory named here or by
@@ -49,7 +58,7 @@ struct NativeOptions {
 
 /// The C++ source of map's evaluator, a translation unit of its own: extern "C" void symbol(const double* in, double* out), the interpreter's
 /// operations in its order (CompiledMap::eval_with and the lane rows of split_sums).
-std::string native_source(const CompiledMap& map, const std::string& symbol);
+std::string native_source(const CompiledMap& map, const std::string& symbol, NativeVectors vectors = NativeVectors::automatic);
 
 /// Builds native code for the maps (one source, one compiler call, or none when the cache has it) and attaches
 /// each map's to it, the maps in the order given (the most used first) while they fit in max_size. Skips maps

@@ -54,39 +54,50 @@ std::vector<Poly> mixed_outputs(const RingPtr& r, std::mt19937& gen) {
 
 }  // namespace
 
-TEST_CASE("native: every output is the interpreter's, bit for bit, on random maps with rows and groups") {
+TEST_CASE("native: every output is the interpreter's, bit for bit, on random maps with rows and groups, in SSE2 and AVX2 code") {
     const auto r = make_ring({"unused", "a", "b", "c"});
-    std::mt19937 gen(21);
-    std::uniform_real_distribution<double> input(-2.0, 2.0);
-    std::vector<CompiledMap> maps;
-    for (int trial = 0; trial < 4; ++trial) maps.push_back(CompiledMap::build(mixed_outputs(r, gen), {3, 1, 2}));
-    const std::vector<CompiledMap> interpreted = maps;
-    std::vector<CompiledMap*> pointers;
-    for (auto& m : maps) pointers.push_back(&m);
-    REQUIRE(attach_native_code(pointers, test_options("random")) == maps.size());
-    std::size_t compared = 0;
-    for (std::size_t i = 0; i < maps.size(); ++i) {
-        CHECK(maps[i].native());
-        CHECK_FALSE(interpreted[i].native());
-        const std::size_t O = maps[i].num_outputs();
-        std::vector<double> a(O), b(O);
-        for (int point = 0; point < 200; ++point) {
-            double x[3] = {input(gen), input(gen), input(gen)};
-            if (point == 1) x[0] = -0.0, x[1] = 0.0;                                       // signed zeros
-            if (point == 2) x[2] = 1e120;                                                   // overflowing monomials
-            if (point == 3) x[1] = std::numeric_limits<double>::quiet_NaN();
-            interpreted[i].eval(x, a.data());
-            maps[i].eval(x, b.data());
-            for (std::size_t o = 0; o < O; ++o) {
-                CAPTURE(i);
-                CAPTURE(point);
-                CAPTURE(o);
-                CHECK(bits(a[o]) == bits(b[o]));
-                ++compared;
+    for (const NativeVectors vectors : {NativeVectors::sse2, NativeVectors::avx2}) {
+        CAPTURE(static_cast<int>(vectors));
+        if (vectors == NativeVectors::avx2 && !__builtin_cpu_supports("avx2")) {
+            MESSAGE("this processor has no AVX2: its code is not run");
+            continue;
+        }
+        std::mt19937 gen(21);
+        std::uniform_real_distribution<double> input(-2.0, 2.0);
+        std::vector<CompiledMap> maps;
+        for (int trial = 0; trial < 4; ++trial) maps.push_back(CompiledMap::build(mixed_outputs(r, gen), {3, 1, 2}));
+        // the source is the one asked for: four lanes at once, or pairs
+        CHECK((native_source(maps.front(), "f", vectors).find("pgi_v4{") != std::string::npos) == (vectors == NativeVectors::avx2));
+        const std::vector<CompiledMap> interpreted = maps;
+        std::vector<CompiledMap*> pointers;
+        for (auto& m : maps) pointers.push_back(&m);
+        NativeOptions options = test_options("random");
+        options.vectors = vectors;
+        REQUIRE(attach_native_code(pointers, options) == maps.size());
+        std::size_t compared = 0;
+        for (std::size_t i = 0; i < maps.size(); ++i) {
+            CHECK(maps[i].native());
+            CHECK_FALSE(interpreted[i].native());
+            const std::size_t O = maps[i].num_outputs();
+            std::vector<double> a(O), b(O);
+            for (int point = 0; point < 200; ++point) {
+                double x[3] = {input(gen), input(gen), input(gen)};
+                if (point == 1) x[0] = -0.0, x[1] = 0.0;                                       // signed zeros
+                if (point == 2) x[2] = 1e120;                                                   // overflowing monomials
+                if (point == 3) x[1] = std::numeric_limits<double>::quiet_NaN();
+                interpreted[i].eval(x, a.data());
+                maps[i].eval(x, b.data());
+                for (std::size_t o = 0; o < O; ++o) {
+                    CAPTURE(i);
+                    CAPTURE(point);
+                    CAPTURE(o);
+                    CHECK(bits(a[o]) == bits(b[o]));
+                    ++compared;
+                }
             }
         }
+        CHECK(compared > 5000);
     }
-    CHECK(compared > 5000);
 }
 
 TEST_CASE("native: a copy shares the loaded code; a kept library is loaded, not compiled again") {
