@@ -6,6 +6,7 @@
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <wordexp.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -56,6 +57,25 @@ std::string env_or(const char* name, const std::string& fallback) {
 std::string compiler_of(const NativeOptions& o) {
     if (!o.compiler.empty()) return o.compiler;
     return env_or("PGI_CXX", env_or("CXX", "c++"));
+}
+
+// The compiler's command split into words as the shell splits them (quotes, escapes, $VARIABLES; `ccache g++`,
+// `g++-12 -march=native`), by wordexp(3) with command substitution refused: an error names the command.
+std::vector<std::string> compiler_words(const std::string& command) {
+    wordexp_t w{};
+    const int r = ::wordexp(command.c_str(), &w, WRDE_NOCMD);
+    std::vector<std::string> words;
+    if (r == 0) words.assign(w.we_wordv, w.we_wordv + w.we_wordc);
+    if (r == 0 || r == WRDE_NOSPACE) ::wordfree(&w);
+    if (r != 0 || words.empty()) {
+        const char* why = r == WRDE_CMDSUB ? "command substitution is not allowed"
+                          : r == WRDE_BADCHAR ? "an unquoted | & ; < > ( ) { } or newline"
+                          : r == WRDE_SYNTAX  ? "a syntax error (an unbalanced quote?)"
+                          : r == 0            ? "no words"
+                                              : "it cannot be split";
+        throw NativeCodeError("native code: the compiler command `" + command + "` cannot be used: " + why);
+    }
+    return words;
 }
 
 // The operations four lanes at once save over pairs: a group's term is one where the pairs take one per pair with a
@@ -179,17 +199,25 @@ std::string unique_suffix() {
     return std::to_string(::getpid()) + "-" + std::to_string(rd());
 }
 
-// Removes the oldest kept sources and libraries (by last write, the pair of key spared) while dir holds more than
-// limit bytes. Best effort: a file another process removes first, or cannot be read, is passed over.
-void trim_cache(const fs::path& dir, const std::string& key, std::uintmax_t limit) {
+// Removes the temporaries of killed builds, then the oldest kept sources and libraries (by last write, the pair of key
+// spared) while dir holds more than limit bytes. Best effort: a file another process removes first, or cannot be read, is passed over.
+void trim_cache(const fs::path& dir, const std::string& key, std::uintmax_t limit, std::chrono::seconds timeout) {
     std::error_code ec;
     std::vector<std::pair<fs::file_time_type, fs::path>> files;
     std::uintmax_t total = 0;
+    // a temporary (KEY.SUFFIX.cpp, .so, .log) older than a compiler is given is a build that was killed: it goes
+    const auto stale = fs::file_time_type::clock::now() - timeout - std::chrono::minutes(1);
     for (const auto& e : fs::directory_iterator(dir, ec)) {
         const std::uintmax_t size = e.file_size(ec);
         if (ec) continue;
+        const fs::file_time_type written = e.last_write_time(ec);
+        if (ec) continue;
+        if (e.path().stem().string().find('.') != std::string::npos && written < stale) {
+            fs::remove(e.path(), ec);
+            continue;
+        }
         total += size;
-        if (e.path().stem() != key) files.push_back({e.last_write_time(ec), e.path()});
+        if (e.path().stem() != key) files.push_back({written, e.path()});
     }
     std::sort(files.begin(), files.end());
     for (const auto& [time, path] : files) {
@@ -204,8 +232,10 @@ void trim_cache(const fs::path& dir, const std::string& key, std::uintmax_t limi
 fs::path library_for(const std::string& source, bool wide, const NativeOptions& o) {
     const std::string compiler = compiler_of(o);
     const std::vector<std::string> flags = compiler_flags(wide);
-    std::string command = compiler;
-    for (const std::string& f : flags) command += " " + f;
+    std::vector<std::string> argv = compiler_words(compiler);
+    argv.insert(argv.end(), flags.begin(), flags.end());
+    std::string command;
+    for (const std::string& word : argv) command += (command.empty() ? "" : " ") + word;
     const fs::path dir = cache_directory(o);
     const std::string key = key_of(command + "\n" + source);
     const fs::path kept_source = dir / (key + ".cpp"), library = dir / (key + ".so");
@@ -214,8 +244,6 @@ fs::path library_for(const std::string& source, bool wide, const NativeOptions& 
     const std::string tmp = unique_suffix();
     const fs::path src = dir / (key + "." + tmp + ".cpp"), lib = dir / (key + "." + tmp + ".so"), log = dir / (key + "." + tmp + ".log");
     write_all(src, source);
-    std::vector<std::string> argv = {compiler};
-    argv.insert(argv.end(), flags.begin(), flags.end());
     argv.insert(argv.end(), {"-o", lib.string(), src.string()});
     const std::string failure = run(argv, log, o.timeout);
     const std::string output = read_all(log);
@@ -230,7 +258,7 @@ fs::path library_for(const std::string& source, bool wide, const NativeOptions& 
         fs::remove(src, ec), fs::remove(lib, ec);
         throw NativeCodeError("native code: cannot keep the library in " + dir.string());
     }
-    trim_cache(dir, key, o.cache_limit_bytes);
+    trim_cache(dir, key, o.cache_limit_bytes, o.timeout);
     return library;
 }
 

@@ -34,8 +34,9 @@ enum class NativeVectors {
 };
 
 struct NativeOptions {
-    /// The compiler: empty means $PGI_CXX, else $CXX, else "c++" (searched on PATH). Called as
-    /// `compiler -O2 -ffp-contract=off -fPIC -shared -w [-mavx2] -o LIB SOURCE`.
+    /// The compiler's command: empty means $PGI_CXX, else $CXX, else "c++" (its first word searched on PATH), split
+    /// into words as the shell splits them but without command substitution (`ccache g++`, `g++-12 -march=native`).
+    /// Called as `compiler... -O2 -ffp-contract=off -fPIC -shared -w [-mavx2] -o LIB SOURCE`.
     std::string compiler;
     NativeVectors vectors = NativeVectors::automatic;
     /// Where built libraries are kept, keyed by a hash of their source and command (a later build of the same maps
@@ -43,8 +44,9 @@ struct NativeOptions {
     /// $HOME/.cache/pgi/jit, else a directory under the system's temporary directory. A directory named here or by
     /// $PGI_JIT_CACHE that cannot be created or written is a NativeCodeError naming it.
     std::string cache_dir;
-    /// After a library is added, the oldest kept ones (by last write) are removed while the directory holds more than
-    /// this (a library loaded by a running process stays mapped: only its name goes).
+    /// After a library is added, the temporaries of builds killed before they ended (older than timeout and a minute)
+    /// are removed, then the oldest kept libraries (by last write) while the directory holds more than this (a
+    /// library loaded by a running process stays mapped: only its name goes).
     std::uintmax_t cache_limit_bytes = std::uintmax_t(256) << 20;
     /// The compiler is stopped past this.
     std::chrono::seconds timeout{300};

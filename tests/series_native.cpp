@@ -151,6 +151,56 @@ TEST_CASE("native: a compiler that fails or does not exist is a NativeCodeError 
     CHECK(y == 9);
 }
 
+TEST_CASE("native: the compiler's command is split into words as the shell splits them, command substitution refused") {
+    const auto r = make_ring({"x"});
+    {
+        CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+        NativeOptions o = test_options("words");
+        o.compiler = "c++ -DPGI_UNUSED='a b'";  // a program and an argument with a quoted space
+        REQUIRE(attach_native_code({&map}, o) == 1);
+        const double x = 3;
+        double y = 0;
+        map.eval(&x, &y);
+        CHECK(y == 9);
+        fs::remove_all(o.cache_dir);
+    }
+    for (const auto& [compiler, why] : {std::pair<std::string, std::string>{"c++ $(echo -O0)", "command substitution"},
+                                        {"c++ 'unbalanced", "syntax"},
+                                        {"c++ ; rm -rf /", "unquoted"},
+                                        {"  ", "no words"}}) {
+        CAPTURE(compiler);
+        CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+        NativeOptions o = test_options("bad-words");
+        o.compiler = compiler;
+        try {
+            attach_native_code({&map}, o);
+            FAIL("no error");
+        } catch (const NativeCodeError& e) {
+            const std::string what = e.what();
+            CHECK_MESSAGE(what.find("`" + compiler + "`") != std::string::npos, what);
+            CHECK_MESSAGE(what.find(why) != std::string::npos, what);
+        }
+        CHECK_FALSE(map.native());
+        fs::remove_all(o.cache_dir);
+    }
+}
+
+TEST_CASE("native: the temporaries of a build killed before it ended are removed once stale, a running build's are not") {
+    const auto r = make_ring({"x"});
+    CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 4)}, {0});
+    NativeOptions o = test_options("stale");
+    o.timeout = std::chrono::seconds(60);
+    fs::create_directories(o.cache_dir);
+    const fs::path stale = fs::path(o.cache_dir) / "0123456789abcdef.1-2.cpp", running = fs::path(o.cache_dir) / "0123456789abcdef.3-4.so";
+    std::ofstream(stale) << "killed";
+    std::ofstream(running) << "being written";
+    fs::last_write_time(stale, fs::file_time_type::clock::now() - std::chrono::minutes(3));  // older than 60 s and a minute
+    REQUIRE(attach_native_code({&map}, o) == 1);
+    CHECK_FALSE(fs::exists(stale));
+    CHECK(fs::exists(running));
+    fs::remove_all(o.cache_dir);
+}
+
 TEST_CASE("native: the step with jit takes the interpreted step's trajectory bit for bit, on every bundled scene") {
     const std::string cache = test_options("steps").cache_dir;
     ::setenv("PGI_JIT_CACHE", cache.c_str(), 1);
