@@ -4,7 +4,7 @@
 Usage: python3 tools/bench/bench_exact.py [--build build] [--skip-expr-above SECONDS]
 For each workload it times pgi (tools/bench/bench_exact.cpp, median of repeated runs), the sympy
 sparse-ring version recomposing every order (the benchmark's reference since it was written), the sympy
-sparse-ring version composing order by order (pgi's own algorithm since 4d7c35a: the like-for-like
+sparse-ring version composing order by order (pgi's own algorithm, H o alpha first since d9d26d8: the like-for-like
 ratio) and the sympy expression version (tools/bench/hj_sympy.py, median of repeated runs, one run if it
 takes longer than a few seconds), checks that all give the same polynomials, and prints the times and the
 ratios sympy / pgi."""

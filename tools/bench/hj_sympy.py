@@ -192,13 +192,17 @@ class ByOrder:
         self.R, self.images = R, images
         self.groups = []
         for f in fs:
-            g = {}
-            for monom, c in f.items():
-                key = tuple((v, e) for v, e in enumerate(monom) if e and v in images)
-                kept = tuple(0 if v in images else e for v, e in enumerate(monom))
-                g[key] = g.get(key, R.zero) + R({kept: c})
-            self.groups.append(list(g.items()))
+            self.append(f)
         self.products = {(): [R.one]}
+
+    def append(self, f):
+        """f as the next polynomial (ComposeByOrder::append), sharing the products formed so far."""
+        g = {}
+        for monom, c in f.items():
+            key = tuple((v, e) for v, e in enumerate(monom) if e and v in self.images)
+            kept = tuple(0 if v in self.images else e for v, e in enumerate(monom))
+            g[key] = g.get(key, self.R.zero) + self.R({kept: c})
+        self.groups.append(list(g.items()))
 
     def product(self, key, d):
         c = self.products.setdefault(key, [])
@@ -237,25 +241,20 @@ class RingByOrderImpl(RingImpl):
         return alpha
 
     def hamilton_jacobi(self, alpha, H, k):
+        # pgi's algorithm (docs/math.md 5): G = H o alpha graded by p-degree, G_i appended when S_(i+1) first
+        # reads it, and G along p = grad S_t completed one order per term
         n, zero = self.n, self.R.zero
         H = self.parse(H)
+        alpha_images = {l: [alpha[l][d] if d < len(alpha[l]) else zero for d in range(k)] for l in range(n)}
         p_images = {n + l: [zero] * k for l in range(n)}
-        x_images = {l: [zero] * k for l in range(n)}
-        parts = [alpha[l][d] if d < len(alpha[l]) else zero for l in range(n) for d in range(k)]
-        along_gradient, H_along_alpha = ByOrder(self.R, parts, p_images), ByOrder(self.R, [H], x_images)
-
-        def alpha_coefficient(l, i):
-            return sum((along_gradient.coefficient(l * k + d, i) for d in range(i + 1)), zero)
-
-        for l in range(n):
-            x_images[l][0] = alpha_coefficient(l, 0)
+        H_along_alpha, G_along_gradient = ByOrder(self.R, [H], alpha_images), ByOrder(self.R, [], p_images)
+        G_along_gradient.append(H_along_alpha.coefficient(0, 0))
         S = [H]
         for i in range(1, k):
+            G_along_gradient.append(H_along_alpha.coefficient(0, i))
             for l in range(n):
                 p_images[n + l][i] = S[i - 1].diff(self.X[l])
-            for l in range(n):
-                x_images[l][i] = alpha_coefficient(l, i)
-            S.append(H_along_alpha.coefficient(0, i) * QQ(1, i + 1))
+            S.append(sum((G_along_gradient.coefficient(d, i) for d in range(i + 1)), zero) * QQ(1, i + 1))
         return [str(s.as_expr()).replace("**", "^") for s in S]
 
 class ExprImpl:
