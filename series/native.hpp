@@ -1,5 +1,5 @@
 #pragma once
-// Native code for compiled maps (docs/numerics.md, "Native code"): a CompiledMap's tape written out as
+// Native code for compiled maps (docs/math.md 6, "Native code"): a CompiledMap's tape written out as
 // straight-line C++, built by the system C++ compiler into a shared library, loaded, and attached to the map,
 // whose eval() then runs it. The JIT of heyoka, with the system compiler in LLVM's place: the interpreter's
 // index loads and loop control disappear (2-2.5x on the step's maps at k = 10), while every output is formed
