@@ -28,11 +28,10 @@ std::map<SparseExponents, Poly> substitution_groups(const Poly& f, const std::ve
         if (fresh) fmpq_set(kept->content, f.get()->content);
         fmpz_mpoly_push_term_fmpz_ui(kept->zpoly, f.get()->zpoly->coeffs + t, e.data(), zctx);
     }
-    for (auto& [key, kept] : groups) {
-        // distinct terms of f with one key differ in their kept exponents: no like terms to combine
-        fmpz_mpoly_sort_terms(kept.get_mut()->zpoly, zctx);
-        fmpq_mpoly_reduce(kept.get_mut(), f.ctx());
-    }
+    // A group's terms are f's with one monomial (its key) divided out, pushed in f's order: a monomial order is
+    // compatible with multiplication (a > b iff a c > b c), so they are already sorted, and distinct. FLINT's sort
+    // would cost a pass per exponent bit, 16 000 of them per term at n = 1000 (2n variables of 8 bits).
+    for (auto& [key, kept] : groups) fmpq_mpoly_reduce(kept.get_mut(), f.ctx());
     return groups;
 }
 

@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -62,11 +63,17 @@ std::string compiler_of(const NativeOptions& o) {
 // The compiler's command split into words as the shell splits them (quotes, escapes, $VARIABLES; `ccache g++`,
 // `g++-12 -march=native`), by wordexp(3) with command substitution refused: an error names the command.
 std::vector<std::string> compiler_words(const std::string& command) {
-    wordexp_t w{};
-    const int r = ::wordexp(command.c_str(), &w, WRDE_NOCMD);
+    // NOTE: wordexp is not thread-safe (glibc: MT-Unsafe), and steppers may be built on several threads at once
+    static std::mutex one_at_a_time;
     std::vector<std::string> words;
-    if (r == 0) words.assign(w.we_wordv, w.we_wordv + w.we_wordc);
-    if (r == 0 || r == WRDE_NOSPACE) ::wordfree(&w);
+    int r = 0;
+    {
+        const std::lock_guard<std::mutex> lock(one_at_a_time);
+        wordexp_t w{};
+        r = ::wordexp(command.c_str(), &w, WRDE_NOCMD);
+        if (r == 0) words.assign(w.we_wordv, w.we_wordv + w.we_wordc);
+        if (r == 0 || r == WRDE_NOSPACE) ::wordfree(&w);
+    }
     if (r != 0 || words.empty()) {
         const char* why = r == WRDE_CMDSUB ? "command substitution is not allowed"
                           : r == WRDE_BADCHAR ? "an unquoted | & ; < > ( ) { } or newline"
@@ -199,8 +206,8 @@ std::string unique_suffix() {
     return std::to_string(::getpid()) + "-" + std::to_string(rd());
 }
 
-// Removes the temporaries of killed builds, then the oldest kept sources and libraries (by last write, the pair of key
-// spared) while dir holds more than limit bytes. Best effort: a file another process removes first, or cannot be read, is passed over.
+// Removes the temporaries of killed builds (a running build's, younger, are neither removed nor counted), then the
+// oldest kept sources and libraries (by last write, the pair of key spared) while they hold more than limit bytes. Best effort: a file another process removes first, or cannot be read, is passed over.
 void trim_cache(const fs::path& dir, const std::string& key, std::uintmax_t limit, std::chrono::seconds timeout) {
     std::error_code ec;
     std::vector<std::pair<fs::file_time_type, fs::path>> files;
@@ -212,8 +219,8 @@ void trim_cache(const fs::path& dir, const std::string& key, std::uintmax_t limi
         if (ec) continue;
         const fs::file_time_type written = e.last_write_time(ec);
         if (ec) continue;
-        if (e.path().stem().string().find('.') != std::string::npos && written < stale) {
-            fs::remove(e.path(), ec);
+        if (e.path().stem().string().find('.') != std::string::npos) {  // a temporary: a running build's is left alone
+            if (written < stale) fs::remove(e.path(), ec);
             continue;
         }
         total += size;

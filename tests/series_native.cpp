@@ -185,11 +185,12 @@ TEST_CASE("native: the compiler's command is split into words as the shell split
     }
 }
 
-TEST_CASE("native: the temporaries of a build killed before it ended are removed once stale, a running build's are not") {
+TEST_CASE("native: the temporaries of a build killed before it ended are removed once stale, a running build's are not, even past the size bound") {
     const auto r = make_ring({"x"});
     CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 4)}, {0});
     NativeOptions o = test_options("stale");
     o.timeout = std::chrono::seconds(60);
+    o.cache_limit_bytes = 1;  // the size bound takes every kept library but the new one, and no running build's file
     fs::create_directories(o.cache_dir);
     const fs::path stale = fs::path(o.cache_dir) / "0123456789abcdef.1-2.cpp", running = fs::path(o.cache_dir) / "0123456789abcdef.3-4.so";
     std::ofstream(stale) << "killed";
