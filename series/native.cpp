@@ -85,8 +85,8 @@ std::vector<std::string> compiler_words(const std::string& command) {
     return words;
 }
 
-// The operations four lanes at once save over pairs: a group's term is one where the pairs take one per pair with a
-// nonzero coefficient.
+// The operations four lanes at once save over pairs: one for each group term with a nonzero coefficient in both pairs
+// (the pairs take two multiply-adds there, four lanes one).
 std::size_t saved_by_fours(const CompiledMap::Tape& tape) {
     std::size_t saved = 0;
     for (std::size_t t = 0; t < (tape.groups ? tape.group_start[tape.groups] : 0); ++t) {
@@ -207,7 +207,8 @@ std::string unique_suffix() {
 }
 
 // Removes the temporaries of killed builds (a running build's, younger, are neither removed nor counted), then the
-// oldest kept sources and libraries (by last write, the pair of key spared) while they hold more than limit bytes. Best effort: a file another process removes first, or cannot be read, is passed over.
+// oldest kept sources and libraries (by last write, the pair of key spared) while they hold more than limit bytes.
+// Best effort: a file another process removes first, or cannot be read, is passed over.
 void trim_cache(const fs::path& dir, const std::string& key, std::uintmax_t limit, std::chrono::seconds timeout) {
     std::error_code ec;
     std::vector<std::pair<fs::file_time_type, fs::path>> files;
