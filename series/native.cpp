@@ -9,6 +9,7 @@
 #include <wordexp.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cstdint>
 #include <cstdio>
@@ -99,7 +100,8 @@ std::size_t saved_by_fours(const CompiledMap::Tape& tape) {
 // Whether the maps are written four lanes at once. automatic: where the processor has AVX2 and that saves a tenth of
 // the maps' operations or more; where it saves less, the pairs' library is the faster (the rigid body's and
 // Henon-Heiles' steps at k = 10, whose maps are nearly all rows, took 2-5% longer built for AVX2).
-bool wide(NativeVectors v, const std::vector<CompiledMap*>& maps) {
+template <class Maps>
+bool wide(NativeVectors v, const Maps& maps) {
     if (v != NativeVectors::automatic) return v == NativeVectors::avx2;
     if (!__builtin_cpu_supports("avx2")) return false;
     std::size_t saved = 0, size = 0;
@@ -418,7 +420,7 @@ std::string map_source(const CompiledMap& map, const std::string& symbol, bool w
 }  // namespace
 
 std::string native_source(const CompiledMap& map, const std::string& symbol, NativeVectors vectors) {
-    const bool fours = wide(vectors, {const_cast<CompiledMap*>(&map)});
+    const bool fours = wide(vectors, std::array<const CompiledMap*, 1>{&map});
     return preamble(fours) + map_source(map, symbol, fours);
 }
 

@@ -52,6 +52,23 @@ std::vector<Poly> mixed_outputs(const RingPtr& r, std::mt19937& gen) {
     return outputs;
 }
 
+// The NativeCodeError that attaching map's native code with o raises (a test failure if there is none); the map stays
+// interpreted and nothing is left half-written in the cache directory, which is then removed.
+std::string native_code_error(CompiledMap& map, const NativeOptions& o) {
+    std::string what;
+    try {
+        attach_native_code({&map}, o);
+        FAIL("no error");
+    } catch (const NativeCodeError& e) {
+        what = e.what();
+    }
+    CHECK_FALSE(map.native());
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(o.cache_dir, ec)) FAIL("left behind: " << e.path());
+    fs::remove_all(o.cache_dir);
+    return what;
+}
+
 }  // namespace
 
 TEST_CASE("native: every output is the interpreter's, bit for bit, on random maps with rows and groups, in SSE2 and AVX2 code") {
@@ -135,15 +152,7 @@ TEST_CASE("native: a compiler that fails or does not exist is a NativeCodeError 
         CAPTURE(compiler);
         NativeOptions o = test_options("failing");
         o.compiler = compiler;
-        try {
-            attach_native_code({&map}, o);
-            FAIL("no error");
-        } catch (const NativeCodeError& e) {
-            CHECK(std::string(e.what()).find(compiler) != std::string::npos);
-        }
-        CHECK_FALSE(map.native());
-        for (const auto& e : fs::directory_iterator(o.cache_dir)) FAIL("left behind: " << e.path());  // nothing half-written
-        fs::remove_all(o.cache_dir);
+        CHECK(native_code_error(map, o).find(compiler) != std::string::npos);
     }
     const double x = 3;
     double y = 0;
@@ -172,16 +181,9 @@ TEST_CASE("native: the compiler's command is split into words as the shell split
         CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
         NativeOptions o = test_options("bad-words");
         o.compiler = compiler;
-        try {
-            attach_native_code({&map}, o);
-            FAIL("no error");
-        } catch (const NativeCodeError& e) {
-            const std::string what = e.what();
-            CHECK_MESSAGE(what.find("`" + compiler + "`") != std::string::npos, what);
-            CHECK_MESSAGE(what.find(why) != std::string::npos, what);
-        }
-        CHECK_FALSE(map.native());
-        fs::remove_all(o.cache_dir);
+        const std::string what = native_code_error(map, o);
+        CHECK_MESSAGE(what.find("`" + compiler + "`") != std::string::npos, what);
+        CHECK_MESSAGE(what.find(why) != std::string::npos, what);
     }
 }
 
