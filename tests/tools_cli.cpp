@@ -1,5 +1,6 @@
 // The pgi program as a user and a script meet it: exit codes, stdout, stderr, JSON contract.
 #include "poisson/hamilton_jacobi.hpp"
+#include "scheme/version.hpp"
 #include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
 #include "test_util.hpp"
@@ -146,6 +147,14 @@ TEST_CASE("cli: an unreadable file and bad flags exit 2") {
     CHECK(unknown_flag.out.empty());
     Run no_command = pgi_run({});
     CHECK(no_command.exit_code == 2);
+}
+
+TEST_CASE("cli: --version names the version and the allocator the program runs on") {
+    // mimalloc (and its version) unless the build turned it off (PGI_MIMALLOC, sanitizers): a link that lost it shows here
+    Run v = pgi_run({"--version"});
+    CHECK(v.exit_code == 0);
+    CHECK_MESSAGE(v.out.starts_with("pgi " + std::string(pgi::version()) + " (allocator: " + PGI_PROGRAM_ALLOCATOR), v.out);
+    CHECK(v.out.ends_with(")\n"));
 }
 
 TEST_CASE("cli: terms --json follows the contract and equals the library's S_1..S_k") {

@@ -7,6 +7,7 @@
 #include "tools/commands.hpp"
 #include "tools/ensemble.hpp"
 #include "tools/plot.hpp"
+#include "tools/program_allocator.hpp"
 #include "tools/section.hpp"
 #include "tools/exit_codes.hpp"
 #include "tools/option_values.hpp"
@@ -244,7 +245,7 @@ int main(int argc, char** argv) {
     throw_on_allocation_failure();
     CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
     app.require_subcommand(1);
-    app.set_version_flag("--version", "pgi " + std::string(pgi::version()));
+    app.set_version_flag("--version", "pgi " + std::string(pgi::version()) + " (allocator: " + pgi::program_allocator() + ")");
     Options o;
     o.overrides.max_seconds = 60;  // the program's time budget of the exact phase (the library sets none)
     auto* check = app.add_subcommand("check", "class, Jacobi, Casimirs and realisation identities of a scene");
