@@ -50,7 +50,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     // the truncation degree (and evaluator), sized at p0 = grad S_dt(x_typical): docs/math.md 4 and 6
     Eigen::VectorXd p0(static_cast<Eigen::Index>(n));
     s.gradient_.gradient.eval(x_typical.data(), opt.dt, p0.data());
-    Realisation probe = realisation(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, n));
+    RealisationPtr probe = realisation(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, n));
     StepRealisation r = step_realisation(pi, opt, probe, realisation, x_typical, p0);
     s.realisation_ = std::move(r.evaluator);
     s.simplified_newton_ = r.simplified_newton;
@@ -68,7 +68,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     // a closed form is deepened for the predictor only if its choice goes past the first orders (the radial
     // recursion is not: its cost is the point of its probe)
     const bool closed = realisation_form(pi.structure_class(), opt.realisation) != RealisationForm::radial;
-    s.predictor_ = Predictor::choose(M, probe, S, opt, cost, x_typical, closed ? realisation : RealisationSource{});
+    s.predictor_ = Predictor::choose(M, *probe, S, opt, cost, x_typical, closed ? realisation : RealisationSource{});
     s.info_.predictor_order = s.predictor_.order();
     s.info_.hessian_terms = s.gradient_.hessian_terms;
     if (opt.jit) s.info_.native_maps = attach_native_code(s.compiled_maps());
@@ -88,12 +88,12 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
 NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
     check_build_arguments(pi.phase_space(), nullptr, opt, x_typical);
     // one realisation, deepened when asked beyond it, cut for smaller requests (the Scheme's rule)
-    std::optional<Realisation> deepest;
+    RealisationPtr deepest;
     const RealisationSource source = [&](std::size_t D) {
-        if (!deepest || deepest->degree < D) deepest = build_realisation(pi, opt.realisation, D);
-        return deepest->degree == D ? *deepest : truncated(*deepest, D);
+        if (!deepest || deepest->degree < D) deepest = std::make_shared<const Realisation>(build_realisation(pi, opt.realisation, D));
+        return deepest->degree == D ? deepest : std::make_shared<const Realisation>(truncated(*deepest, D));
     };
-    const auto S = hamilton_jacobi_terms(pi.phase_space(), source(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, pi.dim())), H, opt.k);
+    const auto S = hamilton_jacobi_terms(pi.phase_space(), *source(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, pi.dim())), H, opt.k);
     return build(pi, S, source, opt, x_typical);
 }
 

@@ -106,7 +106,7 @@ Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Po
 
 Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
                             const NewtonCost& cost, const Eigen::VectorXd& x_typical,
-                            const std::function<Realisation(std::size_t)>& deeper) {
+                            const RealisationSource& deeper) {
     if (opt.predictor_order) return build(M, base_point_series(M, probe, S, std::min(predictor_limit(opt), probe.degree)), opt.dt);
     const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
     // The series is computed to the limit's order before the choice sees it, and at large n (the lattices) every
@@ -119,7 +119,8 @@ Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const
     auto u = base_point_series(M, probe, S, P1, std::ref(*choice));
     const std::size_t P = std::min(predictor_limit(opt), deeper ? predictor_limit(opt) : probe.degree);
     if (choice->at_limit() && P1 < P) {
-        const Realisation deep = probe.degree >= P ? probe : deeper(std::max(P, probe.degree));
+        const RealisationPtr deeper_one = probe.degree >= P ? nullptr : deeper(P);
+        const Realisation& deep = deeper_one ? *deeper_one : probe;
         choice.emplace(opt, cost, point_at(x_typical), scale, P - 1);
         u = base_point_series(M, deep, S, P, std::ref(*choice));
     }

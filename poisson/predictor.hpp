@@ -40,7 +40,7 @@ public:
     /// predictor_first_pass; without it the orders stop at probe.degree - 1.
     static Predictor choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
                             const NewtonCost& cost, const Eigen::VectorXd& x_typical,
-                            const std::function<Realisation(std::size_t)>& deeper = {});
+                            const RealisationSource& deeper = {});
 
     std::size_t order() const { return order_; }
     /// sum_m dt^m u_m (eval adds x to it).

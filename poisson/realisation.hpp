@@ -2,6 +2,8 @@
 // Bi-realisations (alpha, beta) of pi on T*R^n as series in the momenta (docs/math.md sections 2-4).
 #include "poisson/structure.hpp"
 
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -47,6 +49,13 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D);
 
 /// The same realisation through p-degree D <= r.degree (its parts of degree above D dropped).
 Realisation truncated(const Realisation& r, std::size_t D);
+
+/// A realisation shared, not copied: on a lattice of n sites alpha and beta hold O(n) polynomials of O(n) bytes
+/// per term (FLINT's dense exponents), and the step's build reads the Scheme's one several times.
+using RealisationPtr = std::shared_ptr<const Realisation>;
+/// The realisation through p-degree D, exact. The Scheme binds it to its own (built once there, shared when D is
+/// its degree, truncated into a new one below).
+using RealisationSource = std::function<RealisationPtr(std::size_t)>;
 
 /// The canonical bracket of two p-graded series, truncated one degree lower (order N - 1).
 Series canonical_bracket(const PhaseSpace& M, const Series& F, const Series& G);

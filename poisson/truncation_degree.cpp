@@ -69,13 +69,13 @@ bool has_parity_gaps(const std::vector<double>& a) {
 // (one degree at least past D, two where parity gaps appear) and the fitted decay's next two beyond the probe.
 // Deepens the probe to where the fitted decay says D lies, one degree past it, until found or the cap.
 // Sets truncation to the largest neglected size (measured or extrapolated): at the cap it may be large.
-std::size_t choose_degree(const StepOptions& opt, std::size_t D_min, Realisation& probe, const RealisationSource& source,
+std::size_t choose_degree(const StepOptions& opt, std::size_t D_min, RealisationPtr& probe, const RealisationSource& source,
                           const std::vector<double>& point, double scale, double& truncation) {
     const double target = unit_roundoff / 4;
     for (;;) {
-        const auto a = component_sizes(probe, point, scale);
+        const auto a = component_sizes(*probe, point, scale);
         const Decay decay(a);
-        const std::size_t top = probe.degree, need = has_parity_gaps(a) ? 2 : 1;
+        const std::size_t top = probe->degree, need = has_parity_gaps(a) ? 2 : 1;
         const auto tail = [&](std::size_t d) {
             return std::max({*std::max_element(a.begin() + std::ptrdiff_t(d) + 1, a.end()), decay.at(top + 1), decay.at(top + 2)});
         };
@@ -111,26 +111,26 @@ std::size_t probe_degree(RealisationForm form, const StepOptions& opt, std::size
     return std::max(D_min, predictor) + (form == RealisationForm::constant ? 2 : 0);
 }
 
-StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, Realisation& probe,
+StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, RealisationPtr& probe,
                                  const RealisationSource& source, const Eigen::VectorXd& x_typical, const Eigen::VectorXd& p0) {
     const RealisationForm form = realisation_form(pi.structure_class(), opt.realisation);
     const std::size_t D_min = step_degree_min(opt.k);
     if (form == RealisationForm::log_canonical)
-        return {RealisationEvaluator::log_canonical(pi), probe.method + " (closed form)", 0, true, 0.0};
+        return {RealisationEvaluator::log_canonical(pi), probe->method + " (closed form)", 0, true, 0.0};
     if (form == RealisationForm::lie_poisson && RealisationEvaluator::has_rotation_form(pi))
-        return {RealisationEvaluator::rotation(pi), probe.method + " (closed form, so(3))", 0, true, 0.0};
+        return {RealisationEvaluator::rotation(pi), probe->method + " (closed form, so(3))", 0, true, 0.0};
     if (form == RealisationForm::lie_poisson) {
         // |L| may grow along the orbit and during Newton: a margin of 1.5 before scaling and squaring takes over
         const double norm = RealisationEvaluator::lie_poisson(pi, 0).operator_norm_at(p0);
         const std::size_t D = RealisationEvaluator::series_degree_for(1.5 * norm, std::max<std::size_t>(D_min, 2), opt.max_degree);
-        return {RealisationEvaluator::lie_poisson(pi, D), probe.method + " (series, scaling and squaring beyond)", D, true, 0.0, false};
+        return {RealisationEvaluator::lie_poisson(pi, D), probe->method + " (series, scaling and squaring beyond)", D, true, 0.0, false};
     }
     StepRealisation r;
     const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
     r.degree = choose_degree(opt, D_min, probe, source, phase_point(x_typical, p0), scale, r.truncation_estimate);
-    r.method = probe.method;
+    r.method = probe->method;
     r.exact = form == RealisationForm::constant;
-    r.evaluator = RealisationEvaluator::polynomial(pi, truncated(probe, r.degree), neglected_parts(probe, r.degree));
+    r.evaluator = RealisationEvaluator::polynomial(pi, truncated(*probe, r.degree), neglected_parts(*probe, r.degree));
     return r;
 }
 

@@ -10,9 +10,6 @@
 
 namespace pgi {
 
-/// The realisation through p-degree D, exact. The Scheme binds it to Scheme::realisation (built once there).
-using RealisationSource = std::function<Realisation(std::size_t)>;
-
 /// The lowest p-degree the step reads: S_1..S_k need k - 1 (docs/math.md 5), and at least 1.
 std::size_t step_degree_min(std::size_t k);
 /// The degree the step's build first asks its source for (the probe): for the radial recursion two degrees
@@ -43,7 +40,7 @@ struct StepRealisation {
 /// compiled series truncated at the smallest D whose neglected terms at (x_typical, p0) are below round-off
 /// (capped at opt.max_degree). probe: the realisation at probe_degree, deepened in place from source when D
 /// needs it. p0 = grad S_dt(x_typical) at the build's dt.
-StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, Realisation& probe,
+StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, RealisationPtr& probe,
                                  const RealisationSource& source, const Eigen::VectorXd& x_typical, const Eigen::VectorXd& p0);
 
 }  // namespace pgi

@@ -36,7 +36,7 @@ struct StepperEntry {
 struct Scheme::Cache {
     std::recursive_mutex mutex;
     std::optional<SchemeChecks> checks;
-    std::optional<Realisation> deepest;             // the realisation at the deepest p-degree asked so far
+    RealisationPtr deepest;                         // the realisation at the deepest p-degree asked so far
     std::optional<std::vector<Poly>> terms;         // S_1..S_k
     std::vector<Poly> modified;                     // H_0..H_m for the largest m asked so far
     std::vector<StepperEntry> steppers;             // at most stepper_cache_size
@@ -107,10 +107,10 @@ const SchemeChecks& Scheme::checks() const {
     SchemeChecks& c = *cache_->checks;
     if (!c.jacobi && !c.realisation_checked) {
         // S_k reads alpha through degree k - 1; the identities in degrees < k need alpha through degree k.
-        Realisation r = realisation_locked(k_);
-        c.realisation = realisation_defect(pi_, r);
-        c.realisation_checked_below_degree = r.degree;
-        c.realisation_method = r.method;
+        const RealisationPtr r = realisation_locked(k_);
+        c.realisation = realisation_defect(pi_, *r);
+        c.realisation_checked_below_degree = r->degree;
+        c.realisation_method = r->method;
         c.realisation_checked = true;
     }
     return c;
@@ -132,12 +132,12 @@ void Scheme::require_valid() const {
 
 Realisation Scheme::realisation(std::size_t D) const {
     std::lock_guard lock(cache_->mutex);
-    return realisation_locked(D);
+    return *realisation_locked(D);
 }
 
 // A closed form is cheap to build deep: it is built at once to the degree the step's probe reads (its
 // predictor's series), so the checks, S and the step share one build.
-Realisation Scheme::realisation_locked(std::size_t D) const {
+RealisationPtr Scheme::realisation_locked(std::size_t D) const {
     auto& deepest = cache_->deepest;
     if (!deepest || deepest->degree < D) {
         std::size_t build = D;
@@ -147,10 +147,10 @@ Realisation Scheme::realisation_locked(std::size_t D) const {
             opt.realisation = choice_;
             build = std::max(D, probe_degree(realisation_form(), opt, pi_.dim()));
         }
-        deepest = build_realisation(pi_, choice_, build);
+        deepest = std::make_shared<const Realisation>(build_realisation(pi_, choice_, build));
         ++cache_->stats.realisation_builds;
     }
-    return deepest->degree == D ? *deepest : truncated(*deepest, D);
+    return deepest->degree == D ? deepest : std::make_shared<const Realisation>(truncated(*deepest, D));
 }
 
 const std::vector<Poly>& Scheme::terms() const {

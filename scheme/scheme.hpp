@@ -116,7 +116,7 @@ public:
 private:
     struct Cache;
     const SchemeChecks& structure_checks_locked() const;
-    Realisation realisation_locked(std::size_t D) const;
+    RealisationPtr realisation_locked(std::size_t D) const;
     const std::vector<Poly>& terms_locked() const;
 
     PoissonStructure pi_;
