@@ -98,10 +98,12 @@ def main():
         t_expr, r_expr = timed_with_limit(lambda: sympy_run(ExprImpl, system, realisation, kind, n), args.expr_limit)
         agree = same(pgi["result"], r_ring) and same(pgi["result"], r_order) and (r_expr is None or same(pgi["result"], r_expr))
         bound = ">" if r_expr is None else " "
-        rows.append({"workload": name, "pgi_s": pgi["seconds"], "sympy_ring_s": t_ring, "sympy_ring_by_order_s": t_order,
+        rows.append({"workload": name, "pgi_allocator": pgi["allocator"], "pgi_s": pgi["seconds"], "sympy_ring_s": t_ring, "sympy_ring_by_order_s": t_order,
                      "sympy_expr_s": t_expr, "sympy_expr_finished": r_expr is not None, "ring_over_pgi": t_ring / pgi["seconds"],
                      "ring_by_order_over_pgi": t_order / pgi["seconds"], "expr_over_pgi": t_expr / pgi["seconds"], "agree": agree})
         r = rows[-1]
+        if len(rows) == 1:
+            print(f"pgi_bench_exact allocates with {pgi['allocator']}", flush=True)
         print(f"{name:46s} pgi {r['pgi_s'] * 1e3:9.3f} ms | sympy ring {t_ring * 1e3:10.1f} ms ({r['ring_over_pgi']:7.0f}x)"
               f" | ring by order {t_order * 1e3:10.1f} ms ({r['ring_by_order_over_pgi']:7.0f}x)"
               f" | sympy expr {bound}{t_expr * 1e3:10.1f} ms ({bound}{r['expr_over_pgi']:8.0f}x) | results agree: {agree}", flush=True)
