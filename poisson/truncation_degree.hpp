@@ -6,8 +6,6 @@
 
 #include <Eigen/Dense>
 
-#include <functional>
-
 namespace pgi {
 
 /// The lowest p-degree the step reads: S_1..S_k need k - 1 (docs/math.md 5), and at least 1.
