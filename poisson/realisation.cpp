@@ -225,6 +225,17 @@ Realisation truncated(const Realisation& r, std::size_t D) {
     return t;
 }
 
+bool is_symmetric(const Realisation& r) {
+    if (r.alpha.size() != r.beta.size()) return false;
+    for (std::size_t i = 0; i < r.alpha.size(); ++i) {
+        const Series &a = r.alpha[i], &b = r.beta[i];
+        if (a.order() != b.order()) return false;
+        for (std::size_t m = 0; m < a.order(); ++m)
+            if (!(m % 2 == 0 ? b[m] == a[m] : b[m] == -a[m])) return false;
+    }
+    return true;
+}
+
 Series canonical_bracket(const PhaseSpace& M, const Series& F, const Series& G) {
     const std::size_t N = F.order();
     if (G.order() != N || N == 0) throw std::invalid_argument("pgi::canonical_bracket: series orders differ or are zero");

@@ -50,6 +50,10 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D);
 /// The same realisation through p-degree D <= r.degree (its parts of degree above D dropped).
 Realisation truncated(const Realisation& r, std::size_t D);
 
+/// Whether beta(x, p) = alpha(x, -p) exactly, through r.degree: every realisation built here is (docs/math.md 4-5:
+/// then S_2 = S_4 = ... = 0). Checked on the polynomials, not read from r.method: a Realisation is open to its user.
+bool is_symmetric(const Realisation& r);
+
 /// A realisation shared, not copied: on a lattice of n sites alpha and beta hold O(n) polynomials of O(n) bytes
 /// per term (FLINT's dense exponents), and the step's build reads the Scheme's one several times.
 using RealisationPtr = std::shared_ptr<const Realisation>;

@@ -102,13 +102,17 @@ const Poly& ComposeByOrder::product_coefficient(std::uint32_t p, std::size_t m) 
     std::vector<Poly>& c = product.c;
     if (c.size() > m) return c[m];
     c.reserve(N_);
+    product_coefficient(product.lower, m);  // the lower product's coefficients through m, each formed once
+    const Product& lower = products_[product.lower];
+    const Series* lower_image = lower.lower == 0 ? &*images_[lower.factor] : nullptr;
+    std::vector<Poly> terms;
     for (std::size_t k = c.size(); k <= m; ++k) {
-        std::vector<Poly> terms;
+        terms.clear();
         for (std::size_t i = 0; i <= k; ++i) {
-            const Poly& low = product_coefficient(product.lower, i);
+            const Poly& low = lower_image ? (*lower_image)[i] : lower.c[i];
             if (!low.is_zero() && !image[k - i].is_zero()) terms.push_back(low * image[k - i]);
         }
-        c.push_back(sum(std::move(terms), ring_));
+        c.push_back(terms.empty() ? Poly(ring_) : sum(std::move(terms), ring_));
     }
     return c[m];
 }

@@ -14,19 +14,48 @@ std::vector<Poly> terms(const Scene& s, RealisationChoice choice, std::size_t k,
 
 }  // namespace
 
-TEST_CASE("hamilton_jacobi: S_2 = S_4 = 0 for the symmetric realisations (docs/math.md 5)") {
+TEST_CASE("hamilton_jacobi: the whole recursion gives S_2 = S_4 = S_6 = 0 for the symmetric realisations (docs/math.md 5)") {
     for (const auto& name : test::bundled_names()) {
         Scene s = test::bundled(name);
         for (auto choice : {RealisationChoice::automatic, RealisationChoice::radial}) {
             CAPTURE(name);
             CAPTURE(to_string(choice));
-            auto S = terms(s, choice, 5);
-            REQUIRE(S.size() == 5);
+            const auto r = build_realisation(s.pi, choice, realisation_degree_for_order(7));
+            CHECK(is_symmetric(r));
+            // composed: the even terms from the recursion itself, not from the fact being checked
+            const auto S = hamilton_jacobi_terms(s.phase_space(), r, s.H, 7, EvenTerms::composed);
+            REQUIRE(S.size() == 7);
             CHECK(S[0] == s.H);
             CHECK(S[1].is_zero());
             CHECK(S[3].is_zero());
+            CHECK(S[5].is_zero());
+            // and the recursion that uses the fact (the default) gives the same terms, odd ones included
+            CHECK(hamilton_jacobi_terms(s.phase_space(), r, s.H, 7) == S);
         }
     }
+}
+
+TEST_CASE("hamilton_jacobi: a realisation that is not symmetric takes the whole recursion") {
+    // alpha = x + C p with C symmetric is no realisation, but the recursion is algebra: S_2 = (1/2) grad H^T C grad H,
+    // not 0. With beta = x (not alpha(x, -p)) the even terms must be composed, not set to 0.
+    auto pi = test::structure({"q", "p"}, {{0, 1, "1"}});
+    const PhaseSpace& M = pi.phase_space();
+    Realisation r{"test", 2, {}, {}};
+    for (std::size_t i = 0; i < 2; ++i) {
+        Series a(M.ring(), 3), b(M.ring(), 3);
+        a[0] = b[0] = M.x_gen(i);
+        a[1] = M.p_gen(0) + M.p_gen(1);  // C = [[1, 1], [1, 1]]
+        r.alpha.push_back(a), r.beta.push_back(b);
+    }
+    CHECK_FALSE(is_symmetric(r));
+    const Poly H = M.parse("q^2/2 + p^2/2");
+    const auto S = hamilton_jacobi_terms(M, r, H, 3);
+    CHECK(S[1] == M.parse("(q + p)^2/2"));
+    CHECK(S == hamilton_jacobi_terms(M, r, H, 3, EvenTerms::composed));
+    // the same alpha with its reflection as beta passes the test: the symmetry is read from the polynomials
+    r.beta = r.alpha;
+    for (auto& b : r.beta) b[1] = -b[1];
+    CHECK(is_symmetric(r));
 }
 
 TEST_CASE("hamilton_jacobi: log-canonical S_3 matches an independent sympy derivation") {

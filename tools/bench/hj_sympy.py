@@ -4,7 +4,8 @@
   (truncated Cauchy products, composition by cached powers) recomposing every lower order at each term,
   as pgi did before its composition order by order;
 - RingByOrderImpl: the same rings and pgi's present algorithm (series/composition.hpp): each composition
-  completed one order at a time, each product coefficient formed once;
+  completed one order at a time, each product coefficient formed once, and the even Hamilton-Jacobi terms of
+  the symmetric realisations known to vanish (docs/math.md 5), not composed;
 - ExprImpl: plain sympy expressions (expand / subs / diff / coeff), grading by an auxiliary symbol.
 Both compute the Lie-Poisson closed form or the radial realisation (docs/math.md 3-4) and the
 Hamilton-Jacobi terms (docs/math.md 5). `--check-log-canonical` prints the independent derivation used in
@@ -242,7 +243,9 @@ class RingByOrderImpl(RingImpl):
 
     def hamilton_jacobi(self, alpha, H, k):
         # pgi's algorithm (docs/math.md 5): G = H o alpha graded by p-degree, G_i appended when S_(i+1) first
-        # reads it, and G along p = grad S_t completed one order per term
+        # reads it, and G along p = grad S_t completed one order per term. The realisations here are symmetric
+        # (beta = alpha(x, -p)), so, as pgi does (EvenTerms::from_symmetry), S_2j = 0 is not composed and S_(i+1)
+        # reads only the G_d with d = i mod 2
         n, zero = self.n, self.R.zero
         H = self.parse(H)
         alpha_images = {l: [alpha[l][d] if d < len(alpha[l]) else zero for d in range(k)] for l in range(n)}
@@ -251,10 +254,14 @@ class RingByOrderImpl(RingImpl):
         G_along_gradient.append(H_along_alpha.coefficient(0, 0))
         S = [H]
         for i in range(1, k):
-            G_along_gradient.append(H_along_alpha.coefficient(0, i))
+            vanishes = i % 2 == 1
+            G_along_gradient.append(zero if vanishes else H_along_alpha.coefficient(0, i))
             for l in range(n):
                 p_images[n + l][i] = S[i - 1].diff(self.X[l])
-            S.append(sum((G_along_gradient.coefficient(d, i) for d in range(i + 1)), zero) * QQ(1, i + 1))
+            if vanishes:
+                S.append(zero)
+                continue
+            S.append(sum((G_along_gradient.coefficient(d, i) for d in range(0, i + 1, 2)), zero) * QQ(1, i + 1))
         return [str(s.as_expr()).replace("**", "^") for s in S]
 
 class ExprImpl:
