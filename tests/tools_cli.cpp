@@ -222,6 +222,25 @@ TEST_CASE("cli: step --json gives the state after one step, the Newton iteration
     CHECK(nan.out.empty());
 }
 
+TEST_CASE("cli: a run that ends with the energy off by more than a tenth says so on stderr and in JSON, exit 0") {
+    // k = 1 (the implicit-midpoint-like order 2) on the rigid body: every step solves its equation, but at dt = 3 the
+    // relative energy error reaches 0.13 (0.05 at dt = 2, 0.002 at dt = 0.5: the method's dt^2)
+    const std::string rb = test::scene_path("rigid_body");
+    Run coarse = pgi_run({"integrate", rb, "--order", "1", "--dt", "3", "--json"});
+    REQUIRE(coarse.exit_code == 0);
+    auto j = nlohmann::json::parse(coarse.out);
+    CHECK(j["energy_error_max"].get<double>() > 0.1);
+    CHECK(j["energy_warning"] == true);
+    CHECK(coarse.err.find("warning: the relative energy error reached") != std::string::npos);
+    CHECK(coarse.err.find("reduce dt or raise the order") != std::string::npos);
+    Run fine = pgi_run({"integrate", rb, "--order", "1", "--dt", "1/2", "--json"});
+    REQUIRE(fine.exit_code == 0);
+    j = nlohmann::json::parse(fine.out);
+    CHECK(j["energy_error_max"].get<double>() < 0.1);
+    CHECK(j["energy_warning"] == false);
+    CHECK(fine.err.find("energy error") == std::string::npos);
+}
+
 TEST_CASE("issue 11.9: cli: integrate --json --csv writes the summary and the trajectory") {
     const fs::path csv = fs::temp_directory_path() / ("pgi_test_" + std::to_string(::getpid()) + ".csv");
     Run r = pgi_run({"integrate", test::scene_path("nambu"), "--t-end", "10", "--csv", csv.string(), "--every", "50", "--json"});

@@ -73,7 +73,8 @@ struct IntegrateOptions {
 /// One step from x0: {"x", "newton_iterations", "residual", ...}. Throws NumericalFailure.
 nlohmann::json step_report(const Scene& scene);
 /// The whole run: {"steps", "t", "x", "energy_error_max", "casimir_error_max", "newton_iterations_mean",
-/// "wall_seconds", ...}. Throws NumericalFailure after keeping the CSV written so far, marked incomplete.
+/// "wall_seconds", "energy_warning", ...}; energy_warning (also said on stderr) when the relative energy error
+/// exceeds 0.1. Throws NumericalFailure after keeping the CSV written so far, marked incomplete.
 nlohmann::json integrate_report(const Scene& scene, const IntegrateOptions& options);
 
 /// M_0..M_m of the Magnus series of the scene's [magnus] h: {"coordinates", "magnus"}.
