@@ -42,8 +42,9 @@ constexpr double energy_warning_from = 0.1;
 
 // NOTE: said on stderr and in the JSON document (energy_warning), never silently: exit 0 with H off by a tenth or more.
 void warn_energy_drift(const Scene& scene, double energy_error, json& r) {
-    r["energy_warning"] = !(energy_error <= energy_warning_from);
-    if (energy_error <= energy_warning_from) return;
+    const bool drifted = !(energy_error <= energy_warning_from);  // (a NaN error too)
+    r["energy_warning"] = drifted;
+    if (!drifted) return;
     std::cerr << fmt::format("pgi: {}: warning: the relative energy error reached {:.2e} (above {}): every step solved its "
                              "equation, but at dt = {} order {} does not follow the flow of H (reduce dt or raise the order)\n",
                              scene.file.string(), energy_error, energy_warning_from, scene.dt, scene.order);
