@@ -385,6 +385,13 @@ double NewtonStepper::residual_at_solution(const Eigen::VectorXd& x) {
     return (evaluated_alpha() - x).lpNorm<Eigen::Infinity>();
 }
 
+double NewtonStepper::residual_at(const Eigen::VectorXd& x, const Eigen::VectorXd& xb) {
+    step_dt_ = dt_;
+    gradient_.gradient.eval(xb.data(), step_dt_, p_.data());
+    realisation_.check(xb, p_, check_);
+    return (check_.alpha - x).lpNorm<Eigen::Infinity>();
+}
+
 Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
     Eigen::VectorXd inc(x.size());
     if (step(x, inc) != StepStatus::ok) throw std::runtime_error("NewtonStepper::tangent_map: the step failed");

@@ -78,6 +78,10 @@ public:
     double last_truncation() const { return truncation_; }
     /// |alpha(xb, grad S_dt(xb)) - x|_inf at the base point the last step ended with (one more evaluation).
     double residual_at_solution(const Eigen::VectorXd& x);
+    /// |alpha(xb, grad S_dt(xb)) - x|_inf at any xb, at dt(), evaluated as a simplified Newton iteration and the
+    /// acceptance test evaluate it: grad S_dt and the realisation's values, no Hessian, no derivatives (what such an
+    /// iteration costs beyond its solve; tools/bench/bench_step.cpp times it).
+    double residual_at(const Eigen::VectorXd& x, const Eigen::VectorXd& xb);
     double last_correction() const { return correction_; }  // |dx|_inf of the last Newton update
     /// The base point xb the last step ended with (solving alpha(xb, grad S_dt(xb)) = x after an ok step).
     const Eigen::VectorXd& base_point() const { return xb_; }

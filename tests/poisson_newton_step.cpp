@@ -500,6 +500,13 @@ TEST_CASE("issue 11.2: every accepted step satisfies its equation within the sta
                 CHECK(st.last_residual() <= st.last_tolerance());
                 CHECK(st.last_tolerance() <= 1e-13 * x.lpNorm<Eigen::Infinity>());
                 CHECK(st.residual_at_solution(x) <= st.last_tolerance());
+                // the residual alone (grad S_dt and alpha's values, as simplified Newton evaluates it): as small at the
+                // solution, and it sees a base point moved by 1e-6 |x| (alpha_x = I + O(dt), so about that much)
+                const Eigen::VectorXd xb = st.base_point();
+                CHECK(st.residual_at(x, xb) <= st.last_tolerance());
+                Eigen::VectorXd moved = xb;
+                moved[0] += 1e-6 * x.lpNorm<Eigen::Infinity>();
+                CHECK(st.residual_at(x, moved) >= 1e-7 * x.lpNorm<Eigen::Infinity>());
                 CHECK(st.last_truncation() <= StepOptions{}.truncation_bound);
                 x += inc;
             }
