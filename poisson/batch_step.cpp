@@ -5,8 +5,6 @@
 
 namespace pgi {
 
-bool processor_has_avx2() { return __builtin_cpu_supports("avx2"); }
-
 namespace {
 
 template <class Pack, class Variant>

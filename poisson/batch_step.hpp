@@ -16,7 +16,6 @@ namespace pgi {
 /// Which instructions the lane form runs on: AVX2 where the processor has it (automatic), or as asked (the tests
 /// run both; asking for AVX2 on a processor without it throws std::invalid_argument).
 enum class LaneInstructions { automatic, sse2, avx2 };
-bool processor_has_avx2();
 
 class BatchStepper {
 public:

@@ -16,6 +16,9 @@
 
 namespace pgi {
 
+// The groups of eval() in double on AVX2 (series/compile_avx2.cpp, compiled for it): GroupSums' operations, lane by lane.
+void eval_groups_avx2(const CompiledMap::Tape& tape, const double* mono, double* out);
+
 namespace {
 
 // A monomial in the inputs: its (input, exponent) pairs, inputs ascending, every exponent positive (the
@@ -273,8 +276,26 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
     for (auto& id : c.term_monomial_) id = number[id];
     c.group_outputs();
     c.split_sums();
+    c.set_group_vectors(GroupVectors::automatic);
     c.mono_.assign(c.num_monomials(), 0.0);
     return c;
+}
+
+bool processor_has_avx2() { return __builtin_cpu_supports("avx2"); }
+
+std::size_t CompiledMap::saved_by_fours() const {
+    std::size_t saved = 0;
+    for (std::size_t t = 0; t < group_monomial_.size(); ++t) {
+        const double* c = &group_coeff_[group_width * t];
+        saved += (c[0] != 0 || c[1] != 0) && (c[2] != 0 || c[3] != 0);
+    }
+    return saved;
+}
+
+void CompiledMap::set_group_vectors(GroupVectors v) {
+    if (v == GroupVectors::avx2 && !processor_has_avx2())
+        throw std::invalid_argument("CompiledMap: AVX2 group sums asked on a processor without AVX2");
+    fours_ = v == GroupVectors::avx2 || (v == GroupVectors::automatic && processor_has_avx2() && fours_pay());
 }
 
 // The lane kernel's terms of a grouped output (eval_tape_lanes, series/compile_lanes.ipp): which of eval_with's
@@ -451,6 +472,12 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
         out[o] = (s0 + s1) + (s2 + s3);
     }
     // the groups: four partial sums per output, as the rows
+    if constexpr (std::is_same_v<T, double>) {
+        if (fours_) {
+            eval_groups_avx2(tape(), mono, out);
+            return;
+        }
+    }
     constexpr std::size_t G = group_width;
     const std::uint32_t* gm = group_monomial_.data();
     for (std::size_t g = 0; g < group_output_.size(); ++g) {

@@ -9,6 +9,19 @@
 
 namespace pgi {
 
+/// Whether this processor has AVX2: the wider group sums below, native code's and the batch step's AVX2 lanes run
+/// only where it does.
+bool processor_has_avx2();
+
+/// How CompiledMap sums a group of four outputs: two pairs of SSE2 lanes, or one AVX2 vector of four (one multiply,
+/// mask and add a term instead of two of each). Each lane does its own operations either way: the same bits.
+enum class GroupVectors {
+    automatic,  ///< AVX2 where the processor has it and that saves a tenth of the map's operations or more
+                ///< (CompiledMap::fours_pay), else pairs: maps that are nearly all rows ran 2-5% slower on AVX2
+    sse2,
+    avx2,
+};
+
 /// Several polynomials evaluated together in double: every monomial is formed once, as the product of two
 /// monomials formed before it (the inputs first), and shared by all outputs; coefficients are rounded once
 /// (correctly) at build time. eval() runs no FLINT code and allocates nothing.
@@ -31,6 +44,15 @@ public:
     /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch), unless
     /// native.
     void eval(const double* in, double* out) const;
+
+    /// The operations summing groups four lanes at once saves over pairs: one per group term whose coefficients are
+    /// not all zero in either pair. fours_pay(): at least a tenth of num_terms() + num_monomials().
+    std::size_t saved_by_fours() const;
+    bool fours_pay() const { return 10 * saved_by_fours() >= num_terms() + num_monomials(); }
+    /// eval() sums groups as v says from now on (build() chose automatic). Throws std::invalid_argument for avx2 on a
+    /// processor without it.
+    void set_group_vectors(GroupVectors v);
+    bool groups_in_fours() const { return fours_; }
 
     /// What eval runs once native code is attached (series/native.hpp): the same outputs, bit for bit.
     using NativeEval = void (*)(const double* in, double* out);
@@ -95,6 +117,7 @@ private:
     std::vector<std::uint32_t> lane_monomial_;
     std::vector<double> lane_coeff_;
     mutable std::vector<double> mono_;
+    bool fours_ = false;  // eval() sums the groups on AVX2 (series/compile_avx2.cpp)
     std::shared_ptr<const void> native_library_;
     NativeEval native_ = nullptr;
     void group_outputs();

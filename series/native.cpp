@@ -86,26 +86,15 @@ std::vector<std::string> compiler_words(const std::string& command) {
     return words;
 }
 
-// The operations four lanes at once save over pairs: one for each group term with a nonzero coefficient in both pairs
-// (the pairs take two multiply-adds there, four lanes one).
-std::size_t saved_by_fours(const CompiledMap::Tape& tape) {
-    std::size_t saved = 0;
-    for (std::size_t t = 0; t < (tape.groups ? tape.group_start[tape.groups] : 0); ++t) {
-        const double* c = &tape.group_coeff[4 * t];
-        saved += (c[0] != 0 || c[1] != 0) && (c[2] != 0 || c[3] != 0);
-    }
-    return saved;
-}
-
 // Whether the maps are written four lanes at once. automatic: where the processor has AVX2 and that saves a tenth of
 // the maps' operations or more; where it saves less, the pairs' library is the faster (the rigid body's and
 // Henon-Heiles' steps at k = 10, whose maps are nearly all rows, took 2-5% longer built for AVX2).
 template <class Maps>
 bool wide(NativeVectors v, const Maps& maps) {
     if (v != NativeVectors::automatic) return v == NativeVectors::avx2;
-    if (!__builtin_cpu_supports("avx2")) return false;
+    if (!processor_has_avx2()) return false;
     std::size_t saved = 0, size = 0;
-    for (const CompiledMap* m : maps) saved += saved_by_fours(m->tape()), size += m->num_terms() + m->num_monomials();
+    for (const CompiledMap* m : maps) saved += m->saved_by_fours(), size += m->num_terms() + m->num_monomials();
     return 10 * saved >= size;
 }
 

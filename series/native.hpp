@@ -24,14 +24,10 @@ public:
     using std::runtime_error::runtime_error;
 };
 
-/// How a group of four outputs is written: AVX2's four lanes (one multiply, mask and add a term) or SSE2's two pairs
-/// (two of each, the interpreter's GroupSums). Either gives the interpreter's bits: each lane does its operations.
-enum class NativeVectors {
-    automatic,  ///< AVX2 where the processor running pgi has it (the library is built for and loaded on it) and it saves
-                ///< a tenth of the maps' operations or more, else SSE2
-    sse2,
-    avx2,
-};
+/// How a group of four outputs is written: AVX2's four lanes or SSE2's two pairs, as the interpreter sums them
+/// (GroupVectors, series/compile.hpp). Either gives the interpreter's bits. automatic: AVX2 where the processor running
+/// pgi has it (the library is built for and loaded on it) and it saves a tenth of the maps' operations or more.
+using NativeVectors = GroupVectors;
 
 struct NativeOptions {
     /// The compiler's command: empty means $PGI_CXX, else $CXX, else "c++" (its first word searched on PATH), split

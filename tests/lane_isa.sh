@@ -1,32 +1,43 @@
 #!/bin/bash
-# poisson/lane_step_avx2.cpp compiles the batch step's Pack4 kernels for AVX2 (#pragma GCC target), the rest of
-# that file for the x86-64 baseline. Checks its object: (1) Pack4's kernels do use AVX2 registers (the pragma
-# took effect), (2) no other function the object exports (global or weak: an inline function other files also
-# emit, which the linker may keep for the whole program) contains an AVX instruction, which would fault on a
-# processor without AVX where that copy runs outside the batch's AVX2 path.
+# Two files are compiled for AVX2 and run only where the processor has it: poisson/lane_step_avx2.cpp (the batch
+# step's Pack4 kernels) and series/compile_avx2.cpp (CompiledMap's groups as one vector of four,
+# eval_groups_avx2). Checks each object: (1) its kernels do use AVX2 registers (the flag took effect), (2) no other
+# function the object exports (global or weak: an inline function other files also emit, which the linker may keep
+# for the whole program) contains an AVX instruction, which would fault on a processor without AVX where that copy
+# runs outside the AVX2 path.
 # Usage: lane_isa.sh BUILD_DIR
 set -euo pipefail
-object=$(find "$1" -name 'lane_step_avx2.cpp.o' -print -quit)
-[ -n "$object" ] || { echo "lane_isa: no lane_step_avx2.cpp.o under $1" >&2; exit 1; }
-exported=$(mktemp)
-trap 'rm -f "$exported"' EXIT
-nm -C --defined-only --extern-only "$object" | grep -E ' [TWu] ' | sed -E 's/^[0-9a-f]+ [TWu] //' | sort -u >"$exported"
-report=$(objdump -d --no-show-raw-insn -C "$object" | awk -v exported="$exported" '
-    BEGIN { while ((getline line < exported) > 0) keep[line] = 1 }
-    /^[0-9a-f]+ <.*>:$/ { name = $0; sub(/^[0-9a-f]+ </, "", name); sub(/>:$/, "", name); next }
-    /^ +[0-9a-f]+:\t/ {
-        split($0, f, "\t"); insn = f[2]
-        pack4 = name ~ /PackOf<4ul>|MaskOf<4ul>/
-        if (pack4 && insn ~ /%ymm/) ymm++
-        if (!pack4 && (name in keep) && insn ~ /^v[a-z0-9]+ /) bad[name] = 1
-    }
-    END { print "ymm " ymm + 0; for (n in bad) print "bad " n }')
-ymm=$(sed -n 's/^ymm //p' <<<"$report")
-bad=$(sed -n 's/^bad //p' <<<"$report")
-[ "$ymm" -gt 0 ] || { echo "lane_isa: Pack4's kernels in $object use no AVX2 register: the target pragma did not apply" >&2; exit 1; }
-if [ -n "$bad" ]; then
-    echo "lane_isa: functions exported by $object contain AVX instructions (and may be the program's copy):" >&2
-    echo "$bad" >&2
-    exit 1
-fi
-echo "lane_isa: $ymm AVX2 instructions in Pack4's kernels; $(wc -l <"$exported") exported symbols, none other with AVX"
+
+# check OBJECT_NAME KERNELS_REGEX
+check() {
+    local object exported report ymm bad count
+    object=$(find "$BUILD" -name "$1" -print -quit)
+    [ -n "$object" ] || { echo "lane_isa: no $1 under $BUILD" >&2; exit 1; }
+    exported=$(mktemp)
+    nm -C --defined-only --extern-only "$object" | grep -E ' [TWu] ' | sed -E 's/^[0-9a-f]+ [TWu] //' | sort -u >"$exported"
+    report=$(objdump -d --no-show-raw-insn -C "$object" | awk -v exported="$exported" -v kernels="$2" '
+        BEGIN { while ((getline line < exported) > 0) keep[line] = 1 }
+        /^[0-9a-f]+ <.*>:$/ { name = $0; sub(/^[0-9a-f]+ </, "", name); sub(/>:$/, "", name); next }
+        /^ +[0-9a-f]+:\t/ {
+            split($0, f, "\t"); insn = f[2]
+            kernel = name ~ kernels
+            if (kernel && insn ~ /%ymm/) ymm++
+            if (!kernel && (name in keep) && insn ~ /^v[a-z0-9]+ /) bad[name] = 1
+        }
+        END { print "ymm " ymm + 0; for (n in bad) print "bad " n }')
+    count=$(wc -l <"$exported")
+    rm -f "$exported"
+    ymm=$(sed -n 's/^ymm //p' <<<"$report")
+    bad=$(sed -n 's/^bad //p' <<<"$report")
+    [ "$ymm" -gt 0 ] || { echo "lane_isa: the kernels in $object use no AVX2 register: -mavx2 did not apply" >&2; exit 1; }
+    if [ -n "$bad" ]; then
+        echo "lane_isa: functions exported by $object contain AVX instructions (and may be the program's copy):" >&2
+        echo "$bad" >&2
+        exit 1
+    fi
+    echo "lane_isa: $ymm AVX2 instructions in the kernels of $1; $count exported symbols, none other with AVX"
+}
+
+BUILD=$1
+check lane_step_avx2.cpp.o 'PackOf<4ul>|MaskOf<4ul>'
+check compile_avx2.cpp.o 'eval_groups_avx2'

@@ -8,7 +8,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstdint>
+#include <limits>
 #include <random>
+#include <stdexcept>
 
 using namespace pgi;
 
@@ -34,6 +36,22 @@ std::vector<Poly> random_outputs(const RingPtr& r, std::size_t k, std::mt19937& 
 }
 
 std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
+
+// f (40 random terms in x, y, z), a lone output on other monomials, and seven outputs on f's monomials (other
+// coefficients, and a constant): two groups of four and a lone output.
+std::vector<Poly> grouped_outputs(const RingPtr& r, std::mt19937& gen) {
+    std::uniform_int_distribution<long> coeff(-9, 9);
+    std::uniform_int_distribution<unsigned long> ex(0, 3);
+    Poly f(r);
+    for (int t = 0; t < 40; ++t) {
+        Poly m = Poly::constant(r, Rational(coeff(gen), 4));
+        for (std::size_t v = 0; v < 3; ++v) m = m * pow(Poly::gen(r, v), ex(gen));
+        f += m;
+    }
+    std::vector<Poly> outputs{f, pow(Poly::gen(r, 0), 9) + pow(Poly::gen(r, 1), 11)};
+    for (long c : {2, -3, 5, 7, -11, 13, -17}) outputs.push_back(Poly::constant(r, Rational(c, 8)) * f + Poly::constant(r, Rational(c)));
+    return outputs;
+}
 
 }  // namespace
 
@@ -102,19 +120,8 @@ TEST_CASE("compile: monomials are made as products of two (an addition chain), n
 TEST_CASE("compile: outputs sharing their monomials are evaluated four at a time, with eval_batch's bits and exact values") {
     const auto r = make_ring({"x", "y", "z"});
     std::mt19937 gen(5);
-    std::uniform_int_distribution<long> coeff(-9, 9);
-    std::uniform_int_distribution<unsigned long> ex(0, 3);
-    // f and seven outputs on f's monomials (other coefficients, and a constant), plus one on others: two groups of
-    // four, and a lone output
-    Poly f(r), lone(r);
-    for (int t = 0; t < 40; ++t) {
-        Poly m = Poly::constant(r, Rational(coeff(gen), 4));
-        for (std::size_t v = 0; v < 3; ++v) m = m * pow(Poly::gen(r, v), ex(gen));
-        f += m;
-    }
-    lone = pow(Poly::gen(r, 0), 9) + pow(Poly::gen(r, 1), 11);
-    std::vector<Poly> outputs{f, lone};
-    for (long c : {2, -3, 5, 7, -11, 13, -17}) outputs.push_back(Poly::constant(r, Rational(c, 8)) * f + Poly::constant(r, Rational(c)));
+    const std::vector<Poly> outputs = grouped_outputs(r, gen);
+    const Poly& f = outputs[0];
     const CompiledMap map = CompiledMap::build(outputs, {0, 1, 2});
     std::size_t one_by_one = 0;
     for (const auto& o : outputs) one_by_one += o.length();
@@ -153,5 +160,41 @@ TEST_CASE("compile: outputs sharing their monomials are evaluated four at a time
         const double x[3] = {in[j], in[m + j], in[2 * m + j]};
         map.eval(x, y.data());
         for (std::size_t o = 0; o < outputs.size(); ++o) CHECK(bits(out[o * m + j]) == bits(y[o]));
+    }
+}
+
+TEST_CASE("compile: groups summed as one AVX2 vector of four give the SSE2 pairs' bits; automatic takes fours where they pay") {
+    const auto r = make_ring({"x", "y", "z"}), r4 = make_ring({"unused", "a", "b", "c"});
+    std::mt19937 gen(8);
+    CompiledMap grouped = CompiledMap::build(grouped_outputs(r, gen), {0, 1, 2});
+    CompiledMap rows = CompiledMap::build(random_outputs(r4, 3, gen), {3, 1, 2});
+    CHECK(grouped.fours_pay());      // two full groups over most of the map's terms
+    CHECK_FALSE(rows.fours_pay());   // no groups: nothing saved
+    CHECK(grouped.groups_in_fours() == (processor_has_avx2() && grouped.fours_pay()));
+    CHECK_FALSE(rows.groups_in_fours());
+    if (!processor_has_avx2()) {
+        CHECK_THROWS_AS(grouped.set_group_vectors(GroupVectors::avx2), std::invalid_argument);
+        MESSAGE("this processor has no AVX2: the fours are not run");
+        return;
+    }
+    std::uniform_real_distribution<double> input(-2.0, 2.0);
+    const std::size_t O = grouped.num_outputs();
+    std::vector<double> pairs(O), fours(O);
+    for (int point = 0; point < 300; ++point) {
+        double x[3] = {input(gen), input(gen), input(gen)};
+        if (point == 1) x[0] = -0.0, x[1] = 0.0;                                    // signed zeros
+        if (point == 2) x[0] = 1e70;                                                // infinite monomials beside finite ones
+        if (point == 3) x[2] = std::numeric_limits<double>::quiet_NaN();
+        grouped.set_group_vectors(GroupVectors::sse2);
+        REQUIRE_FALSE(grouped.groups_in_fours());
+        grouped.eval(x, pairs.data());
+        grouped.set_group_vectors(GroupVectors::avx2);
+        REQUIRE(grouped.groups_in_fours());
+        grouped.eval(x, fours.data());
+        for (std::size_t o = 0; o < O; ++o) {
+            CAPTURE(point);
+            CAPTURE(o);
+            CHECK(bits(fours[o]) == bits(pairs[o]));
+        }
     }
 }
