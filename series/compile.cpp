@@ -1,4 +1,5 @@
 #include "series/compile.hpp"
+#include "series/compile_groups.ipp"
 #include "series/compile_lanes.ipp"
 
 #include <flint/mpoly.h>
@@ -349,6 +350,16 @@ struct GroupSums {
     }
     double operator[](std::size_t i) const { return i < 2 ? lo[i] : hi[i - 2]; }
 };
+// The same in long double (reference evaluations), one lane at a time.
+template <class T>
+struct ScalarSums {
+    std::array<T, CompiledMap::group_width> v{};
+    void add(const double* c, T m) {
+        for (std::size_t i = 0; i < v.size(); ++i)
+            if (c[i] != 0) v[i] += T(c[i]) * m;
+    }
+    T operator[](std::size_t i) const { return v[i]; }
+};
 }  // namespace
 
 // Outputs that read mostly the same monomials are evaluated four at a time: one pass over the union of their
@@ -471,40 +482,15 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
         for (; t < end; ++t) s0 += T(c[t]) * mono[tm[t]];
         out[o] = (s0 + s1) + (s2 + s3);
     }
-    // the groups: four partial sums per output, as the rows
+    // the groups (series/compile_groups.ipp): in double one AVX2 vector or two pairs of SSE2 lanes (GCC does not
+    // find those itself), the same bits
     if constexpr (std::is_same_v<T, double>) {
-        if (fours_) {
+        if (fours_)
             eval_groups_avx2(tape(), mono, out);
-            return;
-        }
-    }
-    constexpr std::size_t G = group_width;
-    const std::uint32_t* gm = group_monomial_.data();
-    for (std::size_t g = 0; g < group_output_.size(); ++g) {
-        // in double, a group's four outputs are two pairs of SSE2 lanes (GCC does not find this itself)
-        using Acc = std::conditional_t<std::is_same_v<T, double>, GroupSums, std::array<T, G>>;
-        Acc s0{}, s1{}, s2{}, s3{};
-        const auto term = [&](std::uint32_t t, Acc& acc) {
-            const T m = mono[gm[t]];
-            const double* gc = group_coeff_.data() + std::size_t(t) * G;
-            if constexpr (std::is_same_v<T, double>) {
-                acc.add(gc, m);
-            } else {
-                for (std::size_t i = 0; i < G; ++i)
-                    if (gc[i] != 0) acc[i] += T(gc[i]) * m;
-            }
-        };
-        std::uint32_t t = group_start_[g];
-        const std::uint32_t end = group_start_[g + 1];
-        for (; t + 4 <= end; t += 4) {
-            term(t, s0);
-            term(t + 1, s1);
-            term(t + 2, s2);
-            term(t + 3, s3);
-        }
-        for (; t < end; ++t) term(t, s0);
-        for (std::size_t i = 0; i < G; ++i)
-            if (group_output_[g][i] != no_output) out[group_output_[g][i]] = (s0[i] + s1[i]) + (s2[i] + s3[i]);
+        else
+            eval_groups<GroupSums>(tape(), mono, out);
+    } else {
+        eval_groups<ScalarSums<T>>(tape(), mono, out);
     }
 }
 

@@ -40,4 +40,4 @@ check() {
 
 BUILD=$1
 check lane_step_avx2.cpp.o 'PackOf<4ul>|MaskOf<4ul>'
-check compile_avx2.cpp.o 'eval_groups_avx2'
+check compile_avx2.cpp.o 'eval_groups|QuadSums'
