@@ -48,7 +48,9 @@ public:
     /// The operations summing groups four lanes at once saves over pairs: one per group term whose coefficients are
     /// not all zero in either pair. fours_pay(): at least a tenth of num_terms() + num_monomials().
     std::size_t saved_by_fours() const;
-    bool fours_pay() const { return 10 * saved_by_fours() >= num_terms() + num_monomials(); }
+    bool fours_pay() const { return fours_pay(saved_by_fours(), num_terms() + num_monomials()); }
+    /// The rule, for maps taken together (native code builds one library for several).
+    static bool fours_pay(std::size_t saved, std::size_t operations) { return 10 * saved >= operations; }
     /// eval() sums groups as v says from now on (build() chose automatic). Throws std::invalid_argument for avx2 on a
     /// processor without it.
     void set_group_vectors(GroupVectors v);

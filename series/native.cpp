@@ -95,7 +95,7 @@ bool wide(NativeVectors v, const Maps& maps) {
     if (!processor_has_avx2()) return false;
     std::size_t saved = 0, size = 0;
     for (const CompiledMap* m : maps) saved += m->saved_by_fours(), size += m->num_terms() + m->num_monomials();
-    return 10 * saved >= size;
+    return CompiledMap::fours_pay(saved, size);
 }
 
 std::vector<std::string> compiler_flags(bool wide) {
