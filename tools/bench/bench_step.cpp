@@ -143,6 +143,10 @@ int main(int argc, char** argv) {
         }
         Eigen::VectorXd inc(x0.size());
         const Alternatives alt = alternatives(st, states);
+        if (alt.base_points.empty()) {  // (the residual's timing below cycles over them)
+            std::cerr << "k = " << k << ": stepping again from the trajectory's first state failed\n";
+            return 3;
+        }
         const double step_ns = median_ns([&](std::size_t i) { (void)st.step(states[i % states.size()], inc); sink += inc[0]; }, steps);
         const double system_ns = median_ns([&](std::size_t i) { sink += st.newton_system(states[i % states.size()])(0, 0); }, steps);
         const std::size_t B = alt.base_points.size();
