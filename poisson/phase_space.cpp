@@ -17,10 +17,10 @@ std::vector<std::string> phase_space_names(const std::vector<std::string>& coord
 PhaseSpace::PhaseSpace(std::vector<std::string> coordinates, std::size_t max_terms)
     : PhaseSpace(std::move(coordinates), std::make_shared<const Budget>(BudgetLimits{.max_terms = max_terms})) {}
 
-PhaseSpace::PhaseSpace(std::vector<std::string> coordinates, std::shared_ptr<const Budget> budget)
+PhaseSpace::PhaseSpace(std::vector<std::string> coordinates, std::shared_ptr<const Budget> budget, PolyStorage storage)
     : coordinates_(std::move(coordinates)),
-      coordinate_ring_(make_ring(coordinates_, budget)),
-      ring_(make_ring(phase_space_names(coordinates_), budget)),
+      coordinate_ring_(std::make_shared<const Ring>(coordinates_, budget, storage)),
+      ring_(std::make_shared<const Ring>(phase_space_names(coordinates_), budget, storage)),
       momenta_(2 * coordinates_.size(), false) {
     for (std::size_t i = 0; i < dim(); ++i) momenta_[p(i)] = true;
 }
@@ -33,19 +33,12 @@ std::vector<std::size_t> PhaseSpace::coordinate_vars() const {
 
 Poly PhaseSpace::parse(std::string_view text) const {
     // Parsed in the coordinate ring (which refuses a momentum with the parser's own message, and whose
-    // parser sets up n variables, not 2n), then moved term by term: x_i keeps its index in the phase-space
-    // ring. A change of ring by composition builds a (2n x n) matrix, which made n brackets cost n^3.
+    // parser sets up n variables, not 2n), then moved: x_i keeps its index in the phase-space ring, so the
+    // terms keep their order (a change of ring by composition built a (2n x n) matrix: n brackets cost n^3).
     const Poly f = Poly::parse(coordinate_ring_, text);
-    Poly r(ring_);
-    std::vector<ulong> e(ring_->size(), 0);
-    for (std::size_t t = 0; t < f.length(); ++t) {
-        const auto ex = f.term_exponents(t);
-        std::copy(ex.begin(), ex.end(), e.begin());
-        fmpq_mpoly_push_term_fmpq_ui(r.get_mut(), f.term_coeff(t).get(), e.data(), ring_->ctx());
-    }
-    fmpq_mpoly_sort_terms(r.get_mut(), ring_->ctx());
-    fmpq_mpoly_combine_like_terms(r.get_mut(), ring_->ctx());
-    return r;
+    std::vector<long> same(dim());
+    for (std::size_t i = 0; i < dim(); ++i) same[i] = static_cast<long>(x(i));
+    return rename_variables(f, ring_, same);
 }
 
 Series PhaseSpace::parse_in_time(std::string_view text) const {
@@ -73,9 +66,9 @@ Poly canonical_bracket(const PhaseSpace& M, const Poly& F, const Poly& G) {
     Poly r(M.ring());
     if (F.is_zero() || G.is_zero()) return r;
     // only the variables both hold contribute (most pairs of a large sparse scene hold none)
-    std::vector<int> f(M.ring()->size()), g(M.ring()->size());
-    fmpq_mpoly_used_vars(f.data(), F.get(), M.ring()->ctx());
-    fmpq_mpoly_used_vars(g.data(), G.get(), M.ring()->ctx());
+    std::vector<bool> f(M.ring()->size()), g(M.ring()->size());
+    for (std::size_t v : used_variables(F)) f[v] = true;
+    for (std::size_t v : used_variables(G)) g[v] = true;
     for (std::size_t i = 0; i < M.dim(); ++i) {
         if (f[M.x(i)] && g[M.p(i)]) r += derivative(F, M.x(i)) * derivative(G, M.p(i));
         if (f[M.p(i)] && g[M.x(i)]) r -= derivative(F, M.p(i)) * derivative(G, M.x(i));

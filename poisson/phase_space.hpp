@@ -11,8 +11,10 @@ namespace pgi {
 class PhaseSpace {
 public:
     /// Requires distinct identifiers (std::invalid_argument otherwise). Momenta are named p_<coordinate>.
-    /// budget bounds every operation of the exact phase in its rings (series/budget.hpp).
-    PhaseSpace(std::vector<std::string> coordinates, std::shared_ptr<const Budget> budget);
+    /// budget bounds every operation of the exact phase in its rings (series/budget.hpp); storage is how their
+    /// polynomials keep their terms (automatic: local from Ring::local_storage_from variables on).
+    PhaseSpace(std::vector<std::string> coordinates, std::shared_ptr<const Budget> budget,
+               PolyStorage storage = PolyStorage::automatic);
     /// With a budget of its own: the default limits with max_terms terms.
     explicit PhaseSpace(std::vector<std::string> coordinates, std::size_t max_terms = Ring::default_max_terms);
 

@@ -259,8 +259,8 @@ std::optional<RealisationDefect> first_defect(std::string identity, std::size_t 
 Series pi_at(const PoissonStructure& pi, std::size_t i, std::size_t j, const std::vector<Series>& y, std::size_t N) {
     const PhaseSpace& M = pi.phase_space();
     std::vector<std::optional<Series>> images(M.ring()->size());
-    std::vector<int> used(M.ring()->size());  // only the variables pi_ij holds: O(1) images per pair, not n
-    fmpq_mpoly_used_vars(used.data(), pi(i, j).get(), M.ring()->ctx());
+    std::vector<bool> used(M.ring()->size());  // only the variables pi_ij holds: O(1) images per pair, not n
+    for (std::size_t v : used_variables(pi(i, j))) used[v] = true;
     for (std::size_t l = 0; l < M.dim(); ++l)
         if (used[M.x(l)]) images[M.x(l)] = y[l].truncated(N);
     return compose(pi(i, j), images, N);
@@ -273,11 +273,9 @@ namespace {
 // The coordinates l whose x_l (resp. p_l) a series holds, over all its degrees.
 void used_coordinates(const PhaseSpace& M, const Series& s, std::size_t i, std::vector<std::vector<std::size_t>>& x_holders,
                       std::vector<std::vector<std::size_t>>& p_holders) {
-    std::vector<int> used(M.ring()->size()), any(M.ring()->size(), 0);
-    for (std::size_t m = 0; m < s.order(); ++m) {
-        fmpq_mpoly_used_vars(used.data(), s[m].get(), M.ring()->ctx());
-        for (std::size_t v = 0; v < used.size(); ++v) any[v] |= used[v];
-    }
+    std::vector<bool> any(M.ring()->size(), false);
+    for (std::size_t m = 0; m < s.order(); ++m)
+        for (std::size_t v : used_variables(s[m])) any[v] = true;
     for (std::size_t l = 0; l < M.dim(); ++l) {
         if (any[M.x(l)]) x_holders[l].push_back(i);
         if (any[M.p(l)]) p_holders[l].push_back(i);

@@ -44,13 +44,4 @@ void SparsePattern::scatter(const double* values, Eigen::MatrixXd& dense) const 
         for (int k = outer[c]; k < outer[c + 1]; ++k) dense(inner[std::size_t(k)], Eigen::Index(c)) = values[k];
 }
 
-std::vector<std::size_t> used_variables(const Poly& f) {
-    std::vector<int> used(f.ring()->size());
-    fmpq_mpoly_used_vars(used.data(), f.get(), f.ctx());
-    std::vector<std::size_t> vars;
-    for (std::size_t v = 0; v < used.size(); ++v)
-        if (used[v]) vars.push_back(v);
-    return vars;
-}
-
 }  // namespace pgi

@@ -29,7 +29,4 @@ struct SparsePattern {
     void scatter(const double* values, Eigen::MatrixXd& dense) const;
 };
 
-/// The ring variables f holds (sorted): the locality the exact phase keeps.
-std::vector<std::size_t> used_variables(const Poly& f);
-
 }  // namespace pgi

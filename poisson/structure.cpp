@@ -91,9 +91,10 @@ PoissonStructure::PoissonStructure(PhaseSpace M, std::map<std::pair<std::size_t,
     }
     class_ = classify(M_, entries);
     rows_.resize(n);
-    std::vector<int> used(M_.ring()->size());
+    std::vector<bool> used(M_.ring()->size());
     for (auto& [ij, f] : entries) {  // by (i, j): each row's j increasing
-        fmpq_mpoly_used_vars(used.data(), f.get(), M_.ring()->ctx());
+        std::fill(used.begin(), used.end(), false);
+        for (std::size_t v : used_variables(f)) used[v] = true;
         Entry e{ij.second, {}, std::move(f)};
         for (std::size_t l = 0; l < n; ++l)
             if (used[M_.x(l)]) e.vars.push_back(l);

@@ -214,24 +214,29 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
 
     // Every term's monomial (the targets, numbered in order of arrival), with its coefficient.
     MonomialTable targets;
-    const mpoly_ctx_struct* minfo = ring->ctx()->zctx->minfo;
-    std::vector<ulong> e(static_cast<std::size_t>(minfo->nvars));
+    std::vector<ulong> e;
     std::vector<Power> x;
     c.row_start_.push_back(0);
     for (std::size_t o = 0; o < outputs.size(); ++o) {
+        if (outputs[o].ring() != ring) throw std::invalid_argument("pgi::CompiledMap: the outputs belong to different rings");
         const fmpq_mpoly_struct* f = outputs[o].get();
         const fmpz_mpoly_struct* z = f->zpoly;
+        const mpoly_ctx_struct* minfo = outputs[o].ctx()->zctx->minfo;
+        const auto vars = outputs[o].variables();  // the exponent vectors run over these
+        e.resize(static_cast<std::size_t>(minfo->nvars));
         const std::size_t words = mpoly_words_per_exp(z->bits, minfo);
         for (slong t = 0; t < z->length; ++t) {
+            if (z->bits > FLINT_BITS) throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " has a power above 2^64");
             mpoly_get_monomial_ui(e.data(), z->exps + std::size_t(t) * words, z->bits, minfo);
             x.clear();
-            for (std::size_t v = 0; v < ring->size(); ++v) {
-                if (e[v] == 0) continue;
+            for (std::size_t j = 0; j < vars.size(); ++j) {
+                const std::size_t v = vars[j];
+                if (e[j] == 0) continue;
                 if (slot[v] < 0)
                     throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " reads '" + ring->names()[v] +
                                                 "', which is not an input");
-                if (e[v] > UINT32_MAX) throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " has a power above 2^32");
-                x.push_back({static_cast<std::uint32_t>(slot[v]), static_cast<std::uint32_t>(e[v])});
+                if (e[j] > UINT32_MAX) throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " has a power above 2^32");
+                x.push_back({static_cast<std::uint32_t>(slot[v]), static_cast<std::uint32_t>(e[j])});
             }
             std::sort(x.begin(), x.end(), [](const Power& a, const Power& b) { return a.input < b.input; });
             const double coeff = term_value(f->content, z->coeffs + t);

@@ -13,17 +13,19 @@ namespace {
 std::map<SparseExponents, Poly> substitution_groups(const Poly& f, const std::vector<std::optional<Series>>& images) {
     const RingPtr& ring = f.ring();
     const fmpz_mpoly_ctx_struct* zctx = f.ctx()->zctx;
+    const auto vars = f.variables();  // f's exponent vectors run over these
+    const std::vector<std::uint32_t> over(vars.begin(), vars.end());
     std::map<SparseExponents, Poly> groups;
     std::vector<ulong> e(static_cast<std::size_t>(zctx->minfo->nvars));
     for (std::size_t t = 0; t < f.length(); ++t) {
         fmpz_mpoly_get_term_exp_ui(e.data(), f.get()->zpoly, static_cast<slong>(t), zctx);
         SparseExponents key;
-        for (std::size_t v = 0; v < ring->size(); ++v)
-            if (e[v] != 0 && images[v]) {
-                key.emplace_back(static_cast<std::uint32_t>(v), static_cast<std::uint32_t>(e[v]));
-                e[v] = 0;
+        for (std::size_t j = 0; j < vars.size(); ++j)
+            if (e[j] != 0 && images[vars[j]]) {
+                key.emplace_back(vars[j], static_cast<std::uint32_t>(e[j]));
+                e[j] = 0;
             }
-        auto [it, fresh] = groups.try_emplace(std::move(key), ring);
+        auto [it, fresh] = groups.try_emplace(std::move(key), ring, over);
         fmpq_mpoly_struct* kept = it->second.get_mut();
         if (fresh) fmpq_set(kept->content, f.get()->content);
         fmpz_mpoly_push_term_fmpz_ui(kept->zpoly, f.get()->zpoly->coeffs + t, e.data(), zctx);
@@ -31,7 +33,10 @@ std::map<SparseExponents, Poly> substitution_groups(const Poly& f, const std::ve
     // A group's terms are f's with one monomial (its key) divided out, pushed in f's order: a monomial order is
     // compatible with multiplication (a > b iff a c > b c), so they are already sorted, and distinct. FLINT's sort
     // would cost a pass per exponent bit, 16 000 of them per term at n = 1000 (2n variables of 8 bits).
-    for (auto& [key, kept] : groups) fmpq_mpoly_reduce(kept.get_mut(), f.ctx());
+    for (auto& [key, kept] : groups) {
+        fmpq_mpoly_reduce(kept.get_mut(), kept.ctx());
+        kept.drop_unused_variables();
+    }
     return groups;
 }
 

@@ -63,17 +63,20 @@ private:
         Reader& r_;
     };
 
+    // The terms are added once, in pairs (pgi::sum): added one by one, H = x1 + ... + xn would copy a growing
+    // sum n times (and, stored locally, move it to more variables each time).
     Operand expression() {
         Operand a = term();
+        std::vector<Poly> terms;
         while (skip_space() < text_.size() && (text_[i_] == '+' || text_[i_] == '-')) {
             const std::size_t at = i_++;
             Operand b = term();
             op_ = at;
-            const bool minus = text_[at] == '-';
-            if (minus) a.value -= b.value;
-            else a.value += b.value;
+            if (terms.empty()) terms.push_back(std::move(a.value));
+            terms.push_back(text_[at] == '-' ? -b.value : std::move(b.value));
             a.scale = std::max(a.scale, b.scale);
         }
+        if (!terms.empty()) a.value = sum(std::move(terms), ring_);
         return a;
     }
 

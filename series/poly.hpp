@@ -5,6 +5,7 @@
 
 #include <flint/fmpq_mpoly.h>
 
+#include <cstdint>
 #include <functional>
 #include <stdexcept>
 #include <memory>
@@ -15,22 +16,42 @@
 
 namespace pgi {
 
-/// Owns one fmpq_mpoly context, the names of its variables and the budget of the computations in it
-/// (shared with the other rings of the same exact phase). Shared by its polynomials through RingPtr,
-/// never copied.
+/// How a ring's polynomials store their terms (docs/math.md 6, "Local storage").
+/// - dense: over every variable of the ring, FLINT's packed exponent vector of at least 8 bits per variable;
+/// - local: over the variables the polynomial holds, in a context of that many variables (the ring's order
+///   restricted to them, so the terms keep their order), which keeps a polynomial of a few variables in a ring
+///   of thousands as small as in a ring of its own: the exact phase of a sparse scene stays O(n) in memory;
+/// - automatic: local from local_storage_from variables on (where the dense vectors reach 8 words).
+enum class PolyStorage { automatic, dense, local };
+
+/// Owns the fmpq_mpoly contexts of its polynomials, the names of its variables and the budget of the
+/// computations in it (shared with the other rings of the same exact phase). Shared by its polynomials
+/// through RingPtr, never copied.
 class Ring {
 public:
     static constexpr std::size_t default_max_terms = BudgetLimits::default_max_terms;
+    static constexpr std::size_t local_storage_from = 64;
     /// Requires distinct, non-empty names made of letters, digits and '_', not starting with a digit.
     /// Throws std::invalid_argument naming the offending name.
-    explicit Ring(std::vector<std::string> names, std::shared_ptr<const Budget> budget);
+    explicit Ring(std::vector<std::string> names, std::shared_ptr<const Budget> budget,
+                  PolyStorage storage = PolyStorage::automatic);
     /// A ring with a budget of its own: the default limits with max_terms terms.
-    explicit Ring(std::vector<std::string> names, std::size_t max_terms = default_max_terms);
-    ~Ring() { fmpq_mpoly_ctx_clear(ctx_); }
+    explicit Ring(std::vector<std::string> names, std::size_t max_terms = default_max_terms,
+                  PolyStorage storage = PolyStorage::automatic);
+    ~Ring();
     Ring(const Ring&) = delete;
     Ring& operator=(const Ring&) = delete;
 
+    /// The context over every variable (dense storage's).
     const fmpq_mpoly_ctx_struct* ctx() const { return ctx_; }
+    /// Whether polynomials store their terms over the variables they hold (PolyStorage::local).
+    bool local_storage() const { return !local_ctx_.empty(); }
+    /// The context of a polynomial stored over m of the variables (m <= size()): ctx() for dense storage.
+    const fmpq_mpoly_ctx_struct* ctx_over(std::size_t m) const {
+        return local_ctx_.empty() ? ctx_ : local_ctx_[std::max<std::size_t>(m, 1) - 1].get();
+    }
+    /// 0, 1, ..., size() - 1: the variables of dense storage.
+    std::span<const std::uint32_t> all_variables() const { return all_variables_; }
     std::size_t size() const { return names_.size(); }
     const std::vector<std::string>& names() const { return names_; }
     /// Index of a variable, or -1.
@@ -40,9 +61,14 @@ public:
     const std::shared_ptr<const Budget>& budget_ptr() const { return budget_; }
 
 private:
+    struct ContextDelete {
+        void operator()(fmpq_mpoly_ctx_struct* c) const;
+    };
     fmpq_mpoly_ctx_t ctx_;
     std::vector<std::string> names_;
     std::shared_ptr<const Budget> budget_;
+    std::vector<std::uint32_t> all_variables_;
+    std::vector<std::unique_ptr<fmpq_mpoly_ctx_struct, ContextDelete>> local_ctx_;  // over 1, 2, ..., size() variables
 };
 using RingPtr = std::shared_ptr<const Ring>;
 inline RingPtr make_ring(std::vector<std::string> names, std::size_t max_terms = Ring::default_max_terms) {
@@ -53,14 +79,22 @@ inline RingPtr make_ring(std::vector<std::string> names, std::shared_ptr<const B
 }
 
 /// A polynomial of Q[ring variables]. Copy is a deep copy; move swaps with an empty poly.
+/// Its terms are stored over variables() (all of the ring's, or for local storage exactly those it holds):
+/// get(), get_mut() and ctx() give FLINT's view, whose exponent vectors run over variables().
 class Poly {
 public:
     explicit Poly(RingPtr r) : ring_(std::move(r)) { fmpq_mpoly_init(p_, ctx()); }
-    Poly(const Poly& o) : Poly(o.ring_) { fmpq_mpoly_set(p_, o.p_, ctx()); }
-    Poly(Poly&& o) noexcept : Poly(o.ring_) { fmpq_mpoly_swap(p_, o.p_, ctx()); }
+    /// Zero, stored over the given variables (sorted, distinct) to be filled term by term through get_mut()
+    /// in ctx(); for local storage, end with drop_unused_variables(). Dense storage ignores the list.
+    Poly(RingPtr r, std::vector<std::uint32_t> over);
+    Poly(const Poly& o) : ring_(o.ring_), vars_(o.vars_) {
+        fmpq_mpoly_init(p_, ctx());
+        fmpq_mpoly_set(p_, o.p_, ctx());
+    }
+    Poly(Poly&& o) noexcept : Poly(o.ring_) { swap(o); }
     Poly& operator=(Poly o) noexcept {
         std::swap(ring_, o.ring_);
-        fmpq_mpoly_swap(p_, o.p_, ctx());
+        swap(o);
         return *this;
     }
     ~Poly() { fmpq_mpoly_clear(p_, ctx()); }
@@ -75,7 +109,14 @@ public:
     static Poly parse(RingPtr r, std::string_view text, unsigned long max_exponent = 1000);
 
     const RingPtr& ring() const { return ring_; }
-    const fmpq_mpoly_ctx_struct* ctx() const { return ring_->ctx(); }
+    /// The ring variables the terms are stored over (increasing).
+    std::span<const std::uint32_t> variables() const {
+        return ring_->local_storage() ? std::span<const std::uint32_t>(vars_) : ring_->all_variables();
+    }
+    /// The context of get(): over variables().
+    const fmpq_mpoly_ctx_struct* ctx() const { return ring_->ctx_over(vars_.size()); }
+    /// For local storage: stores the terms over the variables they hold (after filling through get_mut()).
+    void drop_unused_variables();
     const fmpq_mpoly_struct* get() const { return p_; }
     fmpq_mpoly_struct* get_mut() { return p_; }
 
@@ -83,7 +124,7 @@ public:
     bool is_zero() const { return fmpq_mpoly_is_zero(p_, ctx()); }
     /// Total degree (-1 for zero).
     long total_degree() const { return fmpq_mpoly_total_degree_si(p_, ctx()); }
-    /// Coefficient and exponent vector of term i (0 <= i < length()).
+    /// Coefficient and exponent vector of term i (0 <= i < length()), one exponent per ring variable.
     Rational term_coeff(std::size_t i) const;
     std::vector<unsigned long> term_exponents(std::size_t i) const;
     std::string to_string() const;
@@ -93,7 +134,12 @@ public:
     Poly& operator*=(const Rational& c);
 
 private:
+    void swap(Poly& o) noexcept {
+        vars_.swap(o.vars_);
+        fmpq_mpoly_swap(p_, o.p_, ctx());
+    }
     RingPtr ring_;
+    std::vector<std::uint32_t> vars_;  // local storage: the variables held, increasing; dense: empty
     fmpq_mpoly_t p_;
 };
 
@@ -133,6 +179,9 @@ Poly substitute(const Poly& f, const std::vector<Poly>& images);
 Poly sum_powers(const std::vector<Poly>& c, const Rational& t, unsigned long first = 0);
 /// The double value of f at a point (one coordinate per ring variable), for checks, not for speed.
 double evaluate(const Poly& f, std::span<const double> point);
+
+/// The ring variables f holds (increasing).
+std::vector<std::size_t> used_variables(const Poly& f);
 
 /// A set of variables by index, used to grade: "degree in the momenta".
 using VarMask = std::vector<bool>;

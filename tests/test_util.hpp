@@ -8,10 +8,11 @@
 
 namespace pgi::test {
 
-/// pi from {x_i, x_j} strings, the rest zero.
+/// pi from {x_i, x_j} strings, the rest zero, its polynomials stored as storage says.
 inline PoissonStructure structure(std::vector<std::string> coords,
-                                  const std::vector<std::tuple<int, int, std::string>>& brackets) {
-    PhaseSpace M(std::move(coords));
+                                  const std::vector<std::tuple<int, int, std::string>>& brackets,
+                                  PolyStorage storage = PolyStorage::automatic) {
+    PhaseSpace M(std::move(coords), std::make_shared<const Budget>(BudgetLimits{}), storage);
     std::vector<std::vector<Poly>> pi(M.dim(), std::vector<Poly>(M.dim(), Poly(M.ring())));
     for (const auto& [i, j, s] : brackets) {
         pi[i][j] = M.parse(s);
