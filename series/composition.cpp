@@ -14,7 +14,7 @@ std::map<SparseExponents, Poly> substitution_groups(const Poly& f, const std::ve
     const RingPtr& ring = f.ring();
     const fmpz_mpoly_ctx_struct* zctx = f.ctx()->zctx;
     const auto vars = f.variables();  // f's exponent vectors run over these
-    const std::vector<std::uint32_t> over(vars.begin(), vars.end());
+    const std::vector<std::uint32_t> over = ring->local_storage() ? std::vector<std::uint32_t>(vars.begin(), vars.end()) : std::vector<std::uint32_t>{};
     std::map<SparseExponents, Poly> groups;
     std::vector<ulong> e(static_cast<std::size_t>(zctx->minfo->nvars));
     for (std::size_t t = 0; t < f.length(); ++t) {

@@ -151,7 +151,11 @@ private:
     std::optional<Poly> a_, b_;
 };
 
-Poly zero_like(const Poly& f) { return Poly(f.ring(), Variables(f.variables().begin(), f.variables().end())); }
+// Zero, stored over f's variables.
+Poly zero_like(const Poly& f) {
+    if (!f.ring()->local_storage()) return Poly(f.ring());
+    return Poly(f.ring(), Variables(f.variables().begin(), f.variables().end()));
+}
 
 }  // namespace
 
