@@ -1,5 +1,7 @@
 #include "series/composition.hpp"
 
+#include <algorithm>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -9,33 +11,52 @@ namespace {
 
 // f = sum_e c_e(kept variables) * prod_{v substituted} v^{e_v}: the terms grouped by e. Every term of f shares
 // its content, so a group is that content times f's integer terms with their substituted exponents zeroed,
-// sorted and reduced once at the end (not rebuilt by sums nor rescaled at each term).
+// pushed in f's order and reduced once at the end (not rebuilt by sums nor rescaled at each term). Local
+// storage: each group is stored over the variables its own terms keep, not over all of f's (a G_d of a lattice
+// holds every site's variables and has a group per monomial in the momenta).
 std::map<SparseExponents, Poly> substitution_groups(const Poly& f, const std::vector<std::optional<Series>>& images) {
     const RingPtr& ring = f.ring();
     const fmpz_mpoly_ctx_struct* zctx = f.ctx()->zctx;
     const auto vars = f.variables();  // f's exponent vectors run over these
-    const std::vector<std::uint32_t> over = ring->local_storage() ? std::vector<std::uint32_t>(vars.begin(), vars.end()) : std::vector<std::uint32_t>{};
-    std::map<SparseExponents, Poly> groups;
+    struct Term {
+        std::size_t index;
+        SparseExponents kept;  // (position in vars, exponent) of the variables not substituted
+    };
+    std::map<SparseExponents, std::vector<Term>> terms;
     std::vector<ulong> e(static_cast<std::size_t>(zctx->minfo->nvars));
     for (std::size_t t = 0; t < f.length(); ++t) {
         fmpz_mpoly_get_term_exp_ui(e.data(), f.get()->zpoly, static_cast<slong>(t), zctx);
-        SparseExponents key;
+        SparseExponents key, kept;
         for (std::size_t j = 0; j < vars.size(); ++j)
-            if (e[j] != 0 && images[vars[j]]) {
-                key.emplace_back(vars[j], static_cast<std::uint32_t>(e[j]));
-                e[j] = 0;
-            }
-        auto [it, fresh] = groups.try_emplace(std::move(key), ring, over);
-        fmpq_mpoly_struct* kept = it->second.get_mut();
-        if (fresh) fmpq_set(kept->content, f.get()->content);
-        fmpz_mpoly_push_term_fmpz_ui(kept->zpoly, f.get()->zpoly->coeffs + t, e.data(), zctx);
+            if (e[j] != 0) (images[vars[j]] ? key.emplace_back(vars[j], e[j]) : kept.emplace_back(j, e[j]));
+        terms[std::move(key)].push_back(Term{t, std::move(kept)});
     }
     // A group's terms are f's with one monomial (its key) divided out, pushed in f's order: a monomial order is
-    // compatible with multiplication (a > b iff a c > b c), so they are already sorted, and distinct. FLINT's sort
-    // would cost a pass per exponent bit, 16 000 of them per term at n = 1000 (2n variables of 8 bits).
-    for (auto& [key, kept] : groups) {
+    // compatible with multiplication (a > b iff a c > b c), so they are already sorted, and distinct; restricted
+    // to fewer variables the order is the same. FLINT's sort would cost a pass per exponent bit.
+    std::map<SparseExponents, Poly> groups;
+    std::vector<std::size_t> position(vars.size());
+    for (auto& [key, group] : terms) {
+        std::vector<std::uint32_t> over;
+        if (ring->local_storage()) {
+            for (const Term& t : group)
+                for (const auto& [j, ej] : t.kept) over.push_back(j);
+            std::sort(over.begin(), over.end());
+            over.erase(std::unique(over.begin(), over.end()), over.end());
+            for (std::size_t k = 0; k < over.size(); ++k) position[over[k]] = k, over[k] = vars[over[k]];
+        } else {
+            std::iota(position.begin(), position.end(), std::size_t(0));
+        }
+        Poly kept(ring, std::move(over));
+        fmpq_set(kept.get_mut()->content, f.get()->content);
+        std::vector<ulong> k(static_cast<std::size_t>(kept.ctx()->zctx->minfo->nvars));
+        for (const Term& t : group) {
+            std::fill(k.begin(), k.end(), 0);
+            for (const auto& [j, ej] : t.kept) k[position[j]] = ej;
+            fmpz_mpoly_push_term_fmpz_ui(kept.get_mut()->zpoly, f.get()->zpoly->coeffs + t.index, k.data(), kept.ctx()->zctx);
+        }
         fmpq_mpoly_reduce(kept.get_mut(), kept.ctx());
-        kept.drop_unused_variables();
+        groups.emplace(key, std::move(kept));
     }
     return groups;
 }
