@@ -16,7 +16,7 @@
 
 namespace pgi {
 
-/// How a ring's polynomials store their terms (docs/math.md 6, "Local storage").
+/// How a ring's polynomials store their terms (docs/math.md 5, "How the exact phase stores its polynomials").
 /// - dense: over every variable of the ring, FLINT's packed exponent vector of at least 8 bits per variable;
 /// - local: over the variables the polynomial holds, in a context of that many variables (the ring's order
 ///   restricted to them, so the terms keep their order), which keeps a polynomial of a few variables in a ring

@@ -1,4 +1,4 @@
-// Local storage (series/poly, docs/math.md 6): a ring whose polynomials keep their terms over the variables they
+// Local storage (series/poly, docs/math.md 5): a ring whose polynomials keep their terms over the variables they
 // hold computes exactly what dense storage computes, keeps that invariant after every operation, and keeps a
 // polynomial of a few variables as small in a ring of thousands of variables as in a ring of its own.
 #include "poisson/hamilton_jacobi.hpp"

@@ -214,19 +214,28 @@ def lattice_table(rows, whole):
     def f(v, spec):
         return "-" if v is None else format(v, spec)
     base = next((r.get("pgi_ns_per_step_site") for r in rows if r.get("pgi_ns_per_step_site")), None)
-    first = next((r for r in rows if r.get("exact_phase_rss_mib")), None)
     lines = [f"| n | status | exact phase s | rest of child s | pgi ns/step/site | vs n = {rows[0]['n'] if rows else '-'} | rk8pd ns/step/site "
-             "| pgi / rk8pd per step | peak RSS MiB | exact-phase RSS MiB (pgi step) | its MiB per site vs first n | child wall s |",
+             "| pgi / rk8pd per step | peak RSS MiB | exact-phase RSS MiB (pgi step) | its KiB per site added since the row before | child wall s |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    previous = None
     for r in rows:
         p, q = r.get("pgi_ns_per_step_site"), r.get("rk8pd_ns_per_step_site")
         # the child's wall time less the exact phase and both runs: scene checks (Jacobi), compilations, start-up
         rest = (r["wall_seconds"] - r["exact_phase_seconds"] - r["pgi_seconds"] - r["rk8pd_seconds"]) if "pgi_seconds" in r else None
         m = r.get("exact_phase_rss_mib")
-        per_site = (m / r["n"]) / (first["exact_phase_rss_mib"] / first["n"]) if (m and first) else None
+        # linear memory is a constant slope (the first rows are mostly the program's fixed memory, which a ratio
+        # per site would count as the sites')
+        slope = 1024 * (m - previous["exact_phase_rss_mib"]) / (r["n"] - previous["n"]) if (m and previous) else None
         lines.append(f"| {r['n']} | {r['status']} | {f(r.get('exact_phase_seconds'), '.2f')} | {f(rest, '.1f')} | {f(p, '.0f')} | "
                      f"{f(p / base if (p and base) else None, '.2f')} | {f(q, '.1f')} | {f(p / q if (p and q) else None, '.1f')} | "
-                     f"{r['peak_rss_mib']:.0f} | {f(m, '.0f')} | {f(per_site, '.2f')} | {r['wall_seconds']:.1f} |")
+                     f"{r['peak_rss_mib']:.0f} | {f(m, '.0f')} | {f(slope, '.0f')} | {r['wall_seconds']:.1f} |")
+        previous = r if m else previous
+    measured = [r for r in rows if r.get("exact_phase_rss_mib")]
+    if len(measured) >= 2:
+        a, b = measured[-2], measured[-1]
+        lines.append("")
+        lines.append(f"Exact-phase RSS from n = {a['n']} to {b['n']}: x{b['exact_phase_rss_mib'] / a['exact_phase_rss_mib']:.2f} "
+                     f"for x{b['n'] / a['n']:.2f} the sites.")
     if whole:
         lines.append("")
         lines.append(f"Whole `pgi integrate` at n = {whole['n']} (checks, exact phase, 1000 steps): {whole['status']}, "

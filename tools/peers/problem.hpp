@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <functional>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -19,7 +20,7 @@ using State = std::vector<double>;
 struct Problem {
     const Scene& scene;
     std::size_t n;
-    CompiledMap field, jacobian;  // pi grad H; its Jacobian, row-major (as GSL wants dfdy)
+    CompiledMap field;       // pi grad H
     CompiledMap invariants;       // H, the Casimirs, then the watched quantities
     std::vector<Poly> watched;
     std::size_t num_watched;
@@ -30,6 +31,13 @@ struct Problem {
         ++evaluations;
         field.eval(x, dxdt);
     }
+    /// pi grad H's Jacobian, row-major (as GSL wants dfdy), built when an implicit peer first asks: its n^2
+    /// entries (zero polynomials for the most part) are a lattice's largest memory where only explicit peers run.
+    const CompiledMap& jacobian() const;
+
+private:
+    mutable std::once_flag jacobian_built_;
+    mutable CompiledMap jacobian_;
 };
 
 /// Follows the invariants along a run: the largest relative error of H and of each Casimir, the
