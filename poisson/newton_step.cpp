@@ -87,12 +87,8 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
 
 NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
     check_build_arguments(pi.phase_space(), nullptr, opt, x_typical);
-    // one realisation, deepened when asked beyond it, cut for smaller requests (the Scheme's rule)
-    RealisationPtr deepest;
-    const RealisationSource source = [&](std::size_t D) {
-        if (!deepest || deepest->degree < D) deepest = std::make_shared<const Realisation>(build_realisation(pi, opt.realisation, D));
-        return deepest->degree == D ? deepest : std::make_shared<const Realisation>(truncated(*deepest, D));
-    };
+    DeepestRealisation realisation(opt.realisation);
+    const RealisationSource source = [&](std::size_t D) { return realisation.through(pi, D); };
     const auto S = hamilton_jacobi_terms(pi.phase_space(), *source(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, pi.dim())), H, opt.k);
     return build(pi, S, source, opt, x_typical);
 }

@@ -225,6 +225,14 @@ Realisation truncated(const Realisation& r, std::size_t D) {
     return t;
 }
 
+RealisationPtr DeepestRealisation::through(const PoissonStructure& pi, std::size_t D, std::size_t build_at_least) {
+    if (!deepest_ || deepest_->degree < D) {
+        deepest_ = std::make_shared<const Realisation>(build_realisation(pi, choice_, std::max(D, build_at_least)));
+        ++builds_;
+    }
+    return deepest_->degree == D ? deepest_ : std::make_shared<const Realisation>(truncated(*deepest_, D));
+}
+
 bool is_symmetric(const Realisation& r) {
     if (r.alpha.size() != r.beta.size()) return false;
     for (std::size_t i = 0; i < r.alpha.size(); ++i) {

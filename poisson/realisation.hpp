@@ -54,12 +54,28 @@ Realisation truncated(const Realisation& r, std::size_t D);
 /// then S_2 = S_4 = ... = 0). Checked on the polynomials, not read from r.method: a Realisation is open to its user.
 bool is_symmetric(const Realisation& r);
 
-/// A realisation shared, not copied: on a lattice of n sites alpha and beta hold O(n) polynomials of O(n) bytes
-/// per term (FLINT's dense exponents), and the step's build reads the Scheme's one several times.
+/// A realisation shared, not copied: on a lattice of n sites alpha and beta hold O(n) series, and the step's build
+/// reads the Scheme's one several times.
 using RealisationPtr = std::shared_ptr<const Realisation>;
-/// The realisation through p-degree D, exact. The Scheme binds it to its own (built once there, shared when D is
-/// its degree, truncated into a new one below).
+/// The realisation through p-degree D, exact. The Scheme binds it to its own (DeepestRealisation).
 using RealisationSource = std::function<RealisationPtr(std::size_t)>;
+
+/// One realisation of pi at the deepest p-degree asked so far: a request beyond it builds it again (to
+/// max(D, build_at_least), for a caller that knows it will soon ask deeper), one at its degree shares it, one below
+/// gets a truncated copy. The rule of the Scheme and of NewtonStepper::build(pi, H, ...); not locked (its owner is).
+class DeepestRealisation {
+public:
+    explicit DeepestRealisation(RealisationChoice choice) : choice_(choice) {}
+    RealisationPtr through(const PoissonStructure& pi, std::size_t D, std::size_t build_at_least = 0);
+    /// The deepest built so far (null before the first request).
+    const RealisationPtr& deepest() const { return deepest_; }
+    std::size_t builds() const { return builds_; }
+
+private:
+    RealisationChoice choice_;
+    RealisationPtr deepest_;
+    std::size_t builds_ = 0;
+};
 
 /// The canonical bracket of two p-graded series, truncated one degree lower (order N - 1).
 Series canonical_bracket(const PhaseSpace& M, const Series& F, const Series& G);

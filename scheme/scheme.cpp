@@ -34,9 +34,10 @@ struct StepperEntry {
 // What has been computed so far. One recursive mutex: artefacts call each other (the checks ask for
 // the realisation, the modified Hamiltonian for S).
 struct Scheme::Cache {
+    explicit Cache(RealisationChoice choice) : realisation(choice) {}
     std::recursive_mutex mutex;
     std::optional<SchemeChecks> checks;
-    RealisationPtr deepest;                         // the realisation at the deepest p-degree asked so far
+    DeepestRealisation realisation;                 // at the deepest p-degree asked so far
     std::optional<std::vector<Poly>> terms;         // S_1..S_k
     std::vector<Poly> modified;                     // H_0..H_m for the largest m asked so far
     std::vector<StepperEntry> steppers;             // at most stepper_cache_size
@@ -47,7 +48,7 @@ struct Scheme::Cache {
 Scheme::Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order, RealisationChoice choice,
                bool trust_jacobi, bool jit)
     : pi_(std::move(pi)), H_(std::move(H)), casimirs_(std::move(casimirs)), k_(check_order("order", long(order))),
-      choice_(choice), trust_jacobi_(trust_jacobi), jit_(jit), cache_(std::make_unique<Cache>()) {
+      choice_(choice), trust_jacobi_(trust_jacobi), jit_(jit), cache_(std::make_unique<Cache>(choice)) {
     if (H_.ring() != phase_space().ring()) throw InputError("hamiltonian.H", "not a polynomial of the scheme's phase space");
     for (std::size_t i = 0; i < casimirs_.size(); ++i)
         if (casimirs_[i].ring() != phase_space().ring())
@@ -77,7 +78,7 @@ Scheme Scheme::from_values(const SchemeValues& v) {
 }
 
 Scheme::Scheme(const Scheme& o)
-    : pi_(o.pi_), H_(o.H_), casimirs_(o.casimirs_), k_(o.k_), choice_(o.choice_), trust_jacobi_(o.trust_jacobi_), jit_(o.jit_), cache_(std::make_unique<Cache>()) {}
+    : pi_(o.pi_), H_(o.H_), casimirs_(o.casimirs_), k_(o.k_), choice_(o.choice_), trust_jacobi_(o.trust_jacobi_), jit_(o.jit_), cache_(std::make_unique<Cache>(o.choice_)) {}
 Scheme& Scheme::operator=(const Scheme& o) {
     if (this != &o) *this = Scheme(o);
     return *this;
@@ -138,19 +139,16 @@ Realisation Scheme::realisation(std::size_t D) const {
 // A closed form is cheap to build deep: it is built at once to the degree the step's probe reads (its
 // predictor's series), so the checks, S and the step share one build.
 RealisationPtr Scheme::realisation_locked(std::size_t D) const {
-    auto& deepest = cache_->deepest;
-    if (!deepest || deepest->degree < D) {
-        std::size_t build = D;
-        if (realisation_form() != RealisationForm::radial) {
-            StepOptions opt;
-            opt.k = k_;
-            opt.realisation = choice_;
-            build = std::max(D, probe_degree(realisation_form(), opt, pi_.dim()));
-        }
-        deepest = std::make_shared<const Realisation>(build_realisation(pi_, choice_, build));
-        ++cache_->stats.realisation_builds;
+    std::size_t at_least = 0;
+    if (realisation_form() != RealisationForm::radial) {
+        StepOptions opt;
+        opt.k = k_;
+        opt.realisation = choice_;
+        at_least = probe_degree(realisation_form(), opt, pi_.dim());
     }
-    return deepest->degree == D ? deepest : std::make_shared<const Realisation>(truncated(*deepest, D));
+    RealisationPtr r = cache_->realisation.through(pi_, D, at_least);
+    cache_->stats.realisation_builds = cache_->realisation.builds();
+    return r;
 }
 
 const std::vector<Poly>& Scheme::terms() const {
@@ -162,8 +160,8 @@ const std::vector<Poly>& Scheme::terms_locked() const {
     if (!cache_->terms) {
         // S_1..S_k read alpha only through degree k - 1: a deeper realisation already built serves as is
         const std::size_t D = realisation_degree_for_order(k_);
-        if (!cache_->deepest || cache_->deepest->degree < D) realisation_locked(D);
-        cache_->terms = hamilton_jacobi_terms(phase_space(), *cache_->deepest, H_, k_);
+        if (const RealisationPtr& r = cache_->realisation.deepest(); !r || r->degree < D) realisation_locked(D);
+        cache_->terms = hamilton_jacobi_terms(phase_space(), *cache_->realisation.deepest(), H_, k_);
         ++cache_->stats.terms_builds;
     }
     return *cache_->terms;
@@ -175,7 +173,8 @@ std::vector<Poly> Scheme::modified_hamiltonian(std::size_t m) const {
     if (Ht.size() < m + 1) {
         // h through t^m reads beta through p-degree m, S alpha through k - 1: one realisation serves both
         realisation_locked(std::max(m, realisation_degree_for_order(k_)));
-        Ht = pgi::modified_hamiltonian(pi_, *cache_->deepest, terms_locked(), m);
+        const std::vector<Poly>& S = terms_locked();  // builds the realisation if none was
+        Ht = pgi::modified_hamiltonian(pi_, *cache_->realisation.deepest(), S, m);
         ++cache_->stats.modified_builds;
     }
     return {Ht.begin(), Ht.begin() + long(m + 1)};
