@@ -235,6 +235,7 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
     py::dict r("t"_a = py::array_t<double>(rows, tr.t.data()), "x"_a = x,
                "energy_error"_a = py::array_t<double>(rows, tr.energy_error.data()), "casimir_error"_a = cas,
                "energy_error_max"_a = tr.energy_error_max, "casimir_error_max"_a = tr.casimir_error_max,
+               "energy_warning"_a = tr.energy_warning,
                "steps"_a = tr.steps, "dt"_a = dt, "newton_iterations_mean"_a = tr.newton_iterations_mean,
                "newton_iterations_max"_a = tr.newton_iterations_max,
                "status"_a = tr.terminal_event ? std::string("terminal_event") : pgi::to_string(tr.status));
@@ -291,6 +292,7 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
     py::array_t<std::size_t> steps(m), failed_step(m);
     py::array_t<double> failed_t(m), residual(m), newton_mean(m);
     py::array_t<int> newton_max(m);
+    py::array_t<bool> energy_warning(m);
     for (py::ssize_t i = 0; i < m; ++i) {
         const auto& e = r.members[std::size_t(i)];
         status.append(pgi::to_string(e.status));
@@ -300,13 +302,14 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
         residual.mutable_at(i) = e.residual;
         newton_mean.mutable_at(i) = e.newton_iterations_mean;
         newton_max.mutable_at(i) = e.newton_iterations_max;
+        energy_warning.mutable_at(i) = e.energy_warning;
     }
     py::object x_typ = r.x_typical.size() ? py::cast(r.x_typical) : py::none();
     return py::dict("x"_a = py::cast(std::move(r.x)), "energy_error"_a = py::cast(std::move(r.energy_error)),
                     "casimir_error"_a = py::cast(std::move(r.casimir_error)),
                     "status"_a = status, "steps"_a = steps, "failed_step"_a = failed_step, "failed_t"_a = failed_t,
                     "residual"_a = residual, "newton_iterations_mean"_a = newton_mean, "newton_iterations_max"_a = newton_max,
-                    "x_typical"_a = x_typ, "threads"_a = r.threads, "dt"_a = dt, "t_end"_a = t_end);
+                    "energy_warning"_a = energy_warning, "x_typical"_a = x_typ, "threads"_a = r.threads, "dt"_a = dt, "t_end"_a = t_end);
 }
 
 }  // namespace

@@ -85,6 +85,7 @@ void record(const Eigen::VectorXd& x, const RunEnd& end, const RunLoop& loop, do
     m.newton_iterations_mean = end.mean_iterations;
     m.newton_iterations_max = end.max_iterations;
     r.energy_error(i) = loop.error_max()[0];
+    m.energy_warning = energy_drifted(r.energy_error(i));
     for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c) r.casimir_error(i, c) = loop.error_max()[std::size_t(1 + c)];
     if (!end.ok()) {
         m.failed_step = end.started ? end.steps + 1 : 0;

@@ -49,6 +49,7 @@ struct EnsembleMember {
     double failed_t = 0, residual = 0;     // where the failed step started, its Newton residual
     double newton_iterations_mean = 0;
     int newton_iterations_max = 0;
+    bool energy_warning = false;           // energy_drifted(its energy error); never for a non-finite start
 };
 
 struct EnsembleResult {

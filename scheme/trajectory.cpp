@@ -85,6 +85,7 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
     r.newton_iterations_mean = end.mean_iterations;
     r.newton_iterations_max = end.max_iterations;
     r.energy_error_max = loop.error_max()[0];
+    r.energy_warning = energy_drifted(r.energy_error_max);
     r.casimir_error_max.assign(loop.error_max().begin() + 1, loop.error_max().begin() + 1 + long(C));
     if (!end.ok()) {
         r.failed_step = end.started ? end.steps + 1 : 0;

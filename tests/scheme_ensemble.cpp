@@ -47,6 +47,7 @@ void require_single_run(const Scheme& scheme, const RowMatrix& X0, const Ensembl
     CHECK(m.newton_iterations_mean == tr.newton_iterations_mean);
     CHECK(m.newton_iterations_max == tr.newton_iterations_max);
     CHECK(m.failed_step == tr.failed_step);
+    CHECK(m.energy_warning == tr.energy_warning);
     if (tr.status != StepStatus::ok) CHECK(m.residual == tr.failed_residual);
 }
 
@@ -117,6 +118,7 @@ TEST_CASE("Ensemble: a NaN row ends with its status and the others finish as wit
             CHECK(r.members[std::size_t(i)].status == TrajectoryStatus::non_finite_start);
             CHECK(r.members[std::size_t(i)].steps == 0);
             CHECK(std::isnan(r.energy_error(i)));
+            CHECK_FALSE(r.members[std::size_t(i)].energy_warning);  // not a run: its own status says why
             CHECK((i == 2 ? std::isnan(r.x(2, 1)) : std::isinf(r.x(4, 0))));  // the row as it was
         } else {
             CHECK(r.members[std::size_t(i)].status == TrajectoryStatus::ok);
@@ -150,4 +152,23 @@ TEST_CASE("Ensemble: a trajectory whose step fails ends alone, with the failed s
             require_single_run(scheme, X0, r, i, dt, t_end);
         }
     }
+}
+
+TEST_CASE("Ensemble: a trajectory whose energy drifts past a tenth gets the warning its single run gets, the others not") {
+    // k = 1 on the rigid body at dt = 3: every step solves its equation, but the relative energy error reaches 0.13
+    // from the scene's x0 (tools_cli.cpp); a tenth of that state turns ten times slower, the error is O((dt |x|)^2)
+    SceneOverrides o;
+    o.order = "1";
+    const Scene s = load_scene(test::scene_path("rigid_body"), o);
+    const Eigen::Vector3d x0(0.4535961214255773, 0, 0.8912073600614354);
+    RowMatrix X0(2, 3);
+    X0.row(0) = x0.transpose();
+    X0.row(1) = 0.1 * x0.transpose();
+    const EnsembleResult r = integrate_ensemble(*s.scheme, X0, 3, 30, with(1));
+    CHECK(r.energy_error(0) > energy_warning_from);
+    CHECK(r.members[0].energy_warning);
+    CHECK(r.energy_error(1) < 0.01);
+    CHECK_FALSE(r.members[1].energy_warning);
+    for (Eigen::Index i = 0; i < 2; ++i) require_single_run(*s.scheme, X0, r, i, 3, 30);
+    CHECK(energy_drifted(std::nan("")));  // a NaN error is not a small one
 }

@@ -36,13 +36,9 @@ NewtonStepper build_stepper(const Scene& scene) {
     return s;
 }
 
-// Above this relative energy error a finished run is said to be inaccurate: each step solved its equation to
-// round-off (verified), but at this dt the method no longer follows the flow of H.
-constexpr double energy_warning_from = 0.1;
-
 // NOTE: said on stderr and in the JSON document (energy_warning), never silently: exit 0 with H off by a tenth or more.
 void warn_energy_drift(const Scene& scene, double energy_error, json& r) {
-    const bool drifted = !(energy_error <= energy_warning_from);  // (a NaN error too)
+    const bool drifted = energy_drifted(energy_error);
     r["energy_warning"] = drifted;
     if (!drifted) return;
     std::cerr << fmt::format("pgi: {}: warning: the relative energy error reached {:.2e} (above {}): every step solved its "

@@ -14,13 +14,28 @@
 "order" is k, the Hamilton-Jacobi truncation order; the method converges with order method_order = 2 ceil(k/2).
 Bad input raises ValueError (pgi.InputError); a step not solved to round-off raises pgi.StepFailure.
 """
+import warnings as _warnings
+
 import numpy as _np
 
 from ._pgi import InputError, NativeCodeError, ResourceLimitError, SceneError, __version__
 from ._pgi import Scheme as _Scheme
 
-__all__ = ["Scheme", "Result", "EnsembleResult", "StepFailure", "InputError", "SceneError", "ResourceLimitError", "NativeCodeError",
+__all__ = ["Scheme", "Result", "EnsembleResult", "StepFailure", "EnergyWarning", "InputError", "SceneError", "ResourceLimitError", "NativeCodeError",
            "__version__"]
+
+
+class EnergyWarning(UserWarning):
+    """A run (or some trajectories of an ensemble) whose relative energy error exceeded 0.1: every step solved its
+    equation to round-off, but at this dt the method no longer follows the flow of H (as `pgi integrate` warns)."""
+
+
+def _warn_energy(count, of, dt):
+    if count:
+        what = "the run" if of is None else f"{count} of {of} trajectories"
+        _warnings.warn(f"{what} reached a relative energy error above 0.1 (energy_warning): every step solved its equation, "
+                       f"but at dt = {dt} the method does not follow the flow of H (reduce dt or raise the order)",
+                       EnergyWarning, stacklevel=3)
 
 
 class StepFailure(ArithmeticError):
@@ -34,8 +49,9 @@ class StepFailure(ArithmeticError):
 
 class Result:
     """A run: t (times recorded), x (one row per time), energy_error and casimir_error (relative, per row),
-    their maxima over every step, steps, dt, newton_iterations_mean/max, status ("ok", "terminal_event" or
-    why it stopped). With events: event_index (which event, its place in the list), event_t, event_x (one
+    their maxima over every step, energy_warning (energy_error_max above 0.1, or NaN: every step solved its
+    equation, but at this dt the method no longer follows the flow of H), steps, dt, newton_iterations_mean/max,
+    status ("ok", "terminal_event" or why it stopped). With events: event_index (which event, its place in the list), event_t, event_x (one
     row per crossing) and event_step (the step that holds it), in time order."""
 
     def __init__(self, d):
@@ -51,7 +67,8 @@ class EnsembleResult:
     failure, or the row itself if it was not finite), energy_error (m,) and casimir_error (m, c) (the largest
     relative errors over every step; NaN for a row that was not finite), status ((m,) strings: "ok",
     "newton_not_converged", "non_finite", "non_finite_start"), steps, failed_step (1-based, 0 if none),
-    failed_t, residual, newton_iterations_mean, newton_iterations_max; and x_typical (the state the step was
+    failed_t, residual, newton_iterations_mean, newton_iterations_max, energy_warning ((m,) bool: energy_error above
+    0.1, as for one run; never for a row that was not finite); and x_typical (the state the step was
     built for), threads, dt, t_end."""
 
     def __init__(self, d):
@@ -227,6 +244,7 @@ class Scheme:
                                          specs, event_samples))
         if r.status not in ("ok", "terminal_event"):
             raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
+        _warn_energy(int(r.energy_warning), None, r.dt)
         return r
 
     def integrate_ensemble(self, X0, dt=None, t_end=None, threads=None, chunk=None, x_typical=None, batch=None):
@@ -241,9 +259,11 @@ class Scheme:
         for name, v in (("threads", threads), ("chunk", chunk), ("batch", batch)):
             if v is not None and (isinstance(v, (bool, _np.bool_)) or not isinstance(v, (int, _np.integer)) or v < 1):
                 raise InputError(f"{name}: must be a positive integer, got {v!r}")
-        return EnsembleResult(self._core._integrate_ensemble(
+        r = EnsembleResult(self._core._integrate_ensemble(
             X0, dt, t_end, threads or 0, chunk or 0, None if x_typical is None else _np.asarray(x_typical, dtype=float),
             batch or 0))
+        _warn_energy(int(r.energy_warning.sum()), len(r.energy_warning), r.dt)
+        return r
 
     def typical_state(self, X0):
         """The row integrate_ensemble builds its step at by default: the finite row of largest norm (None if none)."""

@@ -15,15 +15,16 @@ Workers must run the same pgi build (the same compiled arithmetic) for the bit-f
 """
 import threading
 import uuid
+import warnings
 
 import numpy as _np
 
-from . import EnsembleResult, InputError, _rebuild, _states
+from . import EnergyWarning, EnsembleResult, InputError, _rebuild, _states, _warn_energy
 
 __all__ = ["integrate_ensemble", "sweep"]
 
 _FIELDS = ("x", "energy_error", "casimir_error", "status", "steps", "failed_step", "failed_t", "residual",
-           "newton_iterations_mean", "newton_iterations_max")
+           "newton_iterations_mean", "newton_iterations_max", "energy_warning")
 _cache_lock = threading.Lock()
 
 
@@ -42,7 +43,9 @@ def _worker_scheme(description, dt):
 
 
 def _run_chunk(description, X0, dt, t_end, x_typical, threads):
-    r = _worker_scheme(description, dt).integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads, x_typical=x_typical)
+    with warnings.catch_warnings():  # said once, on the client, for the whole ensemble
+        warnings.simplefilter("ignore", EnergyWarning)
+        r = _worker_scheme(description, dt).integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads, x_typical=x_typical)
     return {f: getattr(r, f) for f in _FIELDS}
 
 
@@ -77,7 +80,9 @@ class _Job:
                 raise RuntimeError(f"pgi.dask: chunk {i} (rows {a}..{b - 1} of X0) failed: {type(e).__name__}: {e}") from e
         d = {f: _np.concatenate([getattr(self.empty, f)] + [p[f] for p in parts]) for f in _FIELDS}
         d.update(x_typical=self.x_typical, threads=None, dt=self.dt, t_end=self.t_end, chunks=len(self.bounds))
-        return EnsembleResult(d)
+        r = EnsembleResult(d)
+        _warn_energy(int(r.energy_warning.sum()), len(r.energy_warning), r.dt)
+        return r
 
 
 def integrate_ensemble(client, scheme, X0, dt=None, t_end=None, chunks=None, threads=1, retries=2):

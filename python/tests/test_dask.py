@@ -125,3 +125,11 @@ def test_without_reruns_a_dead_worker_names_its_chunk(tmp_path, monkeypatch):
         with pytest.raises(RuntimeError, match=r"chunk 1 \(rows 4\.\.7 of X0\) failed: KilledWorker"):
             pgi.dask.integrate_ensemble(c, s, X0, dt=0.1, t_end=1, chunks=4, retries=2)
         assert (tmp_path / "died").exists()
+
+
+def test_the_energy_warning_comes_back_per_row_and_is_said_once_on_the_client(client):
+    from test_ensemble import DRIFTING
+    s = pgi.Scheme(**{**RIGID_BODY, "order": 1})
+    with pytest.warns(pgi.EnergyWarning, match="1 of 2 trajectories"):
+        d = pgi.dask.integrate_ensemble(client, s, DRIFTING, dt=3, t_end=30, chunks=1)
+    assert d.energy_warning.tolist() == [True, False]

@@ -1,6 +1,7 @@
 """Ensembles from Python: each row equals its single run bit for bit whatever the threads, bad X0 refused
 before any work, NaN rows and failing trajectories isolated; pickling a Scheme rebuilds it."""
 import pickle
+import warnings
 
 import numpy as np
 import pytest
@@ -100,3 +101,23 @@ def test_x0_that_is_not_an_array_of_numbers_names_x0():
     # no rows is not an error from Python (numpy's empty arrays): an empty result
     e = s.integrate_ensemble(np.zeros((0, 3)), dt=0.1, t_end=1)
     assert e.x.shape == (0, 3) and e.status.shape == (0,) and e.x_typical is None
+
+
+# k = 1 on the rigid body at dt = 3: every step solves its equation, but from the scene's x0 the relative energy error
+# reaches 0.13; a tenth of that state turns ten times slower (the error is O((dt |x|)^2))
+DRIFTING = np.array([[0.4535961214255773, 0.0, 0.8912073600614354], [0.04535961214255773, 0.0, 0.08912073600614354]])
+
+
+def test_energy_drift_past_a_tenth_warns_for_the_run_and_the_ensemble_names_the_trajectories():
+    s = pgi.Scheme(**{**RIGID_BODY, "order": 1})
+    with pytest.warns(pgi.EnergyWarning, match="the run reached a relative energy error above 0.1"):
+        r = s.integrate(DRIFTING[0], dt=3, t_end=30)
+    assert r.energy_warning and r.energy_error_max > 0.1
+    with pytest.warns(pgi.EnergyWarning, match="1 of 2 trajectories"):
+        e = s.integrate_ensemble(DRIFTING, dt=3, t_end=30, threads=1)
+    assert e.energy_warning.tolist() == [True, False] and e.energy_error[1] < 0.01
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no warning where the energy follows H
+        quiet = s.integrate(DRIFTING[1], dt=3, t_end=30)
+        assert not quiet.energy_warning
+        assert not s.integrate_ensemble(DRIFTING[1:], dt=3, t_end=30).energy_warning.any()

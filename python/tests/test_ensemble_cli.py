@@ -152,3 +152,15 @@ def test_states_without_rows_exit_2_with_nothing_written(tmp_path, name, text):
     code, out, err = cli("ensemble", RB, "--states", path, "--t-end", 1, "--out", tmp_path / "r", check=False)
     assert code == 2 and f"{path}: holds no states (no rows): nothing to integrate" in err and out == ""
     assert sorted(p.name for p in tmp_path.iterdir()) == [name]
+
+
+def test_energy_drift_past_a_tenth_is_said_on_stderr_in_json_and_per_row_in_the_csv(tmp_path):
+    from test_ensemble import DRIFTING
+    np.save(tmp_path / "X0.npy", DRIFTING)
+    code, out, err = cli("ensemble", RB, "--order", 1, "--dt", 3, "--states", tmp_path / "X0.npy", "--t-end", 30,
+                         "--out", tmp_path / "r", "--json", check=False)
+    assert code == 0 and "warning: 1 of 2 trajectories reached a relative energy error above 0.1" in err
+    import json
+    assert json.loads(out)["energy_warnings"] == 1
+    rows = np.genfromtxt(tmp_path / "r.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    assert rows["energy_warning"].tolist() == [1, 0]
