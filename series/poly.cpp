@@ -63,12 +63,13 @@ void place_terms(Poly& r, const Poly& f, const std::vector<std::size_t>& positio
     fmpz_mpoly_struct* w = r.get_mut()->zpoly;
     if (monotone && z->bits <= FLINT_BITS) {
         std::vector<ulong> ef(static_cast<std::size_t>(from->nvars)), er(static_cast<std::size_t>(to->nvars), 0);
-        // The bits of r's fields: as few as its terms need. FLINT rounds a small context's up to fill its
+        // The bits of r's fields: as few as its terms need, with FLINT's zero top bit (the room its arithmetic
+        // detects overflow in; mpoly_exp_bits_required_ui). FLINT rounds a small context's up to fill its
         // words (32 bits a field for one variable), which over thousands of variables would cost 4x the bytes.
         const std::size_t nf = mpoly_words_per_exp(z->bits, from);
         mpoly_get_monomial_ui(ef.data(), z->exps, z->bits, from);
         const ulong degree = std::accumulate(ef.begin(), ef.end(), ulong(0));  // the first term's is the highest
-        const flint_bitcnt_t bits = mpoly_fix_bits(std::max<flint_bitcnt_t>(MPOLY_MIN_BITS, FLINT_BIT_COUNT(degree)), to);
+        const flint_bitcnt_t bits = mpoly_fix_bits(std::max<flint_bitcnt_t>(MPOLY_MIN_BITS, 1 + FLINT_BIT_COUNT(degree)), to);
         const std::size_t nr = mpoly_words_per_exp(bits, to);
         fmpz_mpoly_fit_length_reset_bits(w, z->length, bits, r.ctx()->zctx);
         for (slong t = 0; t < z->length; ++t) {

@@ -108,6 +108,35 @@ TEST_CASE("local storage: every operation gives dense storage's polynomial, stor
     }
 }
 
+TEST_CASE("local storage: high degrees keep FLINT's room for overflow when moved between contexts") {
+    // a term of degree 128..255 fills 8 bits: moved into a larger context it needs 9 (FLINT keeps each field's top
+    // bit zero and reads a set one as an overflow), and products and sums of such terms must still be dense storage's
+    const Twins R(70);
+    const auto both = [&](const std::string& text) { return std::pair{Poly::parse(R.dense, text), Poly::parse(R.local, text)}; };
+    for (const char* a : {"x1^130*x2^70 + x3", "x5^127 + x6^128", "x1^255 - 3*x70^200*x2"}) {
+        CAPTURE(a);
+        const auto [fd, fl] = both(a);
+        const auto [gd, gl] = both("x2^100*x69 + 2*x40^60 - x1^130*x2^70");
+        same(fd, fl);
+        same(fd + gd, fl + gl);
+        same(fd * gd, fl * gl);
+        same(fd * fd - gd, fl * fl - gl);
+        same(sum({fd, gd, fd * gd}, R.dense), sum({fl, gl, fl * gl}, R.local));
+        same(derivative(fd * gd, 1), derivative(fl * gl, 1));
+        // moved to all 70 variables, where 8 bits a field (eight fields a word) is what FLINT's rounding leaves
+        std::vector<Poly> gens_d, gens_l;
+        for (std::size_t v = 0; v < 70; ++v) gens_d.push_back(Poly::gen(R.dense, v)), gens_l.push_back(Poly::gen(R.local, v));
+        const Poly all_d = sum(gens_d, R.dense), all_l = sum(gens_l, R.local);
+        for (const Poly* p : {&fl, &gl}) {
+            const Poly q = *p + all_l;
+            REQUIRE(q.variables().size() == 70);
+            CHECK(FLINT_BIT_COUNT(static_cast<ulong>(q.total_degree())) < q.get()->zpoly->bits);  // the top bit stays free
+        }
+        same(fd + all_d, fl + all_l);
+        same((fd + all_d) * (gd - all_d), (fl + all_l) * (gl - all_l));
+    }
+}
+
 TEST_CASE("local storage: whatever cancels gives its variables back") {
     const Twins R(4);
     const auto x = [&](std::size_t v) { return Poly::gen(R.local, v); };
