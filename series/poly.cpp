@@ -118,15 +118,16 @@ Poly stored_over(const Poly& f, const Variables& vars) {
     return r;
 }
 
+// Whether two polynomials are stored over the same variables (dense storage: the ring's own list, at once).
+bool same_variables(const Poly& f, const Poly& g) {
+    const auto a = f.variables(), b = g.variables();
+    return a.data() == b.data() || std::equal(a.begin(), a.end(), b.begin(), b.end());
+}
+
 // The union of the polynomials' variables, or nothing when they are all stored over the same ones (always so
 // for dense storage).
 std::optional<Variables> common_variables(std::span<const Poly* const> fs) {
-    bool same = true;
-    for (const Poly* f : fs) {
-        const auto a = f->variables(), b = fs.front()->variables();  // dense storage: the ring's own list
-        same = same && (a.data() == b.data() || std::equal(a.begin(), a.end(), b.begin(), b.end()));
-    }
-    if (same) return std::nullopt;
+    if (std::all_of(fs.begin(), fs.end(), [&](const Poly* f) { return same_variables(*f, *fs.front()); })) return std::nullopt;
     Variables u;
     for (const Poly* f : fs) u.insert(u.end(), f->variables().begin(), f->variables().end());
     std::sort(u.begin(), u.end());
@@ -151,6 +152,24 @@ struct Aligned {
 private:
     std::optional<Poly> a_, b_;
 };
+
+// self = op(self, o) (FLINT's add or sub) over the variables of both: self is moved to them in place, o copied
+// only when it holds fewer; then what cancelled is given back.
+template <class Op>
+Poly& combine(Poly& self, const Poly& o, Op op, const char* where, std::string_view what) {
+    require_same_ring(self, o, where);
+    const Poly* b = &o;
+    std::optional<Poly> moved;
+    const Poly* both[] = {&self, &o};
+    if (auto u = common_variables(both)) {
+        if (self.variables().size() != u->size()) self = stored_over(self, *u);
+        if (o.variables().size() != u->size()) b = &moved.emplace(stored_over(o, *u));
+    }
+    op(self.get_mut(), self.get(), b->get(), self.ctx());
+    self.drop_unused_variables();
+    self.ring()->budget().account(what, self.length());
+    return self;
+}
 
 // Zero, stored over f's variables.
 Poly zero_like(const Poly& f) {
@@ -270,24 +289,8 @@ std::string Poly::to_string() const {
     return out;
 }
 
-Poly& Poly::operator+=(const Poly& o) {
-    require_same_ring(*this, o, "pgi::add");
-    Aligned ab(*this, o);
-    if (ab.pa != this) *this = *ab.pa;
-    fmpq_mpoly_add(p_, p_, ab.pb->p_, ctx());
-    drop_unused_variables();
-    ring_->budget().account("a sum", length());
-    return *this;
-}
-Poly& Poly::operator-=(const Poly& o) {
-    require_same_ring(*this, o, "pgi::sub");
-    Aligned ab(*this, o);
-    if (ab.pa != this) *this = *ab.pa;
-    fmpq_mpoly_sub(p_, p_, ab.pb->p_, ctx());
-    drop_unused_variables();
-    ring_->budget().account("a difference", length());
-    return *this;
-}
+Poly& Poly::operator+=(const Poly& o) { return combine(*this, o, fmpq_mpoly_add, "pgi::add", "a sum"); }
+Poly& Poly::operator-=(const Poly& o) { return combine(*this, o, fmpq_mpoly_sub, "pgi::sub", "a difference"); }
 Poly& Poly::operator*=(const Rational& c) {
     fmpq_mpoly_scalar_mul_fmpq(p_, p_, c.get(), ctx());
     drop_unused_variables();  // only when c = 0
@@ -297,8 +300,7 @@ Poly& Poly::operator*=(const Rational& c) {
 
 bool operator==(const Poly& a, const Poly& b) {
     require_same_ring(a, b, "pgi::equal");
-    const auto va = a.variables(), vb = b.variables();  // both hold exactly these (local storage)
-    return std::equal(va.begin(), va.end(), vb.begin(), vb.end()) && fmpq_mpoly_equal(a.get(), b.get(), a.ctx());
+    return same_variables(a, b) && fmpq_mpoly_equal(a.get(), b.get(), a.ctx());  // local storage: both hold exactly these
 }
 Poly operator+(const Poly& a, const Poly& b) { Poly r(a); r += b; return r; }
 Poly operator-(const Poly& a, const Poly& b) { Poly r(a); r -= b; return r; }
@@ -478,7 +480,7 @@ double evaluate(const Poly& f, std::span<const double> point) {
 
 std::vector<std::size_t> used_variables(const Poly& f) {
     const auto vars = f.variables();
-    std::vector<int> used(vars.size(), 1);
+    std::vector<int> used(static_cast<std::size_t>(f.ctx()->zctx->minfo->nvars), 1);  // a ring of no names has a context of one
     if (!f.ring()->local_storage()) fmpq_mpoly_used_vars(used.data(), f.get(), f.ctx());
     std::vector<std::size_t> held;
     for (std::size_t j = 0; j < vars.size(); ++j)
