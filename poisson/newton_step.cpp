@@ -34,6 +34,25 @@ void check_build_arguments(const PhaseSpace& M, const std::vector<Poly>* S, cons
         throw std::invalid_argument("NewtonStepper: the typical state must have " + std::to_string(n) + " finite values");
 }
 
+// What the Newton matrix's Hessian may neglect (compile_gradient): J moved by at most u / (4 newton_tol) at x_typical,
+// alpha_p's size there estimated by |pi(x_typical)|_inf (alpha = x + pi(x) p / 2 + O(p^2): a factor 2 for the O(p)).
+// Only small dense problems truncate: pi is not evaluated on the others.
+HessianTruncation newton_matrix_truncation(const PoissonStructure& pi, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
+    const PhaseSpace& M = pi.phase_space();
+    const std::size_t n = M.dim();
+    HessianTruncation t{std::span<const double>(x_typical.data(), n), 0, unit_roundoff / (4 * opt.newton_tol)};
+    if (n > hessian_truncation_dim || !(opt.newton_tol > 0)) return HessianTruncation{};
+    std::vector<double> point(M.ring()->size(), 0.0);
+    const auto vars = M.coordinate_vars();
+    for (std::size_t i = 0; i < n; ++i) point[vars[i]] = x_typical[Eigen::Index(i)];
+    for (std::size_t i = 0; i < n; ++i) {
+        double row = 0;
+        for (std::size_t j = 0; j < n; ++j) row += std::abs(evaluate(pi(i, j), point));
+        t.alpha_p_size = std::max(t.alpha_p_size, row);
+    }
+    return t;
+}
+
 }  // namespace
 
 NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector<Poly>& S, const RealisationSource& realisation,
@@ -45,7 +64,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.k_ = opt.k;
     s.dt_ = s.step_dt_ = opt.dt;
     s.opt_ = opt;
-    s.gradient_ = compile_gradient(M, S, opt.dt, std::span<const double>(x_typical.data(), std::size_t(x_typical.size())));
+    s.gradient_ = compile_gradient(M, S, opt.dt, newton_matrix_truncation(pi, opt, x_typical));
 
     // the truncation degree (and evaluator), sized at p0 = grad S_dt(x_typical): docs/math.md 4 and 6
     Eigen::VectorXd p0(static_cast<Eigen::Index>(n));

@@ -10,29 +10,35 @@ namespace pgi {
 
 namespace {
 
-// The fewest m whose Hessian terms past S_m are negligible at x (compile_gradient); hessians[j] holds Hess S_{j+1}'s
-// entries r <= c.
-std::size_t hessian_terms_needed(const PhaseSpace& M, const std::vector<std::vector<Poly>>& hessians, double dt, std::span<const double> x_typical) {
+// The fewest m whose Hessian terms past S_m are negligible at the typical state (compile_gradient); hessians[j] holds
+// Hess S_{j+1}'s entries r <= c, numbered as g.hessian_value numbers the pattern's.
+std::size_t hessian_terms_needed(const PhaseSpace& M, const CompiledGradient& g, const std::vector<std::vector<Poly>>& hessians,
+                                 double dt, const HessianTruncation& t) {
     std::vector<double> x(M.ring()->size(), 0.0);  // the coordinates at x_typical, the momenta (unread) at 0
     const auto vars = M.coordinate_vars();
-    for (std::size_t i = 0; i < vars.size(); ++i) x[vars[i]] = x_typical[i];
-    std::vector<double> size(hessians.size(), 0.0);
-    double total = 0;
+    for (std::size_t i = 0; i < vars.size(); ++i) x[vars[i]] = t.x_typical[i];
+    // what S_j's Hessian terms move J by: alpha_p_size times their inf norm (a column sum: the matrix is symmetric)
+    const SparsePattern& P = g.hessian;
+    std::vector<double> size(hessians.size(), 0.0), value;
     for (std::size_t j = 0; j < hessians.size(); ++j) {
-        for (const Poly& h : hessians[j]) size[j] = std::max(size[j], std::abs(evaluate(h, x)));
-        size[j] *= std::pow(dt, double(j + 1));
-        total += size[j];
+        value.clear();
+        for (const Poly& h : hessians[j]) value.push_back(std::abs(evaluate(h, x)));
+        for (std::size_t c = 0; c < P.cols; ++c) {
+            double column = 0;
+            for (int k = P.outer[c]; k < P.outer[c + 1]; ++k) column += value[g.hessian_value[std::size_t(k)]];
+            size[j] = std::max(size[j], column);
+        }
+        size[j] *= t.alpha_p_size * std::pow(dt, double(j + 1));
     }
-    if (!std::isfinite(total)) return hessians.size();
     double tail = 0;
     std::size_t m = hessians.size();
-    while (m > 1 && tail + size[m - 1] <= hessian_truncation * total) tail += size[--m];
+    while (m > 1 && tail + size[m - 1] <= t.bound) tail += size[--m];  // (a NaN size is never neglected)
     return m;
 }
 
 }  // namespace
 
-CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt, std::span<const double> x_typical) {
+CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt, const HessianTruncation& truncation) {
     const std::size_t n = M.dim();
     std::vector<std::vector<Poly>> grad(S.size()), sizes(S.size()), with_hessian(S.size());
     std::vector<std::vector<int>> columns(n);
@@ -66,7 +72,8 @@ CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& 
             for (int k = P.outer[c]; k < P.outer[c + 1]; ++k)
                 if (const auto r = std::size_t(P.inner[std::size_t(k)]); r <= c) hessians[j].push_back(derivative(grad[j][c], M.x(r)));
     g.hessian_terms = S.size();
-    if (!x_typical.empty() && n <= hessian_truncation_dim && planned_dt > 0) g.hessian_terms = hessian_terms_needed(M, hessians, planned_dt, x_typical);
+    if (!truncation.x_typical.empty() && n <= hessian_truncation_dim && planned_dt > 0 && truncation.bound > 0)
+        g.hessian_terms = hessian_terms_needed(M, g, hessians, planned_dt, truncation);
     const auto inputs = M.coordinate_vars();
     for (std::size_t j = 0; j < S.size(); ++j) {
         with_hessian[j] = grad[j];

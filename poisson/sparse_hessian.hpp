@@ -31,15 +31,24 @@ struct CompiledGradient {
 /// The Hessian's values in pattern order (hessian.nonzeros() of them) from with_hessian's outputs past the gradient.
 void expand_hessian(const CompiledGradient& g, const double* upper, double* values);
 
+/// Where the Newton matrix may neglect S_j (compile_gradient, docs/math.md 6): at the typical state x_typical, with
+/// alpha_p_size an estimate of |alpha_p|_inf there (|pi(x_typical)|_inf: alpha_p = pi / 2 + O(p)), the neglected
+/// Hessian terms may move J = alpha_x + alpha_p Hess S_dt by at most `bound` (as a matrix, inf norm). Newton's
+/// correction then errs by bound |dx| more, and so does p updated by the Hessian after a correction |dx| <= newton_tol
+/// |x| (NewtonStepper::accept_check): bound = u / (4 newton_tol) keeps that a quarter of an ulp of |x|.
+struct HessianTruncation {
+    std::span<const double> x_typical;
+    double alpha_p_size = 1;
+    double bound = 0;
+};
+
 /// S = S_1..S_k, polynomials in the coordinates of M; planned_dt as for DtSeriesMap (the build's dt).
-/// x_typical given (dense problems of at most hessian_truncation_dim coordinates): with_hessian's Hessian reads only
-/// S_1..S_m, the fewest whose neglected terms sum_{j>m} dt^j |Hess S_j(x_typical)| are at most hessian_truncation
-/// times sum_j dt^j |Hess S_j(x_typical)| (max norms, dt = planned_dt). The Hessian serves only the Newton matrix,
-/// whose error then contracts Newton by about that factor more (a predicted base point off by 1e-9 |x| is corrected
-/// to 1e-17 |x|), and the acceptance test certifies every step as before; grad S_dt stays whole.
+/// With a truncation (x_typical given, dense problems of at most hessian_truncation_dim coordinates), with_hessian's
+/// Hessian reads only S_1..S_m, the fewest with alpha_p_size sum_{j>m} dt^j |Hess S_j(x_typical)|_inf <= bound
+/// (dt = planned_dt). The Hessian serves only the Newton matrix, which sets how fast Newton
+/// converges, not where: grad S_dt stays whole, and the acceptance test certifies every step as before.
 CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt = 0,
-                                  std::span<const double> x_typical = {});
-inline constexpr double hessian_truncation = 1e-8;
+                                  const HessianTruncation& truncation = {});
 inline constexpr std::size_t hessian_truncation_dim = 8;
 
 }  // namespace pgi
