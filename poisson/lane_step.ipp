@@ -77,6 +77,34 @@ PGI_LANE_INLINE void commit(lanes::mask_t<T> m, const T* from, T* to) {
     for (int i = 0; i < N; ++i) to[i] = select(m, from[i], to[i]);
 }
 
+// J^{-1} for N <= 3 as the adjugate over the determinant (J column-major): one division, where the LU's pivots make a
+// chain of N (a division's latency is four multiplications'), and a solve is then one product. Without pivoting, the
+// correction's error is still about cond(J) u relative, which Newton does not see (the acceptance test certifies the
+// step); a singular J gives a non-finite correction, as a zero pivot does.
+template <int N, class T>
+PGI_LANE_INLINE void small_inverse(const T* J, T* inverse) {
+    const auto a = [&](int i, int j) -> const T& { return J[i + N * j]; };
+    if constexpr (N == 1) {
+        inverse[0] = 1.0 / a(0, 0);
+    } else if constexpr (N == 2) {
+        const T s = 1.0 / (a(0, 0) * a(1, 1) - a(0, 1) * a(1, 0));
+        inverse[0] = a(1, 1) * s, inverse[1] = -a(1, 0) * s;
+        inverse[2] = -a(0, 1) * s, inverse[3] = a(0, 0) * s;
+    } else {
+        // the cofactors C(i, j); inverse(j, i) = C(i, j) / det
+        const T c00 = a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1), c01 = a(1, 2) * a(2, 0) - a(1, 0) * a(2, 2),
+                c02 = a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0);
+        const T s = 1.0 / (a(0, 0) * c00 + a(0, 1) * c01 + a(0, 2) * c02);
+        inverse[0 + 3 * 0] = c00 * s, inverse[1 + 3 * 0] = c01 * s, inverse[2 + 3 * 0] = c02 * s;
+        inverse[0 + 3 * 1] = (a(0, 2) * a(2, 1) - a(0, 1) * a(2, 2)) * s;
+        inverse[1 + 3 * 1] = (a(0, 0) * a(2, 2) - a(0, 2) * a(2, 0)) * s;
+        inverse[2 + 3 * 1] = (a(0, 1) * a(2, 0) - a(0, 0) * a(2, 1)) * s;
+        inverse[0 + 3 * 2] = (a(0, 1) * a(1, 2) - a(0, 2) * a(1, 1)) * s;
+        inverse[1 + 3 * 2] = (a(0, 2) * a(1, 0) - a(0, 0) * a(1, 2)) * s;
+        inverse[2 + 3 * 2] = (a(0, 0) * a(1, 1) - a(0, 1) * a(1, 0)) * s;
+    }
+}
+
 }  // namespace
 
 template <int N, class T>
@@ -98,6 +126,12 @@ LaneStep<N, T>::LaneStep(const NewtonStepper& s)
 // by an ulp, which Newton does not see).
 template <int N, class T>
 void LaneStep<N, T>::factor(Mask F, const T* J) {
+    if constexpr (N <= 3) {
+        T inverse[N * N];
+        small_inverse<N>(J, inverse);
+        commit<N * N>(F, inverse, lu_);
+        return;
+    }
     T A[N * N], inverse[N];
     for (int e = 0; e < N * N; ++e) A[e] = J[e];
     int swap = 0;
@@ -122,9 +156,16 @@ void LaneStep<N, T>::factor(Mask F, const T* J) {
     commit<N>(F, inverse, pivot_inverse_);
 }
 
-// d = J^{-1} b with the kept factors: the exchanges, then L (unit diagonal) and U.
+// d = J^{-1} b with the kept factors: the exchanges, then L (unit diagonal) and U; for N <= 3 the kept inverse's product.
 template <int N, class T>
 void LaneStep<N, T>::solve_kept(const T* b, T* d) const {
+    if constexpr (N <= 3) {
+        for (int i = 0; i < N; ++i) {
+            d[i] = lu_[i] * b[0];
+            for (int j = 1; j < N; ++j) d[i] = d[i] + lu_[i + N * j] * b[j];
+        }
+        return;
+    }
     for (int i = 0; i < N; ++i) d[i] = b[i];
     int swap = 0;
     for (int k = 0; k < N; ++k)
