@@ -73,13 +73,14 @@ PGI_LANE_INLINE void bernoulli_sum(const std::vector<double>& b, const T& s, T& 
 
 // h(s) = sum_{j>=1} b_2j (-s)^(j-1) and dh/ds (b = b_2, b_4, ..., b_40): its terms fall like (s / 4 pi^2)^j, so
 // for s <= 1/4 ten terms leave tails below 2^-58 of h and of dh, and for s <= 4 twenty do; in closed form beyond.
-// A polynomial of fixed degree on each interval, chosen by each lane's own s (the longer one evaluated only
-// when some lane needs it). dh only with_derivative (the acceptance test reads h alone).
+// A polynomial of fixed degree on each interval, chosen by each lane's own s (each evaluated only when some lane
+// needs it). dh only with_derivative (the acceptance test reads h alone).
 template <bool with_derivative, class T>
 void rotation_coefficient(T s, const std::vector<double>& b, T& h, T& dh) {
     constexpr std::size_t short_terms = 10, long_terms = 20;  // b holds long_terms (RealisationEvaluator::rotation)
-    bernoulli_sum<with_derivative, short_terms>(b, s, h, dh);
     const auto longer = lanes::both(s > 0.25, s <= 4.0);
+    h = dh = T{};
+    if (!lanes::all(longer)) bernoulli_sum<with_derivative, short_terms>(b, s, h, dh);
     if (lanes::any(longer)) {
         T hl, dhl;
         bernoulli_sum<with_derivative, long_terms>(b, s, hl, dhl);
