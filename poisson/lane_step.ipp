@@ -194,6 +194,7 @@ void LaneStep<N, T>::evaluate(const NewtonStepper& s, Mask F, T* J) {
         for (int k = P.outer[col]; k < P.outer[col + 1]; ++k)
             H[std::size_t(P.inner[std::size_t(k)]) + N * col] = gh_[N + s.gradient_.hessian_value[std::size_t(k)]];
     LaneRealisation<N, T> v;
+    for (int i = 0; i < N; ++i) v.exponent[i] = v.em1[i] = T{};  // (written by the log-canonical form only)
     s.realisation_.eval_lanes<N>(xb_, gh_.data(), v, maps_);
     for (int i = 0; i < N; ++i)
         for (int j = 0; j < N; ++j) {
@@ -207,6 +208,8 @@ void LaneStep<N, T>::evaluate(const NewtonStepper& s, Mask F, T* J) {
     commit<N>(F, v.delta, values_.delta);
     commit<N * N>(F, v.alpha_x, values_.alpha_x);
     commit<N * N>(F, v.alpha_p, values_.alpha_p);
+    commit<N>(F, v.exponent, values_.exponent);
+    commit<N>(F, v.em1, values_.em1);
 }
 
 // NewtonStepper::accept_check for the lanes of C: p updated by the Hessian where small (else grad S_dt anew), the
@@ -228,7 +231,7 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
         eval_dt(s.gradient_.gradient, xb_, dt_, scratch_.data(), dt_maps_);
         commit<N>(anew, scratch_.data(), p_);
     }
-    s.realisation_.check_lanes<N>(xb_, p_, check_, maps_);
+    s.realisation_.check_lanes<N>(xb_, p_, check_, maps_, &values_);  // (values_: this step's last Newton system, nearby)
     T r[N], tol[N];
     for (int i = 0; i < N; ++i) {
         r[i] = check_.alpha[i] - x_[i];

@@ -26,13 +26,27 @@ PGI_LANE_INLINE T expm1_lanes(const T& v) {
     }
 }
 
+// e^{u/2} - 1 from an exponent u0 nearby with em1_0 = e^{u0/2} - 1: (1 + em1_0) e^d - 1 = em1_0 + (1 + em1_0) expm1(d),
+// d = (u - u0) / 2, expm1(d) by its cubic where |d| <= 2^-20 (the next term, d^4 / 24, is below 2^-84); lanes farther
+// away call expm1. The result errs by a few ulps of em1_0, not of em1: where em1 is far smaller than em1_0 that is
+// still below 2^-70 absolutely, far under the round-off of x + delta.
+template <class T>
+PGI_LANE_INLINE T expm1_near(const T& u, const T& u0, const T& em1_0) {
+    const T d = 0.5 * (u - u0);
+    const auto near = lanes::abs(d) <= 0x1p-20;
+    T em1 = em1_0 + (1.0 + em1_0) * (d + d * d * (0.5 + d * (1.0 / 6)));
+    if (!lanes::all(near)) em1 = lanes::select(near, em1, expm1_lanes(0.5 * u));
+    return em1;
+}
+
 }  // namespace
 
 // u_j = (1/2) sum_l a_lj x_l p_l; alpha_j = x_j e^{u_j}; delta_j = x_j (e^{-u_j} - e^{u_j}) = -2 x_j sinh u_j, and the
 // derivatives on the structure's pattern: du_j/dx_l = a_lj p_l / 2, du_j/dp_l = a_lj x_l / 2. put(k, j, ...) receives
-// entry k of a_pattern_ (column j), put.diagonal(j, ...) the terms of d/dx_j of alpha_j and delta_j.
+// entry k of a_pattern_ (column j), put.diagonal(j, ...) the terms of d/dx_j of alpha_j and delta_j; exponent and em1,
+// if given, u_j and e^{u_j/2} - 1 (for log_canonical_check near this point).
 template <class T, class Put>
-void RealisationEvaluator::log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put) const {
+void RealisationEvaluator::log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put, T* exponent, T* em1_at) const {
     for (std::size_t j = 0; j < n_; ++j) {
         T u{};
         for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
@@ -41,6 +55,7 @@ void RealisationEvaluator::log_canonical_derivatives(const T* x, const T* p, T* 
         }
         // one transcendental: e^u - 1 keeps sinh u accurate for small u
         const T em1 = expm1_lanes(0.5 * u), e = 1.0 + em1;
+        if (exponent) exponent[j] = u, em1_at[j] = em1;
         const T s = -(em1 + em1 / e), c = -(e + 1.0 / e);  // -2 sinh u, -2 cosh u
         alpha[j] = x[j] * e;
         delta[j] = x[j] * s;
@@ -55,9 +70,12 @@ void RealisationEvaluator::log_canonical_derivatives(const T* x, const T* p, T* 
 }
 
 // alpha and delta as above, and the size of each alpha_j's terms: the rounding of u_j (relative to the sum w_j of
-// its terms' sizes) enters alpha_j multiplied by |alpha_j|.
+// its terms' sizes) enters alpha_j multiplied by |alpha_j|. With exponent_near and em1_near (a derivatives evaluation's,
+// the Newton iterate this one corrects by a small step), e^{u_j/2} - 1 is taken from them (expm1_near): the acceptance
+// test after a converged Newton correction then calls no exponential.
 template <class T>
-void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size) const {
+void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, const T* exponent_near,
+                                               const T* em1_near) const {
     for (std::size_t j = 0; j < n_; ++j) {
         T u{}, w{};
         for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
@@ -65,7 +83,7 @@ void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha,
             const T term = a_values_[std::size_t(k)] * x[l] * p[l];
             u = u + term, w = w + lanes::abs(term);
         }
-        const T em1 = expm1_lanes(0.5 * u), e = 1.0 + em1;
+        const T em1 = exponent_near ? expm1_near(u, exponent_near[j], em1_near[j]) : expm1_lanes(0.5 * u), e = 1.0 + em1;
         alpha[j] = x[j] * e;
         delta[j] = x[j] * -(em1 + em1 / e);
         size[j] = lanes::abs(x[j]) + lanes::abs(alpha[j]) * (1.0 + 0.5 * w);

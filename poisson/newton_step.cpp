@@ -34,13 +34,13 @@ void check_build_arguments(const PhaseSpace& M, const std::vector<Poly>* S, cons
         throw std::invalid_argument("NewtonStepper: the typical state must have " + std::to_string(n) + " finite values");
 }
 
-// What the Newton matrix's Hessian may neglect (compile_gradient): J moved by at most u / (4 newton_tol) at x_typical,
+// What the Newton matrix's Hessian may neglect (compile_gradient): J moved by at most u / newton_tol at x_typical,
 // alpha_p's size there estimated by |pi(x_typical)|_inf (alpha = x + pi(x) p / 2 + O(p^2): a factor 2 for the O(p)).
 // Only small dense problems truncate: pi is not evaluated on the others.
 HessianTruncation newton_matrix_truncation(const PoissonStructure& pi, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
     const PhaseSpace& M = pi.phase_space();
     const std::size_t n = M.dim();
-    HessianTruncation t{std::span<const double>(x_typical.data(), n), 0, unit_roundoff / (4 * opt.newton_tol)};
+    HessianTruncation t{std::span<const double>(x_typical.data(), n), 0, unit_roundoff / opt.newton_tol};
     if (n > hessian_truncation_dim || !(opt.newton_tol > 0)) return HessianTruncation{};
     std::vector<double> point(M.ring()->size(), 0.0);
     const auto vars = M.coordinate_vars();

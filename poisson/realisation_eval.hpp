@@ -32,10 +32,12 @@ struct RealisationCheck {
 };
 
 /// What the Newton step reads of one evaluation, over lanes (poisson/lanes.hpp: T = double for one state, a
-/// Pack for several) at a fixed dimension N: alpha, delta, alpha_x and alpha_p (column-major N x N).
+/// Pack for several) at a fixed dimension N: alpha, delta, alpha_x and alpha_p (column-major N x N); for the
+/// log-canonical form also its exponents u_j and e^{u_j/2} - 1 there, from which check_lanes near that point takes
+/// its own exponentials (docs/math.md 3).
 template <int N, class T>
 struct LaneRealisation {
-    T alpha[N], delta[N], alpha_x[N * N], alpha_p[N * N];
+    T alpha[N], delta[N], alpha_x[N * N], alpha_p[N * N], exponent[N], em1[N];
 };
 /// RealisationCheck over lanes.
 template <int N, class T>
@@ -105,7 +107,7 @@ public:
     template <int N, class T>
     void eval_lanes(const T* x, const T* p, LaneRealisation<N, T>& v, LaneMapScratch<T>& s) const;
     template <int N, class T>
-    void check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s) const;
+    void check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s, const LaneRealisation<N, T>* near = nullptr) const;
     /// Lie-Poisson: the largest |L(p)|_inf at which the truncated series is used (beyond: scaling and squaring).
     double series_radius() const { return radius_; }
     /// Lie-Poisson: |L(p)|_inf, and the smallest D in [D_min, D_max] whose series is used at that norm (D_max if none).
@@ -116,9 +118,10 @@ private:
     enum class Form { polynomial, log_canonical, lie_poisson, rotation };
     void eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     template <class T, class Put>  // (poisson/log_canonical.ipp)
-    void log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put) const;
+    void log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put, T* exponent = nullptr, T* em1 = nullptr) const;
     template <class T>
-    void log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size) const;
+    void log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, const T* exponent_near = nullptr,
+                             const T* em1_near = nullptr) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     /// The compiled polynomial form at (x, p): alpha and delta written, the derivatives' values returned

@@ -170,7 +170,7 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
     if (form_ == Form::log_canonical) {  // (poisson/log_canonical.ipp; delta's derivatives not kept)
         for (auto& e : v.alpha_x) e = T{};
         for (auto& e : v.alpha_p) e = T{};
-        log_canonical_derivatives(x, p, v.alpha, v.delta, LanePut<N, T>{v});
+        log_canonical_derivatives(x, p, v.alpha, v.delta, LanePut<N, T>{v}, v.exponent, v.em1);
         return;
     }
     // the compiled polynomial form: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
@@ -193,7 +193,7 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
 // delta, the neglected parts: their largest |value| in `neglected`) and the sizes (every coefficient made
 // positive, at (|x|, |p|)) plus |x|.
 template <int N, class T>
-void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s) const {
+void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s, const LaneRealisation<N, T>* near) const {
     c.neglected = T{};
     if constexpr (N == 3) {
         if (form_ == Form::rotation) {
@@ -209,7 +209,7 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
         }
     }
     if (form_ == Form::log_canonical) {
-        log_canonical_check(x, p, c.alpha, c.delta, c.size);
+        log_canonical_check(x, p, c.alpha, c.delta, c.size, near ? near->exponent : nullptr, near ? near->em1 : nullptr);
         return;
     }
     for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
@@ -228,6 +228,7 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
     PGI_LANE_FORMS(6, T)
 #define PGI_LANE_FORMS(N, T)                                                                                                       \
     template void RealisationEvaluator::eval_lanes<N, T>(const T*, const T*, LaneRealisation<N, T>&, LaneMapScratch<T>&) const; \
-    template void RealisationEvaluator::check_lanes<N, T>(const T*, const T*, LaneCheck<N, T>&, LaneMapScratch<T>&) const;
+    template void RealisationEvaluator::check_lanes<N, T>(const T*, const T*, LaneCheck<N, T>&, LaneMapScratch<T>&,              \
+                                                         const LaneRealisation<N, T>*) const;
 
 }  // namespace pgi

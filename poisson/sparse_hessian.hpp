@@ -35,7 +35,8 @@ void expand_hessian(const CompiledGradient& g, const double* upper, double* valu
 /// alpha_p_size an estimate of |alpha_p|_inf there (|pi(x_typical)|_inf: alpha_p = pi / 2 + O(p)), the neglected
 /// Hessian terms may move J = alpha_x + alpha_p Hess S_dt by at most `bound` (as a matrix, inf norm). Newton's
 /// correction then errs by bound |dx| more, and so does p updated by the Hessian after a correction |dx| <= newton_tol
-/// |x| (NewtonStepper::accept_check): bound = u / (4 newton_tol) keeps that a quarter of an ulp of |x|.
+/// |x| (NewtonStepper::accept_check): bound = u / newton_tol keeps that within an ulp of |x|, a sixty-fourth of what
+/// the acceptance test allows.
 struct HessianTruncation {
     std::span<const double> x_typical;
     double alpha_p_size = 1;

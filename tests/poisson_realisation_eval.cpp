@@ -1,10 +1,13 @@
 // The realisation evaluators in double: the so(3)* closed form against the Bernoulli series (docs/math.md 3).
 #include "poisson/realisation_eval.hpp"
+#include "poisson/log_canonical.ipp"  // expm1_near, which the lane step's acceptance test uses
 #include "lie_reference.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>
 
+#include <cmath>
+#include <limits>
 #include <random>
 
 using namespace pgi;
@@ -102,4 +105,26 @@ TEST_CASE("issue 11.9 / 16.1: the Lie-Poisson evaluator equals g(L(p)) x in long
             }
         }
     }
+}
+
+TEST_CASE("log-canonical: e^(u/2) - 1 from a nearby exponent is expm1's to a few ulps of the nearby value; farther away it is expm1's") {
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> exponent(-3, 3), unit(-1, 1);
+    std::uniform_int_distribution<int> scale(0, 9), shift(19, 60);
+    const double ulp = std::numeric_limits<double>::epsilon();
+    int near = 0;
+    for (int i = 0; i < 20000; ++i) {
+        // u0 over several scales (e^(u/2) - 1 keeps its relative accuracy near 0), u moved by up to 2^-19 (d up to 2^-20)
+        const double u0 = exponent(rng) * std::pow(10.0, -double(scale(rng))), u = u0 + std::ldexp(unit(rng), -shift(rng));
+        const double em1_0 = std::expm1(0.5 * u0), want = std::expm1(0.5 * u), got = expm1_near(u, u0, em1_0);
+        CAPTURE(u0);
+        CAPTURE(u);
+        CHECK(std::abs(got - want) <= 4 * ulp * std::max(std::abs(em1_0), std::abs(want)));  // both libm calls, d and two roundings
+        near += std::abs(0.5 * (u - u0)) <= 0x1p-20;
+    }
+    CHECK(near > 19000);  // the cubic served nearly all of them (a quadratic instead fails where em1 is small)
+    // beyond |d| = 2^-20 (and for a NaN exponent) the libm call itself
+    for (const double u0 : {-2.0, 0.0, 1e-300, 2.5})
+        for (const double step : {0x1p-18, -0x1p-10, 1.0}) CHECK(expm1_near(u0 + step, u0, std::expm1(0.5 * u0)) == std::expm1(0.5 * (u0 + step)));
+    CHECK(std::isnan(expm1_near(std::nan(""), 0.0, 0.0)));
 }
