@@ -83,10 +83,9 @@ PGI_LANE_INLINE void commit(lanes::mask_t<T> m, const T* from, T* to) {
 // step); a singular J gives a non-finite correction, as a zero pivot does.
 template <int N, class T>
 PGI_LANE_INLINE void small_inverse(const T* J, T* inverse) {
+    static_assert(N == 2 || N == 3);
     const auto a = [&](int i, int j) -> const T& { return J[i + N * j]; };
-    if constexpr (N == 1) {
-        inverse[0] = 1.0 / a(0, 0);
-    } else if constexpr (N == 2) {
+    if constexpr (N == 2) {
         const T s = 1.0 / (a(0, 0) * a(1, 1) - a(0, 1) * a(1, 0));
         inverse[0] = a(1, 1) * s, inverse[1] = -a(1, 0) * s;
         inverse[2] = -a(0, 1) * s, inverse[3] = a(0, 0) * s;

@@ -42,9 +42,7 @@ HessianTruncation newton_matrix_truncation(const PoissonStructure& pi, const Ste
     const std::size_t n = M.dim();
     HessianTruncation t{std::span<const double>(x_typical.data(), n), 0, unit_roundoff / opt.newton_tol};
     if (n > hessian_truncation_dim || !(opt.newton_tol > 0)) return HessianTruncation{};
-    std::vector<double> point(M.ring()->size(), 0.0);
-    const auto vars = M.coordinate_vars();
-    for (std::size_t i = 0; i < n; ++i) point[vars[i]] = x_typical[Eigen::Index(i)];
+    const std::vector<double> point = M.point(t.x_typical);
     for (std::size_t i = 0; i < n; ++i) {
         double row = 0;
         for (std::size_t j = 0; j < n; ++j) row += std::abs(evaluate(pi(i, j), point));

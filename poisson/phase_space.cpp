@@ -31,6 +31,12 @@ std::vector<std::size_t> PhaseSpace::coordinate_vars() const {
     return xs;
 }
 
+std::vector<double> PhaseSpace::point(std::span<const double> x) const {
+    std::vector<double> values(ring_->size(), 0.0);
+    for (std::size_t i = 0; i < dim(); ++i) values[this->x(i)] = x[i];
+    return values;
+}
+
 Poly PhaseSpace::parse(std::string_view text) const {
     // Parsed in the coordinate ring (which refuses a momentum with the parser's own message, and whose
     // parser sets up n variables, not 2n), then moved: x_i keeps its index in the phase-space ring, so the

@@ -3,6 +3,7 @@
 // Every exact object of a scene (pi, H, Casimirs, alpha, beta, S_j) is a Poly of this one ring.
 #include "series/series.hpp"
 
+#include <span>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,9 @@ public:
     Poly p_gen(std::size_t i) const { return Poly::gen(ring_, p(i)); }
     /// The ring indices of x_1..x_n, the inputs of every evaluator over the coordinates.
     std::vector<std::size_t> coordinate_vars() const;
+    /// A value for every ring variable: the coordinates at x (dim() values), the momenta at 0; where a polynomial in
+    /// the coordinates is evaluated in double at build time (evaluate in series/poly.hpp).
+    std::vector<double> point(std::span<const double> x) const;
     /// The mask of the momenta, for grading by degree in p.
     const VarMask& momenta() const { return momenta_; }
     /// Parses a polynomial in the coordinates only (a momentum name is an unknown variable).

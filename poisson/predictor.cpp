@@ -74,13 +74,6 @@ private:
     bool at_limit_ = false, capped_ = false;
 };
 
-// (x, p = 0): the point the exact series are evaluated at (they read no p).
-std::vector<double> point_at(const Eigen::VectorXd& x) {
-    std::vector<double> point(x.data(), x.data() + x.size());
-    point.resize(2 * std::size_t(x.size()), 0.0);
-    return point;
-}
-
 }  // namespace
 
 std::size_t predictor_limit(const StepOptions& opt) {
@@ -109,19 +102,20 @@ Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const
                             const RealisationSource& deeper) {
     if (opt.predictor_order) return build(M, base_point_series(M, probe, S, std::min(predictor_limit(opt), probe.degree)), opt.dt);
     const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
+    const std::vector<double> point = M.point(std::span<const double>(x_typical.data(), std::size_t(x_typical.size())));  // (the series read no p)
     // The series is computed to the limit's order before the choice sees it, and at large n (the lattices) every
     // order holds O(n) terms: a first pass scores the orders through predictor_first_pass (all of them, whatever
     // their size), and the full limit is computed only when that limit alone stopped the choice within the cap
     // (then it decides exactly as one pass would).
     const std::size_t P1 = std::min(predictor_first_pass(opt), probe.degree);
     std::optional<PredictorChoice> choice;
-    choice.emplace(opt, cost, point_at(x_typical), scale, P1 - 1, false);
+    choice.emplace(opt, cost, point, scale, P1 - 1, false);
     auto u = base_point_series(M, probe, S, P1, std::ref(*choice));
     const std::size_t P = std::min(predictor_limit(opt), deeper ? predictor_limit(opt) : probe.degree);
     if (choice->at_limit() && P1 < P) {
         const RealisationPtr deeper_one = probe.degree >= P ? nullptr : deeper(P);
         const Realisation& deep = deeper_one ? *deeper_one : probe;
-        choice.emplace(opt, cost, point_at(x_typical), scale, P - 1);
+        choice.emplace(opt, cost, point, scale, P - 1);
         u = base_point_series(M, deep, S, P, std::ref(*choice));
     }
     u.resize(std::min(u.size(), choice->order()), std::vector<Poly>{});

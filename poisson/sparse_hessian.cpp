@@ -14,9 +14,7 @@ namespace {
 // Hess S_{j+1}'s entries r <= c, numbered as g.hessian_value numbers the pattern's.
 std::size_t hessian_terms_needed(const PhaseSpace& M, const CompiledGradient& g, const std::vector<std::vector<Poly>>& hessians,
                                  double dt, const HessianTruncation& t) {
-    std::vector<double> x(M.ring()->size(), 0.0);  // the coordinates at x_typical, the momenta (unread) at 0
-    const auto vars = M.coordinate_vars();
-    for (std::size_t i = 0; i < vars.size(); ++i) x[vars[i]] = t.x_typical[i];
+    const std::vector<double> x = M.point(t.x_typical);
     // what S_j's Hessian terms move J by: alpha_p_size times their inf norm (a column sum: the matrix is symmetric)
     const SparsePattern& P = g.hessian;
     std::vector<double> size(hessians.size(), 0.0), value;
