@@ -86,23 +86,22 @@ std::vector<std::string> compiler_words(const std::string& command) {
     return words;
 }
 
-// Whether the maps are written four lanes at once. automatic: where the processor has AVX2 and that saves a tenth of
-// the maps' operations or more; where it saves less, the pairs' library is the faster (the rigid body's and
-// Henon-Heiles' steps at k = 10, whose maps are nearly all rows, took 2-5% longer built for AVX2).
-template <class Maps>
-bool wide(NativeVectors v, const Maps& maps) {
+// Whether a map is written four lanes at once: each map as the interpreter decides it (CompiledMap::set_group_vectors),
+// automatic: where the processor has AVX2 and that saves a tenth of the map's operations or more; where it saves
+// less, pairs are the faster (the rigid body's and Henon-Heiles' maps at k = 10, nearly all rows, took 2-5% longer
+// on AVX2). Per map, not per library: a rarely run map (the stacked general-dt one of grad and Hess S_dt, 2801 terms
+// at Henon-Heiles k = 16, dt = 0.8) once tipped the whole library to pairs, and its hot maps with it (853 -> 1100 ns
+// a step).
+bool wide(NativeVectors v, const CompiledMap& map) {
     if (v != NativeVectors::automatic) return v == NativeVectors::avx2;
-    if (!processor_has_avx2()) return false;
-    std::size_t saved = 0, size = 0;
-    for (const CompiledMap* m : maps) saved += m->saved_by_fours(), size += m->num_terms() + m->num_monomials();
-    return CompiledMap::fours_pay(saved, size);
+    return processor_has_avx2() && map.fours_pay();
 }
 
-std::vector<std::string> compiler_flags(bool wide) {
-    std::vector<std::string> flags = {"-O2", "-ffp-contract=off", "-fPIC", "-shared", "-w"};
-    if (wide) flags.push_back("-mavx2");
-    return flags;
-}
+// The maps written in fours carry AVX2 as a target attribute of their functions (target_attribute): the library
+// itself is built for the baseline.
+std::vector<std::string> compiler_flags() { return {"-O2", "-ffp-contract=off", "-fPIC", "-shared", "-w"}; }
+
+std::string target_attribute(bool wide) { return wide ? "__attribute__((target(\"avx2\"))) " : ""; }
 
 // The directory kept libraries go to (NativeOptions::cache_dir), created if missing. One the caller names
 // (cache_dir or $PGI_JIT_CACHE) is the only candidate: unusable, it is an error naming it, not a silent fallback.
@@ -228,9 +227,9 @@ void trim_cache(const fs::path& dir, const std::string& key, std::uintmax_t limi
 
 // The library of source in dir: the kept one if its source is the same, else compiled now (written under a temporary
 // name, then renamed into place: a concurrent build of the same source writes the same bytes).
-fs::path library_for(const std::string& source, bool wide, const NativeOptions& o) {
+fs::path library_for(const std::string& source, const NativeOptions& o) {
     const std::string compiler = compiler_of(o);
-    const std::vector<std::string> flags = compiler_flags(wide);
+    const std::vector<std::string> flags = compiler_flags();
     std::vector<std::string> argv = compiler_words(compiler);
     argv.insert(argv.end(), flags.begin(), flags.end());
     std::string command;
@@ -351,7 +350,7 @@ void write_single(std::ostream& o, const CompiledMap::Tape& tape, const std::str
         n += std::to_string(k);
         return n;
     };
-    o << "extern \"C\" void " << symbol << "(const double* __restrict in, double* __restrict out) {\n  const double m0 = 1.0;\n";
+    o << "extern \"C\" " << target_attribute(wide) << "void " << symbol << "(const double* __restrict in, double* __restrict out) {\n  const double m0 = 1.0;\n";
     for (std::size_t v = 0; v < tape.inputs; ++v) o << "  const double m" << v + 1 << " = in[" << v << "];\n";
     for (const Statement& s : statements(tape, name, wide)) o << s.text;
     o << "}\n";
@@ -366,7 +365,7 @@ void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::str
     std::ostringstream call;
     std::size_t pieces = 0, size = 0;
     const auto open_piece = [&] {
-        o << "static __attribute__((noinline)) void " << symbol << "_" << pieces << "(double* __restrict m, double* __restrict out) {\n";
+        o << "static __attribute__((noinline)) " << target_attribute(wide) << "void " << symbol << "_" << pieces << "(double* __restrict m, double* __restrict out) {\n";
         call << "  " << symbol << "_" << pieces++ << "(m, out);\n";
         size = 0;
     };
@@ -376,7 +375,7 @@ void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::str
         o << s.text;
         size += s.size;
     }
-    o << "}\nextern \"C\" void " << symbol << "(const double* __restrict in, double* __restrict out) {\n";
+    o << "}\nextern \"C\" " << target_attribute(wide) << "void " << symbol << "(const double* __restrict in, double* __restrict out) {\n";
     o << "  double m[" << 1 + tape.inputs + tape.products << "];\n  m[0] = 1.0;\n";
     for (std::size_t v = 0; v < tape.inputs; ++v) o << "  m[" << v + 1 << "] = in[" << v << "];\n";
     o << call.str() << "}\n";
@@ -387,30 +386,28 @@ constexpr std::size_t single_function_size = 2000;
 
 // What every source starts with: a group's lanes as GCC's vector extension, pairs (SSE2 on x86-64, as GroupSums)
 // or, wide, fours (AVX2).
-std::string preamble(bool wide) {
-    std::string p = "// pgi: compiled maps as straight-line code (series/native.hpp)\n"
-                    "typedef double pgi_v2 __attribute__((vector_size(16)));\n"
-                    "typedef long long pgi_m2 __attribute__((vector_size(16)));\n";
-    if (wide)
-        p += "typedef double pgi_v4 __attribute__((vector_size(32)));\n"
-             "typedef long long pgi_m4 __attribute__((vector_size(32)));\n";
-    return p;
+std::string preamble() {
+    return "// pgi: compiled maps as straight-line code (series/native.hpp)\n"
+           "typedef double pgi_v2 __attribute__((vector_size(16)));\n"
+           "typedef long long pgi_m2 __attribute__((vector_size(16)));\n"
+           "typedef double pgi_v4 __attribute__((vector_size(32)));\n"
+           "typedef long long pgi_m4 __attribute__((vector_size(32)));\n";
 }
 
-std::string map_source(const CompiledMap& map, const std::string& symbol, bool wide) {
+std::string map_source(const CompiledMap& map, const std::string& symbol, NativeVectors vectors) {
+    const bool fours = wide(vectors, map);
     std::ostringstream o;
     if (map.num_terms() + map.num_monomials() <= single_function_size)
-        write_single(o, map.tape(), symbol, wide);
+        write_single(o, map.tape(), symbol, fours);
     else
-        write_pieces(o, map.tape(), symbol, wide);
+        write_pieces(o, map.tape(), symbol, fours);
     return o.str();
 }
 
 }  // namespace
 
 std::string native_source(const CompiledMap& map, const std::string& symbol, NativeVectors vectors) {
-    const bool fours = wide(vectors, std::array<const CompiledMap*, 1>{&map});
-    return preamble(fours) + map_source(map, symbol, fours);
+    return preamble() + map_source(map, symbol, vectors);
 }
 
 std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
@@ -426,10 +423,9 @@ std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const Nati
         }
     }
     if (todo.empty()) return native;
-    const bool fours = wide(options.vectors, todo);
-    std::string source = preamble(fours);
-    for (std::size_t i = 0; i < todo.size(); ++i) source += map_source(*todo[i], "pgi_map_" + std::to_string(i), fours);
-    const fs::path library = library_for(source, fours, options);
+    std::string source = preamble();
+    for (std::size_t i = 0; i < todo.size(); ++i) source += map_source(*todo[i], "pgi_map_" + std::to_string(i), options.vectors);
+    const fs::path library = library_for(source, options);
     void* handle = ::dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!handle) throw NativeCodeError("native code: cannot load " + library.string() + ": " + ::dlerror());
     const std::shared_ptr<const void> loaded(handle, [](const void* h) { ::dlclose(const_cast<void*>(h)); });

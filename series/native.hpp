@@ -26,7 +26,8 @@ public:
 
 /// How a group of four outputs is written: AVX2's four lanes or SSE2's two pairs, as the interpreter sums them
 /// (GroupVectors, series/compile.hpp). Either gives the interpreter's bits. automatic: AVX2 where the processor running
-/// pgi has it (the library is built for and loaded on it) and it saves a tenth of the maps' operations or more.
+/// pgi has it (the library is built for and loaded on it) and it saves a tenth of the map's operations or more, map by
+/// map as the interpreter decides (CompiledMap::fours_pay); a map written in fours carries AVX2 as its functions' target.
 using NativeVectors = GroupVectors;
 
 struct NativeOptions {
@@ -49,10 +50,11 @@ struct NativeOptions {
     /// The terms and monomials compiled at most, over all maps: the maps are taken in the order given while they
     /// fit, the rest stay interpreted (the compiler's time grows with the source: 0.1-0.3 s per thousand here).
     std::size_t max_size = 6000;
-    /// A map of more terms and monomials than this stays interpreted: its code (about 20 bytes a term) no longer
-    /// fits the instruction cache beside the rest of the step, and the interpreter's small loop over its tape wins
-    /// (Lotka-Volterra at k = 14: grad and Hess S_dt, 1310, alone 1.4x faster native, the step 1.2x slower).
-    std::size_t max_map_size = 1000;
+    /// A map of more terms and monomials than this stays interpreted (its code, about 20 bytes a term, would crowd
+    /// the instruction cache). Measured with native code for every map below it (pgi_bench_step --jit, two runs each):
+    /// Lotka-Volterra's grad and Hess S_dt at k = 16, dt = 0.2 (1020 terms) and k = 14, dt = 0.4 (1310) native take
+    /// the step from 870 to 548 ns and from 1360 to 905 ns; the rigid body's and Henon-Heiles' steps unchanged.
+    std::size_t max_map_size = 3000;
 };
 
 /// The C++ source of map's evaluator, a translation unit of its own: extern "C" void symbol(const double* in, double* out), the interpreter's

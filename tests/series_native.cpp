@@ -71,9 +71,9 @@ std::string native_code_error(CompiledMap& map, const NativeOptions& o) {
 
 }  // namespace
 
-TEST_CASE("native: every output is the interpreter's, bit for bit, on random maps with rows and groups, in SSE2 and AVX2 code") {
+TEST_CASE("native: every output is the interpreter's, bit for bit, on random maps with rows and groups, in SSE2 and AVX2 code, and each map's width its own") {
     const auto r = make_ring({"unused", "a", "b", "c"});
-    for (const NativeVectors vectors : {NativeVectors::sse2, NativeVectors::avx2}) {
+    for (const NativeVectors vectors : {NativeVectors::sse2, NativeVectors::avx2, NativeVectors::automatic}) {
         CAPTURE(static_cast<int>(vectors));
         if (vectors == NativeVectors::avx2 && !__builtin_cpu_supports("avx2")) {
             MESSAGE("this processor has no AVX2: its code is not run");
@@ -83,14 +83,36 @@ TEST_CASE("native: every output is the interpreter's, bit for bit, on random map
         std::uniform_real_distribution<double> input(-2.0, 2.0);
         std::vector<CompiledMap> maps;
         for (int trial = 0; trial < 4; ++trial) maps.push_back(CompiledMap::build(mixed_outputs(r, gen), {3, 1, 2}));
-        // the source is the one asked for: four lanes at once, or pairs
-        CHECK((native_source(maps.front(), "f", vectors).find("pgi_v4{") != std::string::npos) == (vectors == NativeVectors::avx2));
+        std::vector<Poly> rows = mixed_outputs(r, gen);
+        rows.erase(rows.begin() + 7, rows.end());  // the outputs before the group: rows only, so fours save nothing
+        maps.push_back(CompiledMap::build(rows, {3, 1, 2}));
+        REQUIRE(maps.front().fours_pay());
+        REQUIRE_FALSE(maps.back().fours_pay());
+        // each map's source is the one asked for, four lanes at once (AVX2 by its functions' target attribute) or
+        // pairs; automatic decides map by map, as the interpreter does, so one library can hold both
+        for (const CompiledMap& m : maps) {
+            const std::string source = native_source(m, "f", vectors);
+            const bool fours = vectors == NativeVectors::avx2 || (vectors == NativeVectors::automatic && m.groups_in_fours());
+            CHECK((source.find("target(\"avx2\")") != std::string::npos) == fours);
+            if (&m != &maps.back()) CHECK((source.find("pgi_v4{") != std::string::npos) == fours);  // (the last has no group)
+        }
         const std::vector<CompiledMap> interpreted = maps;
         std::vector<CompiledMap*> pointers;
         for (auto& m : maps) pointers.push_back(&m);
         NativeOptions options = test_options("random");
         options.vectors = vectors;
         REQUIRE(attach_native_code(pointers, options) == maps.size());
+        // the one library built holds each map at its own width: the kept source's entry points say which
+        std::string library;
+        for (const auto& e : fs::directory_iterator(options.cache_dir))
+            if (e.path().extension() == ".cpp") library = test::slurp(e.path());
+        for (std::size_t i = 0; i < maps.size(); ++i) {
+            const std::size_t entry = library.find("void pgi_map_" + std::to_string(i) + "(const double*");
+            REQUIRE(entry != std::string::npos);
+            const std::size_t line = library.rfind('\n', entry) + 1;
+            const bool fours = vectors == NativeVectors::avx2 || (vectors == NativeVectors::automatic && interpreted[i].groups_in_fours());
+            CHECK((library.substr(line, entry - line).find("avx2") != std::string::npos) == fours);
+        }
         std::size_t compared = 0;
         for (std::size_t i = 0; i < maps.size(); ++i) {
             CHECK(maps[i].native());
@@ -233,15 +255,15 @@ TEST_CASE("native: the step with jit takes the interpreted step's trajectory bit
     fs::remove_all(cache);
 }
 
-TEST_CASE("native: a map written in pieces (above 2000 terms and monomials, limits raised) keeps the interpreter's bits") {
+TEST_CASE("native: a map written in pieces (above 2000 terms and monomials, past the default limit) keeps the interpreter's bits") {
     const auto r = make_ring({"a", "b", "c", "d"});
     std::mt19937 gen(8);
     std::uniform_int_distribution<long> coeff(-99, 99);
-    std::uniform_int_distribution<unsigned long> ex(0, 4);
+    std::uniform_int_distribution<unsigned long> ex(0, 6);
     std::vector<Poly> outputs;
     for (int o = 0; o < 7; ++o) {
         Poly f(r);
-        for (int t = 0; t < 350; ++t) {
+        for (int t = 0; t < 500; ++t) {
             Poly m = Poly::constant(r, Rational(coeff(gen), 7));
             for (std::size_t v = 0; v < 4; ++v) m = m * pow(Poly::gen(r, v), ex(gen));
             f += m;
@@ -252,6 +274,7 @@ TEST_CASE("native: a map written in pieces (above 2000 terms and monomials, limi
     const CompiledMap interpreted = map;
     REQUIRE(map.num_terms() + map.num_monomials() > 2000);
     NativeOptions o = test_options("pieces");
+    REQUIRE(map.num_terms() + map.num_monomials() > o.max_map_size);
     CHECK(attach_native_code({&map}, o) == 0);  // above the default limits: interpreted
     o.max_map_size = o.max_size = 100000;
     REQUIRE(attach_native_code({&map}, o) == 1);

@@ -2,11 +2,22 @@
 // Helpers shared by the test suites: building structures from bracket strings and loading bundled scenes.
 #include "tools/scene.hpp"
 
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
 
 namespace pgi::test {
+
+/// The whole text of a file (empty if it cannot be read).
+inline std::string slurp(const std::filesystem::path& p) {
+    std::ifstream in(p);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
 
 /// pi from {x_i, x_j} strings, the rest zero, its polynomials stored as storage says.
 inline PoissonStructure structure(std::vector<std::string> coords,

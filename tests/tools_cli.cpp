@@ -19,6 +19,7 @@
 
 using namespace pgi;
 namespace fs = std::filesystem;
+using test::slurp;
 
 namespace {
 
@@ -26,13 +27,6 @@ struct Run {
     int exit_code;
     std::string out, err;
 };
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
 
 // Runs the pgi binary with the arguments (single-quoted for the shell), after the shell assignments env.
 Run pgi_run(const std::vector<std::string>& args, const std::string& env = "") {
