@@ -4,6 +4,7 @@
 #pragma once
 #include "poisson/lane_step.hpp"
 #include "poisson/newton_step.hpp"
+#include "poisson/newton_tolerances.hpp"
 #include "series/compile_lanes.ipp"
 
 #include <cmath>
@@ -20,11 +21,6 @@ namespace {
 }
 
 using lanes::select;
-
-constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
-// NewtonStepper's constants (poisson/newton_step.cpp says why each)
-constexpr double residual_kappa = 64;
-constexpr double simplified_from = 1e-4;
 
 static_assert(lanes::width == CompiledMap::batch_lanes, "a pack's lanes are one block of CompiledMap::eval_batch");
 

@@ -1,5 +1,7 @@
 #include "poisson/newton_step.hpp"
 
+#include "poisson/newton_tolerances.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -21,8 +23,6 @@ std::string to_string(StepStatus s) {
 }
 
 namespace {
-
-constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
 
 void check_build_arguments(const PhaseSpace& M, const std::vector<Poly>* S, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
     const std::size_t n = M.dim();
@@ -193,15 +193,6 @@ const Eigen::MatrixXd& NewtonStepper::jacobian_at(const Eigen::VectorXd& xb) {
     if (sparse_) J_ = matrix_.dense();  // (the benchmarks' and tangent maps' dense view; Newton reads matrix_)
     return J_;
 }
-
-// Simplified Newton takes over once a full correction is below this fraction of |x|.
-constexpr double simplified_from = 1e-4;
-
-// kappa of the residual's tolerance kappa u (|x| + sizes of the terms summed): evaluating a sum of terms
-// of total size T costs a few roundings of T per level of the evaluation (monomials of degree d carry
-// ~d u each, Horner and matrix products ~n u), and r = alpha - x one more: 64 covers degrees and
-// dimensions to ~30 with room; a state off by more is not a solution of the step's equation.
-constexpr double residual_kappa = 64;
 
 // The acceptance test at the current base point: p = grad S_dt(xb), alpha, delta and the term sizes there,
 // r = alpha - x against its componentwise tolerance, and the realisation's neglected terms. After a small

@@ -1,6 +1,7 @@
 #include "poisson/predictor.hpp"
 
 #include "poisson/bisection.hpp"
+#include "poisson/newton_tolerances.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,18 +12,11 @@ namespace pgi {
 
 namespace {
 
-// Newton iterations from a start of relative error e: each squares the error, and the step stops after
-// the first correction below tol (the next would be ~tol^2).
-int expected_iterations(double e, double tol) {
-    int it = 1;
-    for (; e > tol && it < 8; ++it) e *= e;
-    return it;
-}
 
-// The predictor order P minimising (terms of the predictor) + (expected iterations) x (one iteration's
-// cost), the iterations expected from the first neglected term dt^(P+1) u_(P+1) at the typical state.
-// Fed the base point's series order by order (base_point_series' `enough`); stops at the first order
-// expecting one iteration, or once the next orders cannot win or cost more exact work than they save.
+// The predictor order P minimising (terms of the predictor) + Newton's expected cost (NewtonCost::from) from a
+// start off by the first neglected term dt^(P+1) u_(P+1) at the typical state. Fed the base point's series order
+// by order (base_point_series' `enough`); stops at the first order whose start is within newton_tol, or once
+// the next orders cannot win or cost more exact work than they save.
 // Deterministic: the choice depends on the scene only.
 class PredictorChoice {
 public:
@@ -40,11 +34,10 @@ public:
             for (std::size_t m = 1; m < s; ++m) terms += static_cast<double>(vl[m].length());
             top += static_cast<double>(vl[s].length());
         }
-        const int iterations = expected_iterations(e, opt_.newton_tol);
-        const double cost = terms + cost_.first + (iterations - 1) * cost_.later;
+        const double cost = terms + cost_.from(e, opt_.newton_tol);
         if (!best_ || cost < best_cost_) best_ = s - 1, best_cost_ = cost;
         // Every order costs at least one iteration: the next (terms + top) wins only below best - one
-        // iteration. An order computed from more than cheap_order_terms new terms costs several times the
+        // iteration; none wins past a start within newton_tol. An order computed from more than cheap_order_terms new terms costs several times the
         // last in exact work (seconds from ~2000 terms in 6 variables: e(3)* k = 4 spent 26 s on orders 6-7
         // to save one iteration in two), more than a run saves: the choice stays among the cheap orders.
         // A first neglected term that does not shrink means the series diverges at this dt.
@@ -52,7 +45,7 @@ public:
         const bool diverging = e_ > 0 && e >= e_;
         const bool capped = top > cheap_order_terms;
         capped_ = capped_ || capped;
-        const bool decided = iterations == 1 || hopeless || (capped && cap_stops_) || diverging;
+        const bool decided = e <= opt_.newton_tol || hopeless || (capped && cap_stops_) || diverging;
         at_limit_ = !decided && s >= limit_ + 1;
         e_ = e;
         return decided || s >= limit_ + 1;
@@ -86,7 +79,29 @@ std::size_t predictor_first_pass(const StepOptions& opt) {
 
 NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, double factor_cost, double solve_cost, bool simplified) {
     const double first = static_cast<double>(system_cost) + factor_cost + solve_cost + 150;
-    return {first, simplified ? static_cast<double>(residual_cost) + solve_cost + 150 : first};
+    return {first, simplified ? static_cast<double>(residual_cost) + solve_cost + 150 : first, static_cast<double>(residual_cost), simplified};
+}
+
+// A first correction within newton_tol is accepted with p updated by the Hessian: one iteration. With simplified
+// Newton (from corrections within simplified_from) the test evaluates grad S_dt anew after each correction, and the
+// model counts iterations until the error left, ~e^2, is below u: from e <= sqrt(u) ~ 1e-8, one iteration and that
+// test. (The test itself passes up to kappa u, e up to 3e-7 on Lotka-Volterra, but that tolerance is for the
+// evaluation's round-off: counting to it, Newton's own error grew to tens of ulps a step, and the cyclic
+// Lotka-Volterra system's Casimir drifted 3.6e-13 in 1e5 steps instead of below 1e-13.) Lotka-Volterra at k = 12,
+// dt = 0.2: counting iterations to newton_tol (1e-9) instead, the choice took P = 4 and two iterations there, 570 ns
+// a step against 410-430 for P = 8-10. Otherwise every iteration is a full one, each squaring the error, until a
+// correction is within newton_tol.
+double NewtonCost::from(double e, double newton_tol) const {
+    if (e <= newton_tol) return first;
+    double cost = first;
+    if (simplified && e <= simplified_from) {
+        const double one_iteration = std::sqrt(unit_roundoff);
+        cost += check;
+        for (int it = 1; e > one_iteration && it < 8; ++it) e *= e, cost += later;
+        return cost;
+    }
+    for (int it = 1; e > newton_tol && it < 8; ++it) e *= e, cost += later;
+    return cost;
 }
 
 Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u, double planned_dt) {

@@ -1,6 +1,7 @@
 #include "poisson/realisation_eval.hpp"
 
 #include "poisson/log_canonical.ipp"
+#include "poisson/newton_tolerances.hpp"
 
 #include <flint/fmpq.h>
 
@@ -140,7 +141,6 @@ std::vector<Eigen::MatrixXd> structure_matrices(const PoissonStructure& pi) {
 
 namespace {
 
-constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
 constexpr double two_pi = 6.283185307179586;
 
 // |L|_inf, the norm that bounds |L^m x|_inf by |L|^m |x|_inf.

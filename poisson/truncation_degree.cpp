@@ -1,6 +1,7 @@
 #include "poisson/truncation_degree.hpp"
 
 #include "poisson/hamilton_jacobi.hpp"
+#include "poisson/newton_tolerances.hpp"
 #include "poisson/predictor.hpp"
 
 #include <algorithm>
@@ -10,8 +11,6 @@
 namespace pgi {
 
 namespace {
-
-constexpr double unit_roundoff = std::numeric_limits<double>::epsilon() / 2;
 
 std::vector<double> phase_point(const Eigen::VectorXd& x, const Eigen::VectorXd& p) {
     std::vector<double> point(x.data(), x.data() + x.size());
