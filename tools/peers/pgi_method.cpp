@@ -1,5 +1,5 @@
 // pgi as a method of the comparison: the stepper is built (exact phase, compilation) before the clock
-// starts; that time is reported apart, as setup_seconds.
+// starts; that time is reported apart, as setup_seconds. Repeated runs (best_of) step on one stepper.
 #include "poisson/integrate.hpp"
 #include "tools/commands.hpp"
 #include "tools/peers/methods.hpp"
@@ -7,39 +7,54 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <memory>
 #include <optional>
 
 namespace pgi::peers {
 
+namespace {
+
+// The stepper at order k and step dt for starts near x0, built now; runs from any x0 to T on it.
+PreparedRun prepare_pgi(const Problem& pr, const State& x0, double dt, std::size_t k, RealisationChoice realisation, bool jit) {
+    StepOptions opt;
+    opt.k = k;
+    opt.dt = dt;
+    opt.jit = jit;
+    opt.realisation = realisation;
+    const auto setup = Clock::now();
+    pr.scene.phase_space().ring()->budget().restart();  // each stepper's exact phase has the whole time budget
+    // the problem at order k, kept beside its stepper
+    auto scheme = std::make_shared<const Scheme>(pr.scene.pi, pr.scene.H, pr.scene.casimirs, k, opt.realisation);
+    auto stepper = std::make_shared<NewtonStepper>(scheme->stepper(opt, Eigen::Map<const Eigen::VectorXd>(x0.data(), Eigen::Index(x0.size()))));
+    const double setup_seconds = std::chrono::duration<double>(Clock::now() - setup).count();
+    return [&pr, scheme, stepper, dt, setup_seconds](const State& start, double T, Samples* samples) {
+        Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(start.data(), Eigen::Index(start.size()));
+        pr.evaluations = 0;
+        Monitor monitor(pr, start.data(), samples);
+        const auto N = static_cast<std::size_t>(std::llround(T / dt));
+        const auto clock = Clock::now();
+        const auto summary = integrate_steps(*stepper, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& y) {
+            if (n > 0) monitor(t, y.data());
+            return false;
+        });
+        const std::string failure = summary.status == StepStatus::ok ? "" : failure_message(*stepper, summary.steps + 1, summary.status);
+        Outcome o = finish(State(x.data(), x.data() + x.size()), summary.steps, clock, monitor, failure);
+        o.evaluations = static_cast<std::size_t>(std::llround(summary.mean_iterations * double(summary.steps)));  // Newton systems
+        o.setup_seconds = setup_seconds;
+        return o;
+    };
+}
+
+}  // namespace
+
 Method pgi_method(std::size_t k, std::optional<RealisationChoice> realisation, bool jit) {
     const std::string name = (realisation ? fmt::format("pgi-k{}-{}", k, to_string(*realisation)) : fmt::format("pgi-k{}", k)) + (jit ? "-jit" : "");
-    return {name, true, [k, realisation, jit](const Problem& pr, const State& x0, double T, double dt, Samples* samples) {
-                StepOptions opt;
-                opt.k = k;
-                opt.dt = dt;
-                opt.jit = jit;
-                opt.realisation = realisation.value_or(pr.scene.realisation);
-                Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(x0.data(), Eigen::Index(x0.size()));
-                const auto setup = Clock::now();
-                pr.scene.phase_space().ring()->budget().restart();  // each stepper's exact phase has the whole time budget
-                const Scheme scheme(pr.scene.pi, pr.scene.H, pr.scene.casimirs, k, opt.realisation);  // the problem at order k
-                auto stepper = scheme.stepper(opt, x);
-                const double setup_seconds = std::chrono::duration<double>(Clock::now() - setup).count();
-                pr.evaluations = 0;
-                Monitor monitor(pr, x0.data(), samples);
-                const auto N = static_cast<std::size_t>(std::llround(T / dt));
-                const auto start = Clock::now();
-                const auto summary = integrate_steps(stepper, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& y) {
-                    if (n > 0) monitor(t, y.data());
-                    return false;
-                });
-                const std::string failure =
-                    summary.status == StepStatus::ok ? "" : failure_message(stepper, summary.steps + 1, summary.status);
-                Outcome o = finish(State(x.data(), x.data() + x.size()), summary.steps, start, monitor, failure);
-                o.evaluations = static_cast<std::size_t>(std::llround(summary.mean_iterations * double(summary.steps)));  // Newton systems
-                o.setup_seconds = setup_seconds;
-                return o;
-            }};
+    const auto prepare = [k, realisation, jit](const Problem& pr, const State& x0, double dt) {
+        return prepare_pgi(pr, x0, dt, k, realisation.value_or(pr.scene.realisation), jit);
+    };
+    return {name, true,
+            [prepare](const Problem& pr, const State& x0, double T, double dt, Samples* samples) { return prepare(pr, x0, dt)(x0, T, samples); },
+            prepare};
 }
 
 }  // namespace pgi::peers

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -79,9 +80,13 @@ Outcome finish(State x, std::size_t steps, Clock::time_point start, const Monito
 }
 
 Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, double value, int repeats) {
-    Outcome best = m.run(pr, x0, T, value, nullptr);
+    const PreparedRun run = m.prepare ? m.prepare(pr, x0, value)
+                                      : PreparedRun([&](const State& x, double t, Samples* s) { return m.run(pr, x, t, value, s); });
+    Outcome best = run(x0, T, nullptr);
     for (int r = 1; r < repeats && best.seconds < 0.2; ++r) {
-        Outcome o = m.run(pr, x0, T, value, nullptr);
+        Outcome o = run(x0, T, nullptr);
+        if (o.ok && best.ok && o.x != best.x)
+            throw std::logic_error(fmt::format("{} at {:g}: a repeated run ended at another state", m.name, value));
         if (o.seconds < best.seconds) best.seconds = o.seconds;
     }
     return best;

@@ -76,15 +76,25 @@ std::string stop_reason(const double* x, std::size_t n, std::size_t steps, doubl
 /// with the monitor's errors and the problem's evaluation count.
 Outcome finish(State x, std::size_t steps, Clock::time_point start, const Monitor& monitor, std::string failure = {});
 
+/// A run at one value of the ladder, set up: x0, T and the samples wanted -> the outcome, its stepping timed.
+using PreparedRun = std::function<Outcome(const State& x0, double T, Samples*)>;
+
 /// A method of the comparison: a fixed step (the ladder's value is dt) or an adaptive one (a tolerance).
 struct Method {
     std::string name;
     bool fixed_step;
     std::function<Outcome(const Problem&, const State& x0, double T, double value, Samples*)> run;
+    /// Where a run has a set-up worth doing once (pgi: the exact phase and the compilation), the run at value set up
+    /// for starts near x0; run does the same set-up each time. Empty for the peers, whose set-up is a driver's.
+    std::function<PreparedRun(const Problem&, const State& x0, double value)> prepare = {};
 };
 
-/// Runs a method `repeats` times while runs are short (< 0.2 s), keeping the fastest time: the
-/// machines are shared and noisy, and the best time is the least disturbed.
+/// Runs a method `repeats` times while runs are short (< 0.2 s), keeping the fastest time: the machines are
+/// shared and noisy, and the best time is the least disturbed. A method with a set-up (Method::prepare) is set up
+/// once and its repeats run on it, so that every timed run after the first steps with warm caches, as the
+/// peers' do (a pgi run of 500 steps after its exact phase otherwise paid ~20 us to bring its maps' code back
+/// into the caches). Every repeat must end at the first run's state: one that does not (a run's state leaking
+/// into the next) is a std::logic_error.
 Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, double value, int repeats = 9);
 
 /// The absolute tolerance matching a relative one at the scale of x0 (its largest component), so the
