@@ -82,25 +82,31 @@ NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, doubl
     return {first, simplified ? static_cast<double>(residual_cost) + solve_cost + 150 : first, static_cast<double>(residual_cost), simplified};
 }
 
-// A first correction within newton_tol is accepted with p updated by the Hessian: one iteration. With simplified
-// Newton (from corrections within simplified_from) the test evaluates grad S_dt anew after each correction, and the
-// model counts iterations until the error left, ~e^2, is below u: from e <= sqrt(u) ~ 1e-8, one iteration and that
-// test. (The test itself passes up to kappa u, e up to 3e-7 on Lotka-Volterra, but that tolerance is for the
-// evaluation's round-off: counting to it, Newton's own error grew to tens of ulps a step, and the cyclic
-// Lotka-Volterra system's Casimir drifted 3.6e-13 in 1e5 steps instead of below 1e-13.) Lotka-Volterra at k = 12,
-// dt = 0.2: counting iterations to newton_tol (1e-9) instead, the choice took P = 4 and two iterations there, 570 ns
-// a step against 410-430 for P = 8-10. Otherwise every iteration is a full one, each squaring the error, until a
-// correction is within newton_tol.
+// Newton from a start off by e, as NewtonStepper::newton runs it: a full iteration corrects by about the error and
+// leaves its square; a correction within newton_tol ends the step (p updated by the Hessian). Above it, from
+// corrections within simplified_from, simplified Newton runs the acceptance test with grad S_dt anew, then a solve
+// with the kept factors, which multiplies the error by the kept J's own error (the error where J was evaluated).
+// The model counts the test as passed once the error left is below u: from e <= sqrt(u) ~ 1e-8, one iteration and
+// that test. (The test itself passes up to kappa u, e up to 3e-7 on Lotka-Volterra, but that tolerance is for the
+// evaluation's round-off: steps accepted there drift a Casimir by tens of ulps a step; Lotka-Volterra's drifted
+// 3.6e-13 in 1e5 steps instead of below 1e-13.) Lotka-Volterra at k = 12, dt = 0.2: counting full iterations to
+// newton_tol (1e-9) instead, the choice took P = 4 and two iterations there, 570 ns a step against 410-430 for
+// P = 8-10 and one.
 double NewtonCost::from(double e, double newton_tol) const {
-    if (e <= newton_tol) return first;
-    double cost = first;
-    if (simplified && e <= simplified_from) {
-        const double one_iteration = std::sqrt(unit_roundoff);
-        cost += check;
-        for (int it = 1; e > one_iteration && it < 8; ++it) e *= e, cost += later;
-        return cost;
+    double cost = first, left = e * e, kept = e;  // the first full iteration, the error it leaves, its J's error
+    bool small = e <= newton_tol;
+    for (int round = 1; !small && round < 8; ++round) {
+        if (simplified && kept <= simplified_from) {
+            cost += check;
+            if (left <= unit_roundoff) break;
+            cost += later - check;
+            left *= kept;
+        } else {
+            cost += first;
+            small = left <= newton_tol;
+            kept = left, left *= left;
+        }
     }
-    for (int it = 1; e > newton_tol && it < 8; ++it) e *= e, cost += later;
     return cost;
 }
 
