@@ -337,6 +337,26 @@ TEST_CASE("newton_step: the predictor order follows its cost model, and the iter
     CHECK(NewtonStepper::build(s.pi, s.H, opt, vec(*s.x0)).info().predictor_order == 6);
 }
 
+TEST_CASE("newton_step: Newton's expected cost round by round: full iterations square the error, kept-factor rounds multiply it by the kept J's") {
+    const NewtonCost c{1000, 300, 200, true}, full{1000, 1000, 200, false};
+    const double tol = 1e-9;
+    CHECK(c.from(1e-10, tol) == 1000);             // a correction within newton_tol: p updated by the Hessian
+    CHECK(c.from(5e-9, tol) == 1000 + 200);        // leaves 2.5e-17 < u: the test anew passes after one iteration
+    CHECK(c.from(1e-6, tol) == 1000 + 300 + 200);  // leaves 1e-12; one kept-factor round: 1e-18
+    CHECK(c.from(1e-3, tol) == 2000 + 300 + 200);  // above simplified_from: a second full iteration, then as above
+    CHECK(full.from(1e-6, tol) == 2000);           // without simplified Newton: full iterations until one is small
+    CHECK(full.from(1e-3, tol) == 3000);
+    // the case that asked for it: at Lotka-Volterra k = 12, dt = 0.2 counting full iterations to newton_tol chose
+    // P = 4 and two iterations a step; the step now takes one
+    const Scene s = test::bundled("lotka_volterra");
+    NewtonStepper st = stepper(s, 12, 0.2, vec(*s.x0));
+    CHECK(st.info().predictor_order >= 8);
+    Eigen::VectorXd x = vec(*s.x0);
+    const auto summary = integrate_steps(st, x, 500, [](std::size_t, double, const Eigen::VectorXd&) { return false; });
+    REQUIRE(summary.status == StepStatus::ok);
+    CHECK(summary.mean_iterations <= 1.05);
+}
+
 TEST_CASE("newton_step: with the radial realisation a linear H is integrated exactly (S_t = t H), for any k") {
     const Scene s = test::bundled("lotka_volterra");  // H = x1 + x2 + x3
     const VectorField f(s);
