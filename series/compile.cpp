@@ -343,26 +343,41 @@ struct GroupSums {
     using Pair = double __attribute__((vector_size(16)));
     Pair lo{}, hi{};
     using Bits = long long __attribute__((vector_size(16)));
-    // acc += c m where c is not zero (a padding zero adds +0, which leaves a sum that started at +0 as it is, even
-    // where m is infinite or NaN: the lane kernel skips those terms, and the bits agree)
+    // acc += c m; masked: where c is not zero (a padding zero adds +0, which leaves a sum that started at +0 as it
+    // is, even where m is infinite or NaN: the lane kernel skips those terms, and the bits agree)
+    template <bool masked>
     void add(const double* c, double m) {
         Pair a, b;
         std::memcpy(&a, c, sizeof a);
         std::memcpy(&b, c + 2, sizeof b);
         const Pair mm = {m, m}, zero = {0, 0};
-        lo += Pair(Bits(a * mm) & Bits(a != zero));
-        hi += Pair(Bits(b * mm) & Bits(b != zero));
+        if constexpr (masked) {
+            lo += Pair(Bits(a * mm) & Bits(a != zero));
+            hi += Pair(Bits(b * mm) & Bits(b != zero));
+        } else {
+            lo += a * mm;
+            hi += b * mm;
+        }
     }
+    GroupSums operator+(const GroupSums& o) const { return {lo + o.lo, hi + o.hi}; }
+    bool finite() const { return std::isfinite(lo[0]) && std::isfinite(lo[1]) && std::isfinite(hi[0]) && std::isfinite(hi[1]); }
     double operator[](std::size_t i) const { return i < 2 ? lo[i] : hi[i - 2]; }
 };
-// The same in long double (reference evaluations), one lane at a time.
+// The same in long double (reference evaluations), one lane at a time; its zero coefficients always skipped.
 template <class T>
 struct ScalarSums {
     std::array<T, CompiledMap::group_width> v{};
+    template <bool>
     void add(const double* c, T m) {
         for (std::size_t i = 0; i < v.size(); ++i)
             if (c[i] != 0) v[i] += T(c[i]) * m;
     }
+    ScalarSums operator+(const ScalarSums& o) const {
+        ScalarSums s;
+        for (std::size_t i = 0; i < v.size(); ++i) s.v[i] = v[i] + o.v[i];
+        return s;
+    }
+    bool finite() const { return true; }  // (never multiplied a zero coefficient: nothing to redo)
     T operator[](std::size_t i) const { return v[i]; }
 };
 }  // namespace

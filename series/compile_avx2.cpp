@@ -13,12 +13,18 @@ struct QuadSums {
     using Quad = double __attribute__((vector_size(32)));
     using Bits = long long __attribute__((vector_size(32)));
     Quad v{};
+    template <bool masked>
     void add(const double* c, double m) {
         Quad a;
         __builtin_memcpy(&a, c, sizeof a);
         const Quad mm = {m, m, m, m}, zero = {0, 0, 0, 0};
-        v += Quad(Bits(a * mm) & Bits(a != zero));
+        if constexpr (masked)
+            v += Quad(Bits(a * mm) & Bits(a != zero));
+        else
+            v += a * mm;
     }
+    QuadSums operator+(const QuadSums& o) const { return {v + o.v}; }
+    bool finite() const { return __builtin_isfinite(v[0]) && __builtin_isfinite(v[1]) && __builtin_isfinite(v[2]) && __builtin_isfinite(v[3]); }
     double operator[](std::size_t i) const { return v[i]; }
 };
 
