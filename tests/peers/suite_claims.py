@@ -44,7 +44,8 @@ def main():
     # bad input: exit 2 and a message naming the problem, before any run
     for args, message in ((["--peers", "bogus"], "unknown peer 'bogus'"), (["--orders", "0"], "--orders"),
                           (["--tols", "0"], "--tols"), (["--plot", "x.svg"], "--plot draws from the --csv file"),
-                          (["--x0", "1,2"], "x0"), (["--csv", "/nonexistent/x.csv"], "directory '/nonexistent' does not exist")):
+                          (["--x0", "1,2"], "x0"), (["--csv", "/nonexistent/x.csv"], "directory '/nonexistent' does not exist"),
+                          (["--dts", "0.1414", "--t-end", "100"], "--dts: dt = 0.1414 does not divide the final time 100")):
         r = subprocess.run([peers, f"{scenes}/rigid_body.toml", *args], capture_output=True, text=True)
         claim(r.returncode == 2 and message in r.stderr and not r.stdout, f"pgi_peers {' '.join(args)}: exit 2, says {message!r}")
     return 1 if failures else 0

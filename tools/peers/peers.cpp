@@ -311,10 +311,18 @@ int main(int argc, char** argv) {
             const auto methods = select_methods({scene.order}, extra, peer_names, jit);
             summary["suite"] = suite(pr, methods, x0, t_end_opt.value_or(scene.t_end.value_or(100.0)), suite_tol);
         } else {
-            const double dt = scene.dt;
+            const double dt = scene.dt, T = t_end_opt.value_or(100.0);
             const Ladders ladders{dts.empty() ? std::vector<double>{4 * dt, 2 * dt, dt, dt / 2, dt / 4, dt / 8} : dts, tols};
+            // a fixed step runs llround(T / dt) steps: one that does not divide T would end elsewhere, and its error
+            // against the reference at T would be measured at another time
+            for (double v : ladders.steps) {
+                const double steps = std::round(T / v);
+                if (!(steps >= 1) || std::abs(steps * v - T) > 1e-9 * T)
+                    throw std::invalid_argument(fmt::format("--dts: dt = {} does not divide the final time {} ({} steps end at t = {}); "
+                                                            "give steps T / N", v, T, steps, steps * v));
+            }
             const auto methods = select_methods(orders, extra, peer_names, jit);
-            summary["work_precision"] = work_precision(pr, methods, ladders, x0, t_end_opt.value_or(100.0), csv_file);
+            summary["work_precision"] = work_precision(pr, methods, ladders, x0, T, csv_file);
             if (!plot_file.empty()) plot_work_precision(csv_file, plot_file, scene.name);
             if (!drift_file.empty()) summary["drift"] = drift(pr, methods, x0, drift_t_end, drift_file);
             if (long_t_end > 0) summary["long"] = long_table(pr, methods, x0, long_t_end);
