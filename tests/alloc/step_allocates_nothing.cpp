@@ -6,37 +6,51 @@
 #include <doctest/doctest.h>
 
 #include <cstddef>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include <unistd.h>
 
 #include "tests/alloc/count_malloc.hpp"
 
-TEST_CASE("newton_step: no allocation in the hot loop, for every realisation form") {
-    for (const std::string name : {"rigid_body", "lotka_volterra", "nambu", "henon_heiles", "volterra_chain"}) {
-        pgi::Scene s = pgi::load_scene(std::string(PGI_SCENES_DIR) + "/" + name + ".toml");
-        Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
-        for (std::size_t k : {1, 4}) {
-            pgi::StepOptions opt;
-            opt.k = k;
-            opt.dt = s.dt;
-            auto st = pgi::NewtonStepper::build(s.pi, s.H, opt, x);
-            Eigen::VectorXd inc(x.size());
-            allocations = 0;
-            counting = true;
-            for (int n = 0; n < 200; ++n) {
-                // dt is a run-time argument: a smaller one alternates with the built one
-                if (st.step(x, n % 2 ? s.dt : s.dt / 3, inc) != pgi::StepStatus::ok) break;
-                x += inc;
+TEST_CASE("newton_step: no allocation in the hot loop, for every realisation form, interpreted and native") {
+    // native code's libraries go to a directory of this run's, removed at the end (not the user's cache)
+    const std::filesystem::path cache = std::filesystem::temp_directory_path() / ("pgi-alloc-test-" + std::to_string(::getpid()));
+    ::setenv("PGI_JIT_CACHE", cache.c_str(), 1);
+    for (const std::string name : {"rigid_body", "lotka_volterra", "nambu", "henon_heiles", "volterra_chain"})
+        for (const bool jit : {false, true}) {
+            pgi::Scene s = pgi::load_scene(std::string(PGI_SCENES_DIR) + "/" + name + ".toml");
+            Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
+            for (std::size_t k : {1, 4}) {
+                pgi::StepOptions opt;
+                opt.k = k;
+                opt.dt = s.dt;
+                opt.jit = jit;
+                auto st = pgi::NewtonStepper::build(s.pi, s.H, opt, x);
+                CHECK((st.info().native_maps > 0) == jit);
+                Eigen::VectorXd inc(x.size());
+                allocations = 0;
+                counting = true;
+                for (int n = 0; n < 200; ++n) {
+                    // dt is a run-time argument: a smaller one alternates with the built one
+                    if (st.step(x, n % 2 ? s.dt : s.dt / 3, inc) != pgi::StepStatus::ok) break;
+                    x += inc;
+                }
+                counting = false;
+                CAPTURE(name);
+                CAPTURE(k);
+                CAPTURE(jit);
+                CHECK(allocations == 0);
+                // the counter does count: a heap vector is one allocation
+                counting = true;
+                Eigen::VectorXd probe(64);
+                counting = false;
+                CHECK(allocations == 1);
             }
-            counting = false;
-            CAPTURE(name);
-            CAPTURE(k);
-            CHECK(allocations == 0);
-            // the counter does count: a heap vector is one allocation
-            counting = true;
-            Eigen::VectorXd probe(64);
-            counting = false;
-            CHECK(allocations == 1);
         }
-    }
+    ::unsetenv("PGI_JIT_CACHE");
+    std::filesystem::remove_all(cache);
 }
 
 TEST_CASE("issue 16.1: no allocation in the Lie-Poisson step past its series' radius (scaling and squaring)") {
