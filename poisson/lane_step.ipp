@@ -4,7 +4,7 @@
 #pragma once
 #include "poisson/lane_step.hpp"
 #include "poisson/newton_step.hpp"
-#include "poisson/newton_tolerances.hpp"
+#include "poisson/newton_rules.hpp"
 #include "series/compile_lanes.ipp"
 
 #include <cmath>
@@ -259,7 +259,7 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
 // the increment delta, non-finite, above the truncation bound, or ok.
 template <int N, class T>
 void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
-    const Mask ill = lanes::both(E, lanes::negate(tolerance_ <= std::sqrt(unit_roundoff) * lanes::max(x_norm_, inf_norm<N>(xb_))));
+    const Mask ill = lanes::both(E, newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm_, inf_norm<N>(xb_))));
     end(ill, StepStatus::ill_conditioned);
     const Mask solved = lanes::both(E, lanes::negate(ill));
     commit<N>(solved, check_.delta, increment);
@@ -312,7 +312,7 @@ void LaneStep<N, T>::round(const NewtonStepper& s, T* increment) {
             const T c = inf_norm<N>(d);
             end(lanes::both(go, lanes::negate(lanes::is_finite(c))), StepStatus::non_finite);
             const Mask on = lanes::both(go, lanes::is_finite(c));
-            simplified_ = select(on, c <= correction_ / 2, simplified_);
+            simplified_ = select(on, newton_rules::stays_simplified(c, correction_), simplified_);
             correction_ = select(on, c, correction_);
             previous_ = select(on, c, previous_);
             previous_residual_ = select(on, residual_, previous_residual_);
@@ -325,10 +325,9 @@ void LaneStep<N, T>::round(const NewtonStepper& s, T* increment) {
     const T residual = inf_norm<N>(r);
     commit<N>(F, r, r_);
     residual_ = select(F, residual, residual_);
-    // backtracking along the last correction while the residual grows above sqrt(u) |x|
-    const T noise = std::sqrt(unit_roundoff) * lanes::max(x_norm_, inf_norm<N>(xb_));
-    const Mask back = lanes::both(lanes::both(F, lanes::negate(residual <= good_residual_)),
-                                  lanes::both(lanes::negate(residual <= noise), lambda_ > 0x1p-20));
+    // backtracking along the last correction while the residual grows above the noise (newton_rules)
+    const T noise = newton_rules::noise(x_norm_, inf_norm<N>(xb_));
+    const Mask back = lanes::both(F, newton_rules::backtracks(residual, good_residual_, noise, lambda_));
     lambda_ = select(back, lambda_ / 2, lambda_);
     for (int i = 0; i < N; ++i) xb_[i] = select(back, good_[i] - lambda_ * dx_[i], xb_[i]);
     const Mask forward = lanes::both(F, lanes::negate(back));
@@ -350,8 +349,8 @@ void LaneStep<N, T>::round(const NewtonStepper& s, T* increment) {
     end(lanes::both(go, lanes::negate(lanes::is_finite(c))), StepStatus::non_finite);
     const Mask on = lanes::both(go, lanes::is_finite(c));
     const T scale = lanes::max(x_norm_, inf_norm<N>(xb_));
-    const Mask small = c <= s.opt_.newton_tol * scale;
-    const Mask settled = lanes::either(small, lanes::both(c > previous_ / 2, residual > previous_residual_ / 2));
+    const Mask small = newton_rules::small(c, s.opt_.newton_tol, scale);
+    const Mask settled = newton_rules::settled(small, c, previous_, residual, previous_residual_);
     previous_ = select(on, c, previous_);
     previous_residual_ = select(on, residual, previous_residual_);
     const Mask test = lanes::both(on, settled);
@@ -361,8 +360,7 @@ void LaneStep<N, T>::round(const NewtonStepper& s, T* increment) {
         finish(s, accepted, increment);
     }
     const Mask next = lanes::both(on, lanes::negate(accepted));
-    const Mask simplify = lanes::both(lanes::both(s.simplified_newton_ ? lanes::all_mask<T>() : lanes::none_mask<T>(), lanes::negate(small)),
-                                      c <= simplified_from * scale);
+    const Mask simplify = newton_rules::simplifies(s.simplified_newton_, small, c, scale);
     simplified_ = select(next, simplify, simplified_);
 }
 

@@ -1,6 +1,6 @@
 #include "poisson/newton_step.hpp"
 
-#include "poisson/newton_tolerances.hpp"
+#include "poisson/newton_rules.hpp"
 
 #include <algorithm>
 #include <array>
@@ -252,7 +252,7 @@ bool NewtonStepper::within_tolerance() {
 // The accepted step's status: ill-conditioned when the tolerance itself exceeds sqrt(u) |x|, else the
 // increment (delta at the accepted base point) and the truncation's verdict.
 StepStatus NewtonStepper::finish(double x_norm, Eigen::VectorXd& increment) {
-    if (!(tolerance_ <= std::sqrt(unit_roundoff) * std::max(x_norm, xb_.lpNorm<Eigen::Infinity>()))) return StepStatus::ill_conditioned;
+    if (newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm, xb_.lpNorm<Eigen::Infinity>()))) return StepStatus::ill_conditioned;
     increment = check_.delta;
     if (!increment.allFinite()) return StepStatus::non_finite;
     return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
@@ -289,7 +289,7 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
             iterations_ = it;
             const double correction = dx_.lpNorm<Eigen::Infinity>();
             if (!std::isfinite(correction)) return StepStatus::non_finite;
-            simplified = correction <= correction_ / 2;  // else the next iteration refreshes the Jacobian
+            simplified = newton_rules::stays_simplified(correction, correction_);
             correction_ = correction;
             previous = correction_, previous_residual = residual_;
             continue;
@@ -303,11 +303,9 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
         assemble();
         r_ = evaluated_alpha() - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
-        // Far from the solution (large steps) a full correction may overshoot: back along it, halving (down
-        // to 2^-20 of it: stopping at 1/64 took points whose residual had grown 20-fold, from which sl(2)*
-        // at dt = 1/2 wandered off), while the residual grows above sqrt(u) |x| (below, growth is round-off noise).
-        const double noise = std::sqrt(unit_roundoff) * std::max(x_norm, xb_.lpNorm<Eigen::Infinity>());
-        if (!(residual_ <= good_residual) && !(residual_ <= noise) && lambda > 0x1p-20) {
+        // far from the solution (large steps) a full correction may overshoot: back along it (newton_rules)
+        const double noise = newton_rules::noise(x_norm, xb_.lpNorm<Eigen::Infinity>());
+        if (newton_rules::backtracks(residual_, good_residual, noise, lambda)) {
             lambda /= 2;
             xb_ = xb_good_ - lambda * dx_;
             continue;
@@ -321,12 +319,11 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
         correction_ = dx_.lpNorm<Eigen::Infinity>();
         if (!std::isfinite(correction_)) return StepStatus::non_finite;
         const double scale = std::max(x_norm, xb_.lpNorm<Eigen::Infinity>());
-        // small, or neither it nor the residual halving any more: Newton has reached its evaluation's round-off
-        const bool small = correction_ <= opt_.newton_tol * scale;
-        const bool settled = small || (correction_ > previous / 2 && residual_ > previous_residual / 2);
+        const bool small = newton_rules::small(correction_, opt_.newton_tol, scale);
+        const bool settled = newton_rules::settled(small, correction_, previous, residual_, previous_residual);
         previous = correction_, previous_residual = residual_;
         if (settled && accept_check(x, small)) return finish(x_norm, increment);
-        simplified = simplified_newton_ && !small && correction_ <= simplified_from * scale;
+        simplified = newton_rules::simplifies(simplified_newton_, small, correction_, scale);
     }
     return StepStatus::newton_not_converged;
 }

@@ -1,7 +1,7 @@
 #include "poisson/predictor.hpp"
 
 #include "poisson/bisection.hpp"
-#include "poisson/newton_tolerances.hpp"
+#include "poisson/newton_rules.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 #include "poisson/truncation_degree.hpp"
 
 #include "poisson/hamilton_jacobi.hpp"
-#include "poisson/newton_tolerances.hpp"
+#include "poisson/newton_rules.hpp"
 #include "poisson/predictor.hpp"
 
 #include <algorithm>
