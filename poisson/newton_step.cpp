@@ -40,8 +40,8 @@ void check_build_arguments(const PhaseSpace& M, const std::vector<Poly>* S, cons
 HessianTruncation newton_matrix_truncation(const PoissonStructure& pi, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
     const PhaseSpace& M = pi.phase_space();
     const std::size_t n = M.dim();
-    HessianTruncation t{std::span<const double>(x_typical.data(), n), 0, unit_roundoff / opt.newton_tol};
     if (n > hessian_truncation_dim || !(opt.newton_tol > 0)) return HessianTruncation{};
+    HessianTruncation t{std::span<const double>(x_typical.data(), n), 0, unit_roundoff / opt.newton_tol};
     const std::vector<double> point = M.point(t.x_typical);
     for (std::size_t i = 0; i < n; ++i) {
         double row = 0;

@@ -12,7 +12,6 @@ namespace pgi {
 
 namespace {
 
-
 // The predictor order P minimising (terms of the predictor) + Newton's expected cost (NewtonCost::from) from a
 // start off by the first neglected term dt^(P+1) u_(P+1) at the typical state. Fed the base point's series order
 // by order (base_point_series' `enough`); stops at the first order whose start is within newton_tol, or once
@@ -37,11 +36,12 @@ public:
         const double cost = terms + cost_.from(e, opt_.newton_tol);
         if (!best_ || cost < best_cost_) best_ = s - 1, best_cost_ = cost;
         // Every order costs at least one iteration: the next (terms + top) wins only below best - one
-        // iteration; none wins past a start within newton_tol. An order computed from more than cheap_order_terms new terms costs several times the
-        // last in exact work (seconds from ~2000 terms in 6 variables: e(3)* k = 4 spent 26 s on orders 6-7
-        // to save one iteration in two), more than a run saves: the choice stays among the cheap orders.
+        // iteration; none wins past a start within newton_tol. An order computed from more than
+        // cheap_order_terms new terms costs several times the last in exact work (seconds from ~2000 terms in
+        // 6 variables: e(3)* k = 4 spent 26 s on orders 6-7 to save one iteration in two), more than a run
+        // saves: the choice stays among the cheap orders.
         // A first neglected term that does not shrink means the series diverges at this dt.
-        const bool hopeless = terms + top >= best_cost_ - cost_.first;
+        const bool hopeless = terms + top >= best_cost_ - cost_.full;
         const bool diverging = e_ > 0 && e >= e_;
         const bool capped = top > cheap_order_terms;
         capped_ = capped_ || capped;
@@ -78,8 +78,8 @@ std::size_t predictor_first_pass(const StepOptions& opt) {
 }
 
 NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, double factor_cost, double solve_cost, bool simplified) {
-    const double first = static_cast<double>(system_cost) + factor_cost + solve_cost + 150;
-    return {first, simplified ? static_cast<double>(residual_cost) + solve_cost + 150 : first, static_cast<double>(residual_cost), simplified};
+    return {static_cast<double>(system_cost) + factor_cost + solve_cost + 150, static_cast<double>(residual_cost), solve_cost + 150,
+            simplified};
 }
 
 // Newton from a start off by e, as NewtonStepper::newton runs it: a full iteration corrects by about the error and
@@ -93,16 +93,16 @@ NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, doubl
 // newton_tol (1e-9) instead, the choice took P = 4 and two iterations there, 570 ns a step against 410-430 for
 // P = 8-10 and one.
 double NewtonCost::from(double e, double newton_tol) const {
-    double cost = first, left = e * e, kept = e;  // the first full iteration, the error it leaves, its J's error
+    double cost = full, left = e * e, kept = e;  // the first full iteration, the error it leaves, its J's error
     bool small = e <= newton_tol;
     for (int round = 1; !small && round < 8; ++round) {
         if (simplified && kept <= simplified_from) {
             cost += check;
             if (left <= unit_roundoff) break;
-            cost += later - check;
+            cost += kept_solve;
             left *= kept;
         } else {
-            cost += first;
+            cost += full;
             small = left <= newton_tol;
             kept = left, left *= left;
         }

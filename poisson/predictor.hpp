@@ -16,15 +16,15 @@ std::size_t predictor_limit(const StepOptions& opt);
 /// The orders the choice scores first, before any deeper series is computed (predictor_limit if the order is asked).
 std::size_t predictor_first_pass(const StepOptions& opt);
 
-/// What Newton costs in multiply-adds, roughly, for the predictor's cost model: its first iteration (one
+/// What Newton costs in multiply-adds, roughly, for the predictor's cost model: a full iteration (one
 /// evaluation of the Newton system: grad and Hess of S_dt, the realisation with its derivatives; the
 /// factorisation and solve of J; and a fixed 150 for what is not arithmetic (calls, pivoting, the update),
-/// which measured F+J times on the bundled scenes put at 100-200 predictor terms' worth), each later one
-/// (simplified Newton: the residual alone and a solve with the kept factors; the first's cost where it is
-/// not used), and the acceptance test with grad S_dt evaluated anew (the residual alone), which follows a
-/// correction above newton_tol.
+/// which measured F+J times on the bundled scenes put at 100-200 predictor terms' worth), the acceptance test
+/// with grad S_dt evaluated anew (the residual alone), which follows a correction above newton_tol, and a
+/// solve with the kept factors (with its 150); simplified: whether the stepper runs simplified Newton (a
+/// round of it is the test and a kept solve), else every iteration is a full one.
 struct NewtonCost {
-    double first = 0, later = 0, check = 0;
+    double full = 0, check = 0, kept_solve = 0;
     bool simplified = false;
     /// Newton's expected cost from a start of relative error e (docs/math.md 6).
     double from(double e, double newton_tol) const;

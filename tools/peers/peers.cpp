@@ -318,8 +318,9 @@ int main(int argc, char** argv) {
             for (double v : ladders.steps) {
                 const double steps = std::round(T / v);
                 if (!(steps >= 1) || std::abs(steps * v - T) > 1e-9 * T)
-                    throw std::invalid_argument(fmt::format("--dts: dt = {} does not divide the final time {} ({} steps end at t = {}); "
-                                                            "give steps T / N", v, T, steps, steps * v));
+                    throw std::invalid_argument(fmt::format("{}: dt = {} does not divide the final time {} ({} steps end at t = {}); "
+                                                            "give steps T / N", dts.empty() ? "the scene's step ladder (4 dt .. dt/8)" : "--dts",
+                                                            v, T, steps, steps * v));
             }
             const auto methods = select_methods(orders, extra, peer_names, jit);
             summary["work_precision"] = work_precision(pr, methods, ladders, x0, T, csv_file);
