@@ -1,6 +1,7 @@
 #pragma once
 // Scene: a TOML file read into exact objects (the only place that knows TOML).
 #include "scheme/scheme.hpp"
+#include "series/message.hpp"
 
 #include <memory>
 
@@ -11,9 +12,6 @@
 #include <vector>
 
 namespace pgi {
-
-/// s with every control character (and DEL) written as \xNN, so a message never carries raw terminal codes.
-std::string printable(const std::string& s);
 
 /// Bad input: what() reads "FILE: key: problem", control characters escaped.
 class SceneError : public std::runtime_error {
