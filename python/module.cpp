@@ -1,6 +1,9 @@
-// pgi._pgi: the Scheme for Python (pybind11). The pure-Python package pgi/__init__.py wraps it: results as
-// objects, StepFailure raised from a failed step's report, sympy conversions.
+// pgi._pgi: the Scheme for Python (pybind11). The pure-Python package pgi/__init__.py wraps it: the arguments'
+// types and ranges checked, results as objects, StepFailure raised from a failed step's report, sympy conversions.
+// Every failure here becomes a Python exception: the library's InputError, ResourceLimitError (a run above its
+// budget: RunBudgetError), NativeCodeError; std::bad_alloc a MemoryError; Ctrl-C a KeyboardInterrupt (interruptible).
 #include "scheme/ensemble.hpp"
+#include "scheme/run_request.hpp"
 #include "scheme/scheme.hpp"
 #include "scheme/trajectory.hpp"
 #include "scheme/version.hpp"
@@ -12,15 +15,76 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <chrono>
+#include <exception>
+#include <future>
 #include <map>
 #include <memory>
+#include <new>
 #include <optional>
+#include <thread>
 #include <tuple>
+#include <type_traits>
 
 namespace py = pybind11;
 using namespace pybind11::literals;
 
 namespace {
+
+// Runs work(cancel) (C++ only: it must not touch a Python object) on a thread of its own while the calling
+// thread, the GIL released, waits for it in slices of 30 ms and between them checks for signals with the GIL
+// held (PyErr_CheckSignals runs Python's handlers: Ctrl-C raises KeyboardInterrupt). On a signal the run's
+// flag is set, the worker stops at its next step (RunInterrupted, discarded) and the handler's exception is
+// raised; otherwise the worker's result is returned or its exception rethrown here. Every long call of the
+// module goes through it: integrate, integrate_ensemble, a step's build and the exact phase (which does not
+// poll the flag: a signal during it is raised when it ends).
+template <class Work>
+auto interruptible(Work work) -> decltype(work(std::declval<const pgi::RunCancel&>())) {
+    using Result = decltype(work(std::declval<const pgi::RunCancel&>()));
+    using Slot = std::conditional_t<std::is_void_v<Result>, bool, std::optional<Result>>;
+    pgi::RunCancel cancel;
+    Slot result{};
+    std::exception_ptr error;
+    bool signalled = false;
+    {
+        py::gil_scoped_release release;
+        std::promise<void> done;
+        std::future<void> finished = done.get_future();
+        std::thread worker([&] {
+            try {
+                if constexpr (std::is_void_v<Result>) {
+                    work(cancel);
+                    result = true;
+                } else {
+                    result.emplace(work(cancel));
+                }
+            } catch (...) {
+                error = std::current_exception();
+            }
+            done.set_value();
+        });
+        while (finished.wait_for(std::chrono::milliseconds(30)) != std::future_status::ready) {
+            py::gil_scoped_acquire acquire;
+            if (PyErr_CheckSignals() != 0) {  // the handler raised: its exception is pending on this thread
+                cancel.cancel();
+                signalled = true;
+                break;
+            }
+        }
+        worker.join();
+    }
+    if (signalled) throw py::error_already_set();
+    if (error) std::rethrow_exception(error);
+    if constexpr (!std::is_void_v<Result>) return std::move(*result);
+}
+
+// The budgets a caller gave (None: the library's defaults), checked by the library's plan_run.
+pgi::RunLimits limits(std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
+    pgi::RunLimits l;
+    if (max_steps) l.max_steps = *max_steps;
+    if (max_output_mb) l.max_output_mb = *max_output_mb;
+    return l;
+}
 
 // A scheme with the run parameters a scene (or the caller) gave, and one stepper per dt for step().
 struct PyScheme {
@@ -92,28 +156,29 @@ PyScheme from_scene(const pgi::Scene& scene) {
     return s;
 }
 
-pgi::SceneOverrides trusting(bool trust_jacobi) {
+// trust_jacobi and jit as the command line's --trust-jacobi and --jit (jit: native code even where the scene
+// does not ask for it).
+pgi::SceneOverrides overrides(bool trust_jacobi, bool jit) {
     pgi::SceneOverrides o;
     o.trust_jacobi = trust_jacobi;
+    o.jit = jit;
     return o;
 }
 
-PyScheme from_toml(const std::string& path, bool trust_jacobi) {
+PyScheme from_toml(const std::string& path, bool trust_jacobi, bool jit) {
     py::gil_scoped_release release;
-    return from_scene(pgi::load_scene(path, trusting(trust_jacobi)));
+    return from_scene(pgi::load_scene(path, overrides(trust_jacobi, jit)));
 }
 
 // The scene's text (what a pickled Scheme carries to another process); file only names it in messages.
-PyScheme from_toml_text(const std::string& text, const std::string& file, bool trust_jacobi) {
+PyScheme from_toml_text(const std::string& text, const std::string& file, bool trust_jacobi, bool jit) {
     py::gil_scoped_release release;
-    return from_scene(pgi::parse_scene(text, file, trusting(trust_jacobi)));
+    return from_scene(pgi::parse_scene(text, file, overrides(trust_jacobi, jit)));
 }
 
 py::dict check(const PyScheme& s) {
-    const pgi::SchemeChecks& c = [&]() -> const pgi::SchemeChecks& {
-        py::gil_scoped_release release;
-        return s.scheme->checks();
-    }();
+    const auto& scheme = *s.scheme;
+    const pgi::SchemeChecks& c = *interruptible([&](const pgi::RunCancel&) { return &scheme.checks(); });
     const auto& names = s.M().coordinates();
     // as the command line's JSON: {"holds": true}, the failing triple, or not checked (trust_jacobi)
     py::dict jacobi("holds"_a = !c.jacobi);
@@ -150,12 +215,10 @@ py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt
     auto it = s.steppers.find(dt);
     if (it == s.steppers.end()) {
         const Eigen::VectorXd typical = s.x0 ? *s.x0 : x;
-        std::optional<pgi::NewtonStepper> built;
-        {
-            py::gil_scoped_release release;  // the exact phase; the map is touched only with the GIL held
-            built = s.scheme->stepper(dt, typical);
-        }
-        it = s.steppers.emplace(dt, std::move(*built)).first;
+        // the exact phase (require_valid first); the map is touched only with the GIL held
+        const auto& scheme = *s.scheme;
+        pgi::NewtonStepper built = interruptible([&](const pgi::RunCancel&) { return scheme.stepper(dt, typical); });
+        it = s.steppers.emplace(dt, std::move(built)).first;
     }
     pgi::NewtonStepper& st = it->second;
     Eigen::VectorXd increment(x.size());
@@ -208,7 +271,8 @@ py::dict crossings(const pgi::Trajectory& tr) {
 
 py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::optional<double> dt_in,
                    std::optional<double> t_end_in, std::size_t every, std::optional<Eigen::VectorXd> x_typical,
-                   const std::vector<std::tuple<std::string, int, bool>>& events, std::size_t event_samples) {
+                   const std::vector<std::tuple<std::string, int, bool>>& events, std::size_t event_samples,
+                   std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
     if (!x0_in && !s.x0) throw pgi::InputError("x0", "missing: give x0 (the scheme has none)");
     const Eigen::VectorXd x0 = s.state(x0_in ? *x0_in : *s.x0, "x0");
     const double dt = s.step_size(dt_in);
@@ -216,10 +280,17 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
     if (every < 1) throw pgi::InputError("every", "must be at least 1");
     if (x_typical) s.state(*x_typical, "x_typical");
     const pgi::TrajectoryEvents watched = trajectory_events(events, event_samples);
+    pgi::RunControl control;
+    control.limits = limits(max_steps, max_output_mb);
     pgi::Trajectory tr;
     try {
-        py::gil_scoped_release release;  // the exact phase (first call) and the run are C++ only
-        tr = pgi::integrate(*s.scheme, x0, dt, t_end, every, x_typical, watched);
+        // the exact phase (first call) and the run: C++ only, on a worker, stopped by Ctrl-C
+        const auto& scheme = *s.scheme;
+        tr = interruptible([&](const pgi::RunCancel& cancel) {
+            pgi::RunControl c = control;
+            c.cancel = &cancel;
+            return pgi::integrate(scheme, x0, dt, t_end, every, x_typical, watched, c);
+        });
     } catch (const pgi::ParseError& e) {  // a bad event (the other arguments were checked above)
         throw pgi::InputError("", e.what());
     } catch (const pgi::InputError&) {
@@ -238,7 +309,8 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
                "energy_warning"_a = tr.energy_warning,
                "steps"_a = tr.steps, "dt"_a = dt, "newton_iterations_mean"_a = tr.newton_iterations_mean,
                "newton_iterations_max"_a = tr.newton_iterations_max,
-               "status"_a = tr.terminal_event ? std::string("terminal_event") : pgi::to_string(tr.status));
+               // the ensemble's vocabulary (status_of), so a member's status is its single run's, word for word
+               "status"_a = tr.terminal_event ? std::string("terminal_event") : pgi::to_string(pgi::status_of(tr.status)));
     r.attr("update")(crossings(tr));  // empty without events
     if (tr.status != pgi::StepStatus::ok) {
         r["failed_step"] = tr.failed_step;
@@ -249,21 +321,50 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
     return r;
 }
 
-// X0 as the ensemble reads it: a 2-D float64 numpy array with one column per coordinate (checked before any
-// work), viewed in place when C-contiguous.
-py::array_t<double, py::array::c_style> ensemble_states(const PyScheme& s, const py::object& X0) {
+// An array's shape as text: "(4, 2)", "(3,)".
+std::string shape_of(const py::array& a) {
+    std::string shape = "(";
+    for (py::ssize_t d = 0; d < a.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(a.shape(d));
+    return shape + (a.ndim() == 1 ? ",)" : ")");
+}
+
+// X0 as the ensemble reads it: a 2-D float64 numpy array with one column per coordinate, checked before any
+// work and not copied yet.
+py::array ensemble_states(const PyScheme& s, const py::object& X0) {
     if (!py::isinstance<py::array>(X0)) throw pgi::InputError("X0", "must be a numpy array of shape (m, n), float64");
     const auto a = py::reinterpret_borrow<py::array>(X0);
     const std::size_t n = s.M().dim();
     if (!py::array_t<double>::check_(a))  // dtype equivalent to float64 (native byte order)
         throw pgi::InputError("X0", "must have dtype float64, got " + py::str(a.dtype()).cast<std::string>());
-    if (a.ndim() != 2 || std::size_t(a.shape(1)) != n) {
-        std::string shape = "(";
-        for (py::ssize_t d = 0; d < a.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(a.shape(d));
-        throw pgi::InputError("X0", "must have shape (m, " + std::to_string(n) + "), one column per coordinate, got " +
-                                        shape + (a.ndim() == 1 ? ",)" : ")"));
+    if (a.ndim() != 2 || std::size_t(a.shape(1)) != n)
+        throw pgi::InputError("X0", "must have shape (m, " + std::to_string(n) + "), one column per coordinate, got " + shape_of(a));
+    return a;
+}
+
+// a as a C-contiguous float64 array: itself, or a copy. ensure() returns a null array (its error cleared) when
+// the copy fails: raised as MemoryError naming X0 and the size, never used.
+py::array_t<double, py::array::c_style> contiguous(const py::array& a) {
+    auto c = py::array_t<double, py::array::c_style>::ensure(a);
+    if (!c) {
+        const double mb = double(a.size()) * 8.0 / double(1 << 20);
+        PyErr_SetString(PyExc_MemoryError, ("X0: out of memory for a C-contiguous copy of shape " + shape_of(a) + " (about " +
+                                            std::to_string(long(mb)) + " MB); pass fewer rows at a time").c_str());
+        throw py::error_already_set();
     }
-    return py::array_t<double, py::array::c_style>::ensure(a);
+    return c;
+}
+
+// What an ensemble of m trajectories keeps, checked as integrate_ensemble checks it (plan_run: the steps of one
+// trajectory, the results of all), here before X0 is copied: InputError or ResourceLimitError (RunBudgetError).
+void check_ensemble_plan(const PyScheme& s, std::size_t m, double dt, double t_end, const pgi::RunLimits& limits) {
+    pgi::RunRequest request;
+    request.dt = dt;
+    request.t_end = t_end;
+    request.every = 0;  // the final state only
+    request.dim = s.M().dim();
+    request.invariants = 1 + s.scheme->casimirs().size();
+    request.trajectories = std::max<std::size_t>(1, m);
+    pgi::plan_run(request, limits);
 }
 
 Eigen::Map<const pgi::RowMatrix> as_matrix(const py::array_t<double, py::array::c_style>& a) {
@@ -272,8 +373,9 @@ Eigen::Map<const pgi::RowMatrix> as_matrix(const py::array_t<double, py::array::
 
 py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::optional<double> dt_in,
                             std::optional<double> t_end_in, std::size_t threads, std::size_t chunk,
-                            std::optional<Eigen::VectorXd> x_typical, std::size_t batch) {
-    const auto X0 = ensemble_states(s, X0_in);
+                            std::optional<Eigen::VectorXd> x_typical, std::size_t batch,
+                            std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
+    const py::array states = ensemble_states(s, X0_in);
     const double dt = s.step_size(dt_in);
     const double t_end = run_length(s, t_end_in);
     if (x_typical) s.state(*x_typical, "x_typical");
@@ -282,11 +384,17 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
     options.chunk = chunk;
     options.batch = batch;
     options.x_typical = x_typical;
-    pgi::EnsembleResult r;
-    {
-        py::gil_scoped_release release;  // X0 stays alive (held above) and is only read
-        r = pgi::integrate_ensemble(*s.scheme, as_matrix(X0), dt, t_end, options);
-    }
+    options.control.limits = limits(max_steps, max_output_mb);
+    check_ensemble_plan(s, std::size_t(states.shape(0)), dt, t_end, options.control.limits);  // before the copy
+    const auto X0 = contiguous(states);
+    // X0 stays alive (held here) and is only read; the run is C++ only, on a worker, stopped by Ctrl-C
+    const auto& scheme = *s.scheme;
+    const Eigen::Map<const pgi::RowMatrix> rows = as_matrix(X0);
+    pgi::EnsembleResult r = interruptible([&](const pgi::RunCancel& cancel) {
+        pgi::EnsembleOptions o = options;
+        o.control.cancel = &cancel;
+        return pgi::integrate_ensemble(scheme, rows, dt, t_end, o);
+    });
     const auto m = static_cast<py::ssize_t>(r.members.size());
     py::list status;
     py::array_t<std::size_t> steps(m), failed_step(m);
@@ -317,19 +425,32 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
 PYBIND11_MODULE(_pgi, m) {
     m.doc() = "pgi's C++ core; use the package pgi";
     m.attr("__version__") = std::string(pgi::version());
-    // Bad input is a ValueError (InputError carries the entry at fault in its message); a budget of the
-    // exact phase a RuntimeError of its own. A failed step is reported, and pgi/__init__.py raises StepFailure.
+    // Bad input is a ValueError (InputError carries the entry at fault in its message); a budget (of the exact
+    // phase, or a run's: RunBudgetError) a RuntimeError of its own. A failed step is reported, and
+    // pgi/__init__.py raises StepFailure. Out of memory is a MemoryError saying so; a run stopped without a
+    // signal pending (RunInterrupted) a KeyboardInterrupt. Translators registered later are tried first.
+    py::register_exception_translator([](std::exception_ptr p) {
+        try {
+            if (p) std::rethrow_exception(p);
+        } catch (const std::bad_alloc&) {
+            PyErr_SetString(PyExc_MemoryError, "out of memory (std::bad_alloc): the run's data did not fit; record less "
+                                               "(every=), integrate fewer trajectories at a time or lower the order");
+        } catch (const pgi::RunInterrupted&) {
+            PyErr_SetString(PyExc_KeyboardInterrupt, "the run was interrupted");
+        }
+    });
     auto& input_error = py::register_exception<pgi::InputError>(m, "InputError", PyExc_ValueError);
     py::register_exception<pgi::SceneError>(m, "SceneError", input_error.ptr());
     py::register_exception<pgi::ResourceLimitError>(m, "ResourceLimitError", PyExc_RuntimeError);
     py::register_exception<pgi::NativeCodeError>(m, "NativeCodeError", PyExc_RuntimeError);
 
+    // The checked entry points: pgi/__init__.py checks types and ranges first and documents them.
     py::class_<PyScheme>(m, "Scheme")
         .def(py::init(&from_values), "coordinates"_a, "brackets"_a, "hamiltonian"_a, "casimirs"_a = std::vector<std::string>{},
              "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(), "x0"_a = py::none(), "t_end"_a = py::none(),
              "max_terms"_a = pgi::Ring::default_max_terms, "trust_jacobi"_a = false, "jit"_a = false)
-        .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false)
-        .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a, "trust_jacobi"_a = false)
+        .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false, "jit"_a = false)
+        .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a, "trust_jacobi"_a = false, "jit"_a = false)
         .def_property_readonly("jacobi_trusted", [](const PyScheme& s) { return s.scheme->jacobi_trusted(); })
         .def_property_readonly("jit", [](const PyScheme& s) { return s.scheme->jit(); })
         .def_property_readonly("name", [](const PyScheme& s) { return s.name; })
@@ -344,20 +465,21 @@ PYBIND11_MODULE(_pgi, m) {
         .def_property_readonly("x0", [](const PyScheme& s) { return s.x0; })
         .def_property_readonly("t_end", [](const PyScheme& s) { return s.t_end; })
         .def("check", &check)
-        .def("require_valid", [](const PyScheme& s) { s.scheme->require_valid(); })
+        .def("require_valid", [](const PyScheme& s) {
+                 const auto& scheme = *s.scheme;
+                 interruptible([&](const pgi::RunCancel&) { scheme.require_valid(); });
+             })
         .def("terms", [](const PyScheme& s, bool latex) {
-                 py::gil_scoped_release release;
-                 return texts(s.scheme->terms(), latex);
+                 const auto& scheme = *s.scheme;
+                 return interruptible([&](const pgi::RunCancel&) { return texts(scheme.terms(), latex); });
              }, "latex"_a = false)
         .def("modified_hamiltonian", [](const PyScheme& s, std::size_t upto, bool latex) {
-                 py::gil_scoped_release release;
-                 return texts(s.scheme->modified_hamiltonian(upto), latex);
+                 const auto& scheme = *s.scheme;
+                 return interruptible([&](const pgi::RunCancel&) { return texts(scheme.modified_hamiltonian(upto), latex); });
              }, "upto"_a = 4, "latex"_a = false)
         .def("realisation_terms", [](const PyScheme& s, std::size_t degree) {
-                 pgi::Realisation r = [&] {
-                     py::gil_scoped_release release;
-                     return s.scheme->realisation(degree);
-                 }();
+                 const auto& scheme = *s.scheme;
+                 pgi::Realisation r = interruptible([&](const pgi::RunCancel&) { return scheme.realisation(degree); });
                  std::vector<std::string> alpha, beta;
                  for (const auto& a : r.alpha) alpha.push_back(a.sum().to_string());
                  for (const auto& b : r.beta) beta.push_back(b.sum().to_string());
@@ -365,10 +487,17 @@ PYBIND11_MODULE(_pgi, m) {
              }, "degree"_a)
         .def("_step", &step, "x"_a, "dt"_a = py::none())
         .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
-             "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{}, "event_samples"_a = 1)
+             "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{}, "event_samples"_a = 1,
+             "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
         .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),
-             "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none(), "batch"_a = 0)
+             "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none(), "batch"_a = 0, "max_steps"_a = py::none(),
+             "max_output_mb"_a = py::none())
+        .def("_check_ensemble", [](const PyScheme& s, std::size_t m, std::optional<double> dt, std::optional<double> t_end,
+                                   std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
+                 check_ensemble_plan(s, m, s.step_size(dt), run_length(s, t_end), limits(max_steps, max_output_mb));
+             }, "m"_a, "dt"_a = py::none(), "t_end"_a = py::none(), "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
         .def("_typical_state", [](const PyScheme& s, const py::object& X0) {
-                 return pgi::typical_state(as_matrix(ensemble_states(s, X0)));
+                 const auto a = contiguous(ensemble_states(s, X0));
+                 return pgi::typical_state(as_matrix(a));
              }, "X0"_a);
 }

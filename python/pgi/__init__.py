@@ -14,6 +14,9 @@
 "order" is k, the Hamilton-Jacobi truncation order; the method converges with order method_order = 2 ceil(k/2).
 Bad input raises ValueError (pgi.InputError); a step not solved to round-off raises pgi.StepFailure.
 """
+import collections.abc as _abc
+import math as _math
+import numbers as _numbers
 import warnings as _warnings
 
 import numpy as _np
@@ -86,10 +89,16 @@ class EnsembleResult:
 
 def _rebuild(description):
     """A Scheme from its description (what pickle carries): ("values", kwargs) or ("toml", text, file,
-    trust_jacobi)."""
+    trust_jacobi, jit)."""
     if description[0] == "values":
         return Scheme(**description[1])
     return Scheme._from_toml_text(*description[1:])
+
+
+# The arguments' checks, one helper per kind of argument, used by every method: a mistake is an InputError
+# (a ValueError) naming the argument, before any work, with the command line's ranges.
+_MAX_COUNT = 2 ** 53  # the command line's largest whole number (--every, --max-steps, --max-terms)
+_MAX_ORDER, _MAX_UPTO, _MAX_DEGREE = 64, 64, 100  # --order, --upto, --degree
 
 
 def _flag(name, v):
@@ -97,6 +106,118 @@ def _flag(name, v):
     if isinstance(v, (bool, _np.bool_)):
         return bool(v)
     raise InputError(f"{name}: must be True or False, got {v!r}")
+
+
+def _real(name, value):
+    """value as a float: a real number (int, float, Fraction, numpy's), not a bool, a string or a complex."""
+    if isinstance(value, (bool, _np.bool_)) or not isinstance(value, _numbers.Real):
+        raise InputError(f"{name}: must be a number, got {value!r}")
+    try:
+        return float(value)
+    except (OverflowError, ValueError) as e:
+        raise InputError(f"{name}: must be a finite number, got {value!r} ({e})") from None
+
+
+def _positive_float(name, value, hi=_math.inf):
+    """value (a real number) as a float with 0 < value <= hi, finite; None stays None (the default)."""
+    if value is None:
+        return None
+    v = _real(name, value)
+    if not (0 < v <= hi) or not _math.isfinite(v):
+        raise InputError(f"{name}: must be positive and finite{'' if hi == _math.inf else f' and at most {hi:g}'}, got {value!r}")
+    return v
+
+
+def _nonnegative_float(name, value):
+    """value (a real number) as a finite float >= 0; None stays None (the default)."""
+    if value is None:
+        return None
+    v = _real(name, value)
+    if not (v >= 0) or not _math.isfinite(v):
+        raise InputError(f"{name}: must be finite and not negative, got {value!r}")
+    return v
+
+
+def _count(name, value, lo, hi):
+    """value as an int with lo <= value <= hi: a whole number (int or numpy integer), not a bool nor a float."""
+    if (isinstance(value, (bool, _np.bool_)) or not isinstance(value, _numbers.Integral)
+            or not lo <= value <= hi):
+        raise InputError(f"{name}: {value!r} is not a whole number from {lo} to {'2^53' if hi == _MAX_COUNT else hi}")
+    return int(value)
+
+
+def _optional_count(name, value, lo, hi):
+    return None if value is None else _count(name, value, lo, hi)
+
+
+def _real_array(name, value, what):
+    """value as a float64 numpy array; complex, boolean and non-numeric values are refused naming `name` (a
+    complex number's imaginary part is never dropped). what describes what is expected, for the messages."""
+    if isinstance(value, (str, bytes)):
+        raise InputError(f"{name}: must be {what}, got a string {value!r}")
+    try:
+        a = _np.asarray(value)
+    except (TypeError, ValueError) as e:
+        raise InputError(f"{name}: must be {what}: {e}") from None
+    if a.dtype.kind == "c":
+        raise InputError(f"{name}: complex values are not states (the imaginary part would be lost); pass real numbers")
+    if a.dtype.kind not in "iufO":
+        raise InputError(f"{name}: must be {what}, got dtype {a.dtype}")
+    try:
+        return a if a.dtype == _np.float64 else a.astype(_np.float64)
+    except (TypeError, ValueError, OverflowError) as e:
+        raise InputError(f"{name}: must be {what} (real): {e}") from None
+
+
+def _state(name, value, n):
+    """value as a state: n finite real numbers (a float64 vector); None stays None."""
+    if value is None:
+        return None
+    a = _real_array(name, value, f"a vector of {n} numbers")
+    if a.ndim != 1 or len(a) != n:
+        got = f"{len(a)}" if a.ndim == 1 else f"an array of shape {a.shape}"
+        raise InputError(f"{name}: must have {n} values (one per coordinate, a vector), got {got}")
+    if not _np.isfinite(a).all():
+        raise InputError(f"{name}: must be finite, got {a.tolist()}")
+    return a
+
+
+def _states(X0):
+    """X0 as a numpy array: a numpy array as given (not copied; shape and dtype, float64 only, are checked by
+    the C++ side), or converted from nested lists. Complex values, a ragged or non-numeric list are an InputError
+    naming X0."""
+    if isinstance(X0, _np.ndarray):  # complex128 included: refused by its dtype, never converted
+        return X0
+    return _real_array("X0", X0, "an (m, n) array of numbers")
+
+
+def _polynomial(name, text):
+    """text if it is a polynomial string; '**' (Python's power) gets the hint to write '^'."""
+    if not isinstance(text, str):
+        raise InputError(f"{name}: must be a polynomial string, got {text!r}")
+    if "**" in text:
+        raise InputError(f"{name}: '**' is not a power in pgi: write x^2 (with ^) for x squared, got {text!r}")
+    return text
+
+
+def _strings(name, value, what):
+    """value as a list of strings; one string alone is refused with the hint to pass a list."""
+    if isinstance(value, (str, bytes)):
+        raise InputError(f"{name}: must be a list of {what}, got one string {value!r}: pass a list, like [{value!r}]")
+    try:
+        items = list(value)
+    except TypeError:
+        raise InputError(f"{name}: must be a list of {what}, got {value!r}") from None
+    for i, v in enumerate(items):
+        if not isinstance(v, str):
+            raise InputError(f"{name}[{i}]: must be a string, got {v!r}")
+    return items
+
+
+def _limits(max_steps, max_output_mb):
+    """The run's budgets (None: the library's defaults, 1e8 steps and 1024 MB kept in memory)."""
+    return dict(max_steps=_optional_count("max_steps", max_steps, 1, _MAX_COUNT),
+                max_output_mb=_positive_float("max_output_mb", max_output_mb, 1e9))
 
 
 _EVENT_KEYS = ("g", "direction", "terminal")
@@ -119,22 +240,12 @@ def _event(i, e):
     g, direction, terminal = tuple(e) + (None, 0, False)[len(e):]
     if not isinstance(g, str):
         raise InputError(f"{where}: g must be a polynomial string, got {g!r}")
+    _polynomial(where, g)
     if isinstance(direction, bool) or not isinstance(direction, (int, _np.integer)) or direction not in (-1, 0, 1):
         raise InputError(f"{where}: direction must be -1, 0 or 1, got {direction!r}")
     if not isinstance(terminal, (bool, _np.bool_)):
         raise InputError(f"{where}: terminal must be True or False, got {terminal!r}")
     return g, int(direction), bool(terminal)
-
-
-def _states(X0):
-    """X0 as a numpy array: given as one, or converted from nested lists (a ragged or non-numeric list is an
-    InputError naming X0; shape and dtype are checked by the C++ side)."""
-    if isinstance(X0, _np.ndarray):
-        return X0
-    try:
-        return _np.array(X0, dtype=float)
-    except (TypeError, ValueError) as e:
-        raise InputError(f"X0: must be an (m, n) array of numbers: {e}") from None
 
 
 def _sympy(texts, coordinates):
@@ -148,81 +259,154 @@ class Scheme:
 
     Scheme(coordinates, brackets, hamiltonian, casimirs=[], order=2, realisation="auto", dt=None, x0=None,
     t_end=None) or Scheme.from_toml(path) (a pgi scene: its dt, x0 and t_end become the defaults).
-    Attributes: coordinates, order (k), method_order, realisation, structure_class, hamiltonian, casimirs,
-    dt, x0, t_end, name. Methods: check(), require_valid(), terms(latex=False), terms_sympy(),
-    modified_hamiltonian(upto=4, latex=False), modified_hamiltonian_sympy(upto=4), realisation_terms(degree),
-    step(x, dt=None), integrate(x0=None, dt=None, t_end=None, every=1)."""
+    Properties: coordinates, order (k), method_order, realisation, structure_class, hamiltonian, casimirs,
+    dt, x0, t_end, name, jacobi_trusted, jit. Methods: check(), require_valid(), terms(), modified_hamiltonian(),
+    realisation_terms(), step(), integrate(), integrate_ensemble(), typical_state() and the sympy conversions.
+
+    Polynomials are strings in the coordinates with +, -, *, / by numbers and ^ for powers ("x1^2/4 + x2*x3").
+    A scheme whose brackets fail the Jacobi identity, or a Casimir that does not commute with every
+    coordinate, is refused as the command line refuses it: terms(), modified_hamiltonian(), step(),
+    integrate() and integrate_ensemble() raise InputError naming the failing triple and its jacobiator (or
+    the Casimir), unless trust_jacobi=True. Every argument is checked before any work: a wrong type or a value
+    out of range raises InputError (a ValueError) naming the argument."""
 
     def __init__(self, coordinates, brackets, hamiltonian, casimirs=(), order=2, realisation="auto", dt=None,
                  x0=None, t_end=None, max_terms=20_000_000, trust_jacobi=False, jit=False):
-        """trust_jacobi=True: the caller vouches for the Jacobi identity of the brackets, which is then not checked
+        """coordinates: the names (a list of strings); brackets: {"a,b": "{a,b} as a polynomial"}, the others
+        following by skew-symmetry; hamiltonian: H; casimirs: a list of polynomials that Poisson-commute with
+        everything; order: k, 1..64; realisation: "auto", "lie-poisson", "radial", ... (as a scene's);
+        dt, x0, t_end: the defaults of step() and integrate(); max_terms: the exact phase's product bound.
+
+        trust_jacobi=True: the caller vouches for the Jacobi identity of the brackets, which is then not checked
         (check()["jacobi"] is then {"holds": None, "skipped": "trust_jacobi"}, as `pgi --trust-jacobi` reports it): for large structures known to be Poisson.
         jit=True: the steps' compiled maps become native code built by the system C++ compiler (as `pgi --jit`): the
         same numbers bit for bit, faster steps, 0.1-0.5 s more at the first build (kept in ~/.cache/pgi/jit);
         NativeCodeError if it cannot be built. A scene file says it as `jit = true` under [integrator]."""
-        if x0 is not None:
-            x0 = _np.asarray(x0, dtype=float)
-        self._core = _Scheme(list(coordinates), dict(brackets), hamiltonian, list(casimirs), order, realisation, dt, x0,
-                             t_end, max_terms, _flag("trust_jacobi", trust_jacobi), _flag("jit", jit))
-        self._description = ("values", dict(coordinates=list(coordinates), brackets=dict(brackets),
-                                            hamiltonian=hamiltonian, casimirs=list(casimirs), order=order,
-                                            realisation=realisation, dt=dt, x0=None if x0 is None else x0.tolist(),
-                                            t_end=t_end, max_terms=max_terms, trust_jacobi=trust_jacobi, jit=jit))
+        coordinates = _strings("coordinates", coordinates, "coordinate names")
+        if not isinstance(brackets, _abc.Mapping):
+            raise InputError(f"brackets: must be a dict like {{\"x1,x2\": \"-x3\"}}, got {brackets!r}")
+        brackets = dict(brackets)
+        for k, v in brackets.items():
+            _polynomial(f"brackets.\"{k}\"", v)
+        _polynomial("hamiltonian", hamiltonian)
+        casimirs = _strings("casimirs", casimirs, "polynomial strings")
+        for i, c in enumerate(casimirs):
+            _polynomial(f"casimirs[{i}]", c)
+        order = _count("order", order, 1, _MAX_ORDER)
+        if not isinstance(realisation, str):
+            raise InputError(f"realisation: must be a string like \"auto\", got {realisation!r}")
+        dt = _positive_float("dt", dt)
+        x0 = _state("x0", x0, len(coordinates))
+        t_end = _nonnegative_float("t_end", t_end)
+        max_terms = _count("max_terms", max_terms, 1, _MAX_COUNT)
+        trust_jacobi, jit = _flag("trust_jacobi", trust_jacobi), _flag("jit", jit)
+        self._core = _Scheme(coordinates, brackets, hamiltonian, casimirs, order, realisation, dt, x0, t_end, max_terms,
+                             trust_jacobi, jit)
+        self._description = ("values", dict(coordinates=coordinates, brackets=brackets, hamiltonian=hamiltonian,
+                                            casimirs=casimirs, order=order, realisation=realisation, dt=dt,
+                                            x0=None if x0 is None else x0.tolist(), t_end=t_end, max_terms=max_terms,
+                                            trust_jacobi=trust_jacobi, jit=jit))
 
     @classmethod
-    def from_toml(cls, path, trust_jacobi=False):
-        """The scene file's scheme; trust_jacobi as for Scheme()."""
-        trust_jacobi = _flag("trust_jacobi", trust_jacobi)
+    def from_toml(cls, path, trust_jacobi=False, jit=False):
+        """The scene file's scheme (its dt, x0 and t_end become the defaults). trust_jacobi as for Scheme();
+        jit=True builds native code even where the scene does not ask for it (as `pgi --jit`)."""
+        trust_jacobi, jit = _flag("trust_jacobi", trust_jacobi), _flag("jit", jit)
         try:  # the text, so a pickled Scheme carries the scene itself
             with open(path, "rb") as f:
                 text = f.read()
         except OSError:
-            _Scheme.from_toml(str(path), trust_jacobi)  # raises pgi's own SceneError naming the file
+            _Scheme.from_toml(str(path), trust_jacobi, jit)  # raises pgi's own SceneError naming the file
             raise
-        return cls._from_toml_text(text, str(path), trust_jacobi)
+        return cls._from_toml_text(text, str(path), trust_jacobi, jit)
 
     @classmethod
-    def _from_toml_text(cls, text, file, trust_jacobi=False):
+    def _from_toml_text(cls, text, file, trust_jacobi=False, jit=False):
         s = cls.__new__(cls)
-        s._core = _Scheme.from_toml_text(text, file, trust_jacobi)
-        s._description = ("toml", text, file, trust_jacobi)
+        s._core = _Scheme.from_toml_text(text, file, trust_jacobi, jit)
+        s._description = ("toml", text, file, trust_jacobi, jit)
         return s
 
     @property
     def description(self):
         """What rebuilds this Scheme elsewhere: ("values", the constructor's arguments) or ("toml", the scene's
-        text, its file name). Pickling a Scheme sends this; the exact work is redone (once) where it lands."""
+        text, its file name, trust_jacobi, jit). Pickling a Scheme sends this; the exact work is redone (once) where it lands."""
         return self._description
 
     def __reduce__(self):
         return (_rebuild, (self._description,))
 
-    def __getattr__(self, name):  # the C++ scheme's attributes and exact methods
-        if name.startswith("__") or name == "_core":
-            raise AttributeError(name)
-        return getattr(self._core, name)
+    # The scheme's values (read-only).
+    coordinates = property(lambda self: self._core.coordinates, doc="The coordinates' names (list of str).")
+    order = property(lambda self: self._core.order, doc="k, the Hamilton-Jacobi truncation order (1..64).")
+    method_order = property(lambda self: self._core.method_order,
+                            doc="The order the method converges with: 2 ceil(k/2).")
+    realisation = property(lambda self: self._core.realisation, doc="The realisation used (\"lie-poisson\", ...).")
+    structure_class = property(lambda self: self._core.structure_class,
+                               doc="The class of pi (\"constant\", \"linear\", \"quadratic\", ...).")
+    hamiltonian = property(lambda self: self._core.hamiltonian, doc="H as pgi writes it (str).")
+    casimirs = property(lambda self: self._core.casimirs, doc="The Casimirs as pgi writes them (list of str).")
+    dt = property(lambda self: self._core.dt, doc="The default step size (None: none given).")
+    x0 = property(lambda self: self._core.x0, doc="The default initial state, shape (n,) (None: none given).")
+    t_end = property(lambda self: self._core.t_end, doc="The default final time (None: none given).")
+    name = property(lambda self: self._core.name, doc="The scene's name (\"\" for a Scheme from values).")
+    jacobi_trusted = property(lambda self: self._core.jacobi_trusted,
+                              doc="True when made with trust_jacobi=True: the Jacobi identity is not checked.")
+    jit = property(lambda self: self._core.jit, doc="True when the step's maps are native code (jit=True).")
+
+    def check(self):
+        """The checks of the structure, as `pgi check --json`: {"class", "jacobi": {"holds": True} or the failing
+        triple and its jacobiator, "casimirs": [{"C", "holds", ...}], "realisation": ..., "ok"}. Reports, never
+        raises for a failed check (require_valid() raises)."""
+        return self._core.check()
+
+    def require_valid(self):
+        """Raises InputError naming what check() found failing (the Jacobi triple and its jacobiator, a false
+        Casimir); nothing if the scheme is valid. terms(), step() and the runs call it first."""
+        self._core.require_valid()
+
+    def terms(self, latex=False):
+        """S_1..S_k, the exact Hamilton-Jacobi terms of the generating function, as strings (LaTeX with
+        latex=True). Computed once (the exact phase). Raises InputError for an invalid scheme."""
+        return self._core.terms(_flag("latex", latex))
+
+    def modified_hamiltonian(self, upto=4, latex=False):
+        """H_0..H_upto (upto: 0..64), the modified Hamiltonian's terms in powers of dt, as strings (LaTeX with
+        latex=True): the method is the exact flow of H_0 + dt H_1 + ... Raises InputError for an invalid scheme."""
+        return self._core.modified_hamiltonian(_count("upto", upto, 0, _MAX_UPTO), _flag("latex", latex))
+
+    def realisation_terms(self, degree):
+        """The realisation's terms up to total degree `degree` (0..100) in the momenta:
+        {"method", "degree", "alpha": [...], "beta": [...]}."""
+        return self._core.realisation_terms(_count("degree", degree, 0, _MAX_DEGREE))
 
     def terms_sympy(self):
         """S_1..S_k as sympy expressions (needs sympy)."""
-        return _sympy(self._core.terms(), self._core.coordinates)
+        return _sympy(self.terms(), self.coordinates)
 
     def modified_hamiltonian_sympy(self, upto=4):
         """H_0..H_upto as sympy expressions (needs sympy)."""
-        return _sympy(self._core.modified_hamiltonian(upto), self._core.coordinates)
+        return _sympy(self.modified_hamiltonian(upto), self.coordinates)
 
     def step(self, x, dt=None):
-        """One step of size dt (default: the scheme's) from x: the new state as a numpy array. The compiled
-        step for a dt is built once, sized at the scheme's x0 or else at the first x stepped with that dt."""
-        r = self._core._step(_np.asarray(x, dtype=float), dt)
+        """One step of size dt (default: the scheme's) from x (shape (n,)): the new state as a numpy array. The
+        compiled step for a dt is built once, sized at the scheme's x0 or else at the first x stepped with
+        that dt. Raises StepFailure if the step is not solved to round-off."""
+        n = len(self.coordinates)
+        r = self._core._step(_state("x", x, n), _positive_float("dt", dt))
         if not r["ok"]:
             raise StepFailure(r["message"], 1, 0.0, r["residual"])
         return r["x"]
 
-    def integrate(self, x0=None, dt=None, t_end=None, every=1, x_typical=None, events=None, event_samples=1):
+    def integrate(self, x0=None, dt=None, t_end=None, every=1, x_typical=None, events=None, event_samples=1,
+                  max_steps=None, max_output_mb=None):
         """ceil(t_end/dt) steps from x0 (defaults: the scheme's), Kahan-summed, recording every `every`-th
-        state and the last; returns a Result. The GIL is released while it runs. Raises StepFailure (with
-        .result holding the run up to the failure) if a step fails. The compiled step is built at x0, or at
+        state and the last; returns a Result. Runs with the GIL released; Ctrl-C stops it (KeyboardInterrupt)
+        within a step. Raises StepFailure (with .result holding the run up to the failure) if a step fails. The compiled step is built at x0, or at
         x_typical when given (an ensemble's x_typical gives its run of this trajectory, bit for bit).
+
+        Budgets, checked before any work (ResourceLimitError, as `pgi integrate` exits 4): max_steps (default
+        1e8) steps, max_output_mb (default 1024) MB of recorded rows kept in memory, event_samples at most 10000.
 
         events: a list of polynomials g(x) in the coordinates whose zeros are reported, each "g", a tuple
         (g, direction, terminal) (direction +1: g rising through 0, -1: falling, 0: both, the default;
@@ -232,38 +416,45 @@ class Scheme:
         r.status is "terminal_event". event_samples > 1 also tests that many - 1 interior points of each
         step (two crossings inside one step). A bad event raises ValueError naming it (events[i]) and,
         for a polynomial, the problem and its position."""
+        n = len(self.coordinates)
         if events is None:
             events = []
         elif isinstance(events, (str, dict)) or not isinstance(events, (list, tuple)):
             raise InputError(f"events: must be a list of events, got {events!r}")
         specs = [_event(i, e) for i, e in enumerate(events)]
-        if isinstance(event_samples, bool) or not isinstance(event_samples, (int, _np.integer)) or event_samples < 1:
-            raise InputError(f"event_samples: must be a positive integer, got {event_samples!r}")
-        r = Result(self._core._integrate(None if x0 is None else _np.asarray(x0, dtype=float), dt, t_end, every,
-                                         None if x_typical is None else _np.asarray(x_typical, dtype=float),
-                                         specs, event_samples))
+        r = Result(self._core._integrate(_state("x0", x0, n), _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
+                                         _count("every", every, 1, _MAX_COUNT), _state("x_typical", x_typical, n), specs,
+                                         _count("event_samples", event_samples, 1, _MAX_COUNT),
+                                         **_limits(max_steps, max_output_mb)))
         if r.status not in ("ok", "terminal_event"):
             raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
         _warn_energy(int(r.energy_warning), None, r.dt)
         return r
 
-    def integrate_ensemble(self, X0, dt=None, t_end=None, threads=None, chunk=None, x_typical=None, batch=None):
+    def integrate_ensemble(self, X0, dt=None, t_end=None, threads=None, chunk=None, x_typical=None, batch=None,
+                           max_steps=None, max_output_mb=None):
         """Every row of X0 (an (m, n) float64 numpy array; nested lists are converted) over ceil(t_end/dt)
         steps, on `threads` cores (default: all), the GIL released; returns an EnsembleResult. Each row's
         numbers equal integrate(row, dt, t_end, x_typical=result.x_typical) bit for bit, whatever threads and
         chunk (trajectories per task) and batch (trajectories stepped together, structure of arrays; 1: one
         at a time; default 16 below 40 coordinates, else 1). The step is built once, at x_typical (default: the finite row of largest
-        norm). A row that is not finite or a step that fails ends that trajectory with its status; nothing is
-        raised for it. Raises ValueError (before any work) for X0 of the wrong shape or dtype."""
+        norm). A row that is not finite or a step that fails ends that trajectory with its status (the one its
+        single run ends with); nothing is raised for it. Raises ValueError (before any work) for X0 of the
+        wrong shape or dtype, ResourceLimitError above max_steps (default 1e8) steps per trajectory or
+        max_output_mb (default 1024) MB of results. Ctrl-C stops it (KeyboardInterrupt) within a step."""
         X0 = _states(X0)
-        for name, v in (("threads", threads), ("chunk", chunk), ("batch", batch)):
-            if v is not None and (isinstance(v, (bool, _np.bool_)) or not isinstance(v, (int, _np.integer)) or v < 1):
-                raise InputError(f"{name}: must be a positive integer, got {v!r}")
         r = EnsembleResult(self._core._integrate_ensemble(
-            X0, dt, t_end, threads or 0, chunk or 0, None if x_typical is None else _np.asarray(x_typical, dtype=float),
-            batch or 0))
+            X0, _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
+            _optional_count("threads", threads, 1, _MAX_COUNT) or 0, _optional_count("chunk", chunk, 1, _MAX_COUNT) or 0,
+            _state("x_typical", x_typical, len(self.coordinates)), _optional_count("batch", batch, 1, _MAX_COUNT) or 0,
+            **_limits(max_steps, max_output_mb)))
         _warn_energy(int(r.energy_warning.sum()), len(r.energy_warning), r.dt)
         return r
+
+    def _check_ensemble(self, m, dt=None, t_end=None, max_steps=None, max_output_mb=None):
+        """integrate_ensemble's checks of dt, t_end and the budgets for m rows, without running (pgi.dask)."""
+        self._core._check_ensemble(m, _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
+                                   **_limits(max_steps, max_output_mb))
 
     def typical_state(self, X0):
         """The row integrate_ensemble builds its step at by default: the finite row of largest norm (None if none)."""

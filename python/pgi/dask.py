@@ -42,21 +42,32 @@ def _worker_scheme(description, dt):
         return cache[key]
 
 
-def _run_chunk(description, X0, dt, t_end, x_typical, threads):
+def _run_chunk(description, X0, dt, t_end, x_typical, threads, limits=None):
     with warnings.catch_warnings():  # said once, on the client, for the whole ensemble
         warnings.simplefilter("ignore", EnergyWarning)
-        r = _worker_scheme(description, dt).integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads, x_typical=x_typical)
+        r = _worker_scheme(description, dt).integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads, x_typical=x_typical,
+                                                               **(limits or {}))
     return {f: getattr(r, f) for f in _FIELDS}
 
 
 class _Job:
     """One ensemble's chunks, submitted; collect() gathers them in order."""
 
-    def __init__(self, client, scheme, X0, dt, t_end, chunks, threads, retries):
+    @staticmethod
+    def check(scheme, X0, dt, t_end, max_steps, max_output_mb):
+        """Every check of the local run (shape, dtype, dt, t_end, the budgets), on no rows and then on all of
+        them, before any work (a chunk is checked again on its worker, with its rows): X0 and the empty result."""
         X0 = _states(X0)
-        # every check of the local run (shape, dtype, dt, t_end), on no rows: refused here, before any work
-        empty = scheme.integrate_ensemble(X0[:0], dt=dt, t_end=t_end, threads=1)
-        if chunks is not None and (not isinstance(chunks, (int, _np.integer)) or chunks < 1):
+        limits = dict(max_steps=max_steps, max_output_mb=max_output_mb)
+        empty = scheme.integrate_ensemble(X0[:0], dt=dt, t_end=t_end, threads=1, **limits)
+        scheme._check_ensemble(len(X0), dt=dt, t_end=t_end, **limits)
+        return X0, empty
+
+    def __init__(self, client, scheme, X0, dt, t_end, chunks, threads, retries, max_steps=None, max_output_mb=None):
+        X0, empty = self.check(scheme, X0, dt, t_end, max_steps, max_output_mb)
+        limits = dict(max_steps=max_steps, max_output_mb=max_output_mb)
+        if chunks is not None and (isinstance(chunks, (bool, _np.bool_)) or not isinstance(chunks, (int, _np.integer))
+                                   or chunks < 1):
             raise InputError(f"chunks: must be a positive number of rows, got {chunks!r}")
         self.m, self.dt, self.t_end, self.empty = len(X0), empty.dt, empty.t_end, empty
         self.x_typical = scheme.typical_state(X0)
@@ -65,7 +76,7 @@ class _Job:
         self.bounds = [(a, min(a + size, self.m)) for a in range(0, self.m, size)]
         token = uuid.uuid4().hex
         self.futures = [client.submit(_run_chunk, scheme.description, _np.ascontiguousarray(X0[a:b]), self.dt,
-                                      self.t_end, self.x_typical, threads, key=f"pgi-ensemble-{token}-{i}",
+                                      self.t_end, self.x_typical, threads, limits, key=f"pgi-ensemble-{token}-{i}",
                                       retries=retries, pure=False)
                         for i, (a, b) in enumerate(self.bounds)]
 
@@ -85,21 +96,29 @@ class _Job:
         return r
 
 
-def integrate_ensemble(client, scheme, X0, dt=None, t_end=None, chunks=None, threads=1, retries=2):
+def integrate_ensemble(client, scheme, X0, dt=None, t_end=None, chunks=None, threads=1, retries=2, max_steps=None,
+                       max_output_mb=None):
     """scheme.integrate_ensemble(X0, dt, t_end) on the client's cluster: chunks of `chunks` rows (default:
     about four chunks per worker), each run with `threads` threads on its worker, gathered in order; returns
     a pgi.EnsembleResult with the local run's numbers bit for bit. A chunk whose task raises is rerun
     `retries` times (Dask's own Client.submit(retries=)); a chunk whose worker dies is rerun elsewhere by the
     scheduler, up to its distributed.scheduler.allowed-failures deaths (default 3; retries does not count
     deaths). A chunk that still fails raises RuntimeError naming the chunk and its rows. Bad X0, dt or t_end
-    raise ValueError before anything is submitted."""
-    return _Job(client, scheme, X0, dt, t_end, chunks, threads, retries).collect()
+    raise ValueError, and a run above max_steps (steps per trajectory, default 1e8) or max_output_mb (the
+    whole ensemble's results, default 1024) ResourceLimitError, before anything is submitted."""
+    return _Job(client, scheme, X0, dt, t_end, chunks, threads, retries, max_steps, max_output_mb).collect()
 
 
-def sweep(client, runs, chunks=None, threads=1, retries=2):
+def sweep(client, runs, chunks=None, threads=1, retries=2, max_steps=None, max_output_mb=None):
     """Many ensembles at once (a parameter sweep over dt, order, a scene parameter, ...): runs is a list of
-    dicts with the keys scheme, X0 and optionally dt, t_end; every chunk of every run is submitted before
-    any is gathered. Returns one pgi.EnsembleResult per run, in order, each equal to its own
+    dicts with the keys scheme, X0 and optionally dt, t_end, max_steps, max_output_mb (default: the
+    arguments'); every run is checked before any is submitted, and every chunk of every run is submitted
+    before any is gathered. Returns one pgi.EnsembleResult per run, in order, each equal to its own
     integrate_ensemble."""
-    jobs = [_Job(client, r["scheme"], r["X0"], r.get("dt"), r.get("t_end"), chunks, threads, retries) for r in runs]
+    runs = list(runs)
+    for r in runs:  # the whole sweep refused before any work
+        _Job.check(r["scheme"], r["X0"], r.get("dt"), r.get("t_end"), r.get("max_steps", max_steps),
+                   r.get("max_output_mb", max_output_mb))
+    jobs = [_Job(client, r["scheme"], r["X0"], r.get("dt"), r.get("t_end"), chunks, threads, retries,
+                 r.get("max_steps", max_steps), r.get("max_output_mb", max_output_mb)) for r in runs]
     return [j.collect() for j in jobs]

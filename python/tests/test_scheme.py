@@ -190,3 +190,33 @@ def test_jit_takes_the_interpreted_trajectory_bit_for_bit_and_survives_pickling(
     monkeypatch.setenv("PGI_JIT_CACHE", str(tmp_path / "other"))
     with pytest.raises(pgi.NativeCodeError, match="/nonexistent/pgi-cc"):
         pgi.Scheme(**{**run, "order": 6}, jit=True).integrate()
+
+
+@pytest.mark.parametrize("scene, says", [("jacobi_failure.toml", r"brackets: the Jacobi identity fails at \(x1, x2, x3\): jacobiator = "),
+                                         ("false_casimir.toml", r"hamiltonian.casimirs\[1\]: 'x1\*x2' is not a Casimir")])
+def test_every_exact_method_and_run_refuses_an_invalid_scheme_as_the_command_line_does(scene, says):
+    path = BAD_SCENES / scene
+    code, _, err = cli("integrate", path, "--x0", "0.6,0.8,0.3", "--t-end", 1, check=False)
+    assert code == 2
+    x = np.array([0.6, 0.8, 0.3])
+    for s in (pgi.Scheme.from_toml(path), pickle.loads(pickle.dumps(pgi.Scheme.from_toml(path)))):
+        for call in (s.require_valid, s.terms, lambda: s.modified_hamiltonian(2), lambda: s.step(x, 0.1),
+                     lambda: s.integrate(x, dt=0.1, t_end=1), lambda: s.integrate_ensemble(np.array([x, x]), dt=0.1, t_end=1)):
+            with pytest.raises(pgi.InputError, match=says) as e:
+                call()
+            assert str(e.value) in err  # the command line's message, word for word
+
+
+def test_a_bracket_failing_jacobi_from_values_is_refused_unless_trusted():
+    broken = dict(coordinates=["x1", "x2", "x3"], brackets={"x1,x2": "1", "x2,x3": "-x2", "x3,x1": "x1"},
+                  hamiltonian="x1^2/2 + x2^2/2 + x3^2/2", dt=0.1, x0=[0.6, 0.8, 0.3], t_end=1)
+    s = pgi.Scheme(**broken)
+    says = r"brackets: the Jacobi identity fails at \(x1, x2, x3\): jacobiator = \S"
+    for call in (s.terms, s.modified_hamiltonian, lambda: s.step(s.x0), s.integrate,
+                 lambda: s.integrate_ensemble(np.array([s.x0]))):
+        with pytest.raises(pgi.InputError, match=says):
+            call()
+    trusted = pgi.Scheme(**broken, trust_jacobi=True)  # the caller vouches: the run goes ahead
+    assert len(trusted.terms()) == 2 and trusted.step(trusted.x0).shape == (3,)
+    assert trusted.integrate().steps == 10
+    assert pgi.Scheme.from_toml(BAD_SCENES / "jacobi_failure.toml", trust_jacobi=True).terms()
