@@ -433,8 +433,8 @@ PYBIND11_MODULE(_pgi, m) {
         try {
             if (p) std::rethrow_exception(p);
         } catch (const std::bad_alloc&) {
-            PyErr_SetString(PyExc_MemoryError, "out of memory (std::bad_alloc): the run's data did not fit; record less "
-                                               "(every=), integrate fewer trajectories at a time or lower the order");
+            PyErr_SetString(PyExc_MemoryError, "out of memory (std::bad_alloc): what this call keeps did not fit; record less "
+                                               "(a larger every=), pass fewer rows at a time or lower max_output_mb");
         } catch (const pgi::RunInterrupted&) {
             PyErr_SetString(PyExc_KeyboardInterrupt, "the run was interrupted");
         }

@@ -101,21 +101,27 @@ _MAX_COUNT = 2 ** 53  # the command line's largest whole number (--every, --max-
 _MAX_ORDER, _MAX_UPTO, _MAX_DEGREE = 64, 64, 100  # --order, --upto, --degree
 
 
+def _shown(value):
+    """repr(value) for a message, at most about 80 characters (a huge number or string is not echoed whole)."""
+    r = repr(value)
+    return r if len(r) <= 80 else f"{r[:60]}... ({len(r)} characters)"
+
+
 def _flag(name, v):
     """v if it is a bool (numpy's included), else InputError: a flag given as 1 or "yes" is refused, not guessed."""
     if isinstance(v, (bool, _np.bool_)):
         return bool(v)
-    raise InputError(f"{name}: must be True or False, got {v!r}")
+    raise InputError(f"{name}: must be True or False, got {_shown(v)}")
 
 
 def _real(name, value):
     """value as a float: a real number (int, float, Fraction, numpy's), not a bool, a string or a complex."""
     if isinstance(value, (bool, _np.bool_)) or not isinstance(value, _numbers.Real):
-        raise InputError(f"{name}: must be a number, got {value!r}")
+        raise InputError(f"{name}: must be a number, got {_shown(value)}")
     try:
         return float(value)
     except (OverflowError, ValueError) as e:
-        raise InputError(f"{name}: must be a finite number, got {value!r} ({e})") from None
+        raise InputError(f"{name}: must be a finite number, got {_shown(value)} ({e})") from None
 
 
 def _positive_float(name, value, hi=_math.inf):
@@ -124,7 +130,7 @@ def _positive_float(name, value, hi=_math.inf):
         return None
     v = _real(name, value)
     if not (0 < v <= hi) or not _math.isfinite(v):
-        raise InputError(f"{name}: must be positive and finite{'' if hi == _math.inf else f' and at most {hi:g}'}, got {value!r}")
+        raise InputError(f"{name}: must be positive and finite{'' if hi == _math.inf else f' and at most {hi:g}'}, got {_shown(value)}")
     return v
 
 
@@ -134,7 +140,7 @@ def _nonnegative_float(name, value):
         return None
     v = _real(name, value)
     if not (v >= 0) or not _math.isfinite(v):
-        raise InputError(f"{name}: must be finite and not negative, got {value!r}")
+        raise InputError(f"{name}: must be finite and not negative, got {_shown(value)}")
     return v
 
 
@@ -142,7 +148,7 @@ def _count(name, value, lo, hi):
     """value as an int with lo <= value <= hi: a whole number (int or numpy integer), not a bool nor a float."""
     if (isinstance(value, (bool, _np.bool_)) or not isinstance(value, _numbers.Integral)
             or not lo <= value <= hi):
-        raise InputError(f"{name}: {value!r} is not a whole number from {lo} to {'2^53' if hi == _MAX_COUNT else hi}")
+        raise InputError(f"{name}: {_shown(value)} is not a whole number from {lo} to {'2^53' if hi == _MAX_COUNT else hi}")
     return int(value)
 
 
@@ -154,7 +160,7 @@ def _real_array(name, value, what):
     """value as a float64 numpy array; complex, boolean and non-numeric values are refused naming `name` (a
     complex number's imaginary part is never dropped). what describes what is expected, for the messages."""
     if isinstance(value, (str, bytes)):
-        raise InputError(f"{name}: must be {what}, got a string {value!r}")
+        raise InputError(f"{name}: must be {what}, got a string {_shown(value)}")
     try:
         a = _np.asarray(value)
     except (TypeError, ValueError) as e:
@@ -194,23 +200,23 @@ def _states(X0):
 def _polynomial(name, text):
     """text if it is a polynomial string; '**' (Python's power) gets the hint to write '^'."""
     if not isinstance(text, str):
-        raise InputError(f"{name}: must be a polynomial string, got {text!r}")
+        raise InputError(f"{name}: must be a polynomial string, got {_shown(text)}")
     if "**" in text:
-        raise InputError(f"{name}: '**' is not a power in pgi: write x^2 (with ^) for x squared, got {text!r}")
+        raise InputError(f"{name}: '**' is not a power in pgi: write x^2 (with ^) for x squared, got {_shown(text)}")
     return text
 
 
 def _strings(name, value, what):
     """value as a list of strings; one string alone is refused with the hint to pass a list."""
     if isinstance(value, (str, bytes)):
-        raise InputError(f"{name}: must be a list of {what}, got one string {value!r}: pass a list, like [{value!r}]")
+        raise InputError(f"{name}: must be a list of {what}, got one string {_shown(value)}: pass a list, like [{_shown(value)}]")
     try:
         items = list(value)
     except TypeError:
-        raise InputError(f"{name}: must be a list of {what}, got {value!r}") from None
+        raise InputError(f"{name}: must be a list of {what}, got {_shown(value)}") from None
     for i, v in enumerate(items):
         if not isinstance(v, str):
-            raise InputError(f"{name}[{i}]: must be a string, got {v!r}")
+            raise InputError(f"{name}[{i}]: must be a string, got {_shown(v)}")
     return items
 
 
@@ -236,15 +242,15 @@ def _event(i, e):
                              + (f", not {unknown}" if unknown else ""))
         e = (e["g"], e.get("direction", 0), e.get("terminal", False))
     if not isinstance(e, (tuple, list)) or not 1 <= len(e) <= 3:
-        raise InputError(f"{where}: must be a polynomial string, a tuple (g, direction, terminal) or a dict, got {e!r}")
+        raise InputError(f"{where}: must be a polynomial string, a tuple (g, direction, terminal) or a dict, got {_shown(e)}")
     g, direction, terminal = tuple(e) + (None, 0, False)[len(e):]
     if not isinstance(g, str):
-        raise InputError(f"{where}: g must be a polynomial string, got {g!r}")
+        raise InputError(f"{where}: g must be a polynomial string, got {_shown(g)}")
     _polynomial(where, g)
     if isinstance(direction, bool) or not isinstance(direction, (int, _np.integer)) or direction not in (-1, 0, 1):
-        raise InputError(f"{where}: direction must be -1, 0 or 1, got {direction!r}")
+        raise InputError(f"{where}: direction must be -1, 0 or 1, got {_shown(direction)}")
     if not isinstance(terminal, (bool, _np.bool_)):
-        raise InputError(f"{where}: terminal must be True or False, got {terminal!r}")
+        raise InputError(f"{where}: terminal must be True or False, got {_shown(terminal)}")
     return g, int(direction), bool(terminal)
 
 
@@ -284,7 +290,7 @@ class Scheme:
         NativeCodeError if it cannot be built. A scene file says it as `jit = true` under [integrator]."""
         coordinates = _strings("coordinates", coordinates, "coordinate names")
         if not isinstance(brackets, _abc.Mapping):
-            raise InputError(f"brackets: must be a dict like {{\"x1,x2\": \"-x3\"}}, got {brackets!r}")
+            raise InputError(f"brackets: must be a dict like {{\"x1,x2\": \"-x3\"}}, got {_shown(brackets)}")
         brackets = dict(brackets)
         for k, v in brackets.items():
             _polynomial(f"brackets.\"{k}\"", v)
@@ -294,7 +300,7 @@ class Scheme:
             _polynomial(f"casimirs[{i}]", c)
         order = _count("order", order, 1, _MAX_ORDER)
         if not isinstance(realisation, str):
-            raise InputError(f"realisation: must be a string like \"auto\", got {realisation!r}")
+            raise InputError(f"realisation: must be a string like \"auto\", got {_shown(realisation)}")
         dt = _positive_float("dt", dt)
         x0 = _state("x0", x0, len(coordinates))
         t_end = _nonnegative_float("t_end", t_end)
@@ -420,7 +426,7 @@ class Scheme:
         if events is None:
             events = []
         elif isinstance(events, (str, dict)) or not isinstance(events, (list, tuple)):
-            raise InputError(f"events: must be a list of events, got {events!r}")
+            raise InputError(f"events: must be a list of events, got {_shown(events)}")
         specs = [_event(i, e) for i, e in enumerate(events)]
         r = Result(self._core._integrate(_state("x0", x0, n), _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
                                          _count("every", every, 1, _MAX_COUNT), _state("x_typical", x_typical, n), specs,
