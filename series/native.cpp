@@ -1,10 +1,13 @@
 #include "series/native.hpp"
 
+#include "series/child_process.hpp"
+#include "series/message.hpp"
+#include "series/sha256.hpp"
+
+#include <dirent.h>
 #include <dlfcn.h>
 #include <fcntl.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <wordexp.h>
 
@@ -15,14 +18,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
-#include <fstream>
+#include <map>
+#include <memory>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <sstream>
-#include <thread>
-
-extern char** environ;
+#include <utility>
 
 namespace pgi {
 
@@ -81,7 +85,7 @@ std::vector<std::string> compiler_words(const std::string& command) {
                           : r == WRDE_SYNTAX  ? "a syntax error (an unbalanced quote?)"
                           : r == 0            ? "no words"
                                               : "it cannot be split";
-        throw NativeCodeError("native code: the compiler command `" + command + "` cannot be used: " + why);
+        throw NativeCodeError("native code: the compiler command `" + printable(command) + "` cannot be used: " + why);
     }
     return words;
 }
@@ -103,9 +107,114 @@ std::vector<std::string> compiler_flags() { return {"-O2", "-ffp-contract=off", 
 
 std::string target_attribute(bool wide) { return wide ? "__attribute__((target(\"avx2\"))) " : ""; }
 
-// The directory kept libraries go to (NativeOptions::cache_dir), created if missing. One the caller names
-// (cache_dir or $PGI_JIT_CACHE) is the only candidate: unusable, it is an error naming it, not a silent fallback.
-fs::path cache_directory(const NativeOptions& o) {
+// A file descriptor closed when it goes out of scope.
+class Fd {
+public:
+    explicit Fd(int fd = -1) : fd_(fd) {}
+    Fd(Fd&& o) noexcept : fd_(std::exchange(o.fd_, -1)) {}
+    Fd& operator=(Fd&& o) noexcept { std::swap(fd_, o.fd_); return *this; }
+    ~Fd() {
+        if (fd_ >= 0) ::close(fd_);
+    }
+    int get() const { return fd_; }
+
+private:
+    int fd_;
+};
+
+std::string octal_mode(mode_t mode) {
+    char buffer[8];
+    std::snprintf(buffer, sizeof buffer, "%04o", unsigned(mode & 07777));
+    return buffer;
+}
+
+// Creates the missing directories of path, each 0700 whatever the umask.
+void create_private_directories(const fs::path& path) {
+    fs::path prefix;
+    for (const fs::path& part : path) {
+        prefix /= part;
+        if (::mkdir(prefix.c_str(), 0700) == 0) ::chmod(prefix.c_str(), 0700);
+    }
+}
+
+// The cache directory, opened once and checked: owned by the effective user, not writable by group or others, not a
+// symbolic link. Every file operation goes through its descriptor (openat, renameat, ...), so what is read and loaded
+// is what this directory holds even if its path is changed meanwhile.
+class CacheDir {
+public:
+    // The directory at path, created (0700) if missing; nullopt with why_not set when it cannot be used.
+    static std::optional<CacheDir> open(const fs::path& path, std::string& why_not) {
+        create_private_directories(path);
+        Fd fd(::open(path.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC));
+        struct stat st {};
+        if (fd.get() < 0 || ::fstat(fd.get(), &st) != 0) {
+            why_not = errno == ELOOP ? "it is a symbolic link" : std::string("cannot be opened (") + std::strerror(errno) + ")";
+            return std::nullopt;
+        }
+        if (st.st_uid != ::geteuid())
+            why_not = "it is owned by uid " + std::to_string(st.st_uid) + ", not by the effective user (uid " + std::to_string(::geteuid()) + ")";
+        else if (st.st_mode & (S_IWGRP | S_IWOTH))
+            why_not = "it is writable by " + std::string(st.st_mode & S_IWOTH ? "others" : "its group") + " (mode " + octal_mode(st.st_mode) + "; chmod go-w it)";
+        else if ((st.st_mode & S_IRWXU) != S_IRWXU || ::faccessat(fd.get(), ".", W_OK | X_OK, AT_EACCESS) != 0)
+            why_not = "it is not writable (mode " + octal_mode(st.st_mode) + ")";
+        if (!why_not.empty()) return std::nullopt;
+        return CacheDir(path, std::move(fd));
+    }
+
+    const fs::path& path() const { return path_; }
+
+    // The regular file name owned by the effective user, opened for reading without following a link; -1 if none.
+    Fd open_file(const std::string& name) const {
+        Fd fd(::openat(fd_.get(), name.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC | O_NONBLOCK));
+        struct stat st {};
+        if (fd.get() < 0 || ::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode) || st.st_uid != ::geteuid()) return Fd();
+        return fd;
+    }
+
+    // The contents of name (see open_file), nullopt if absent or above max bytes.
+    std::optional<std::string> read(const std::string& name, std::size_t max) const { return read_fd(open_file(name), max); }
+
+    // Writes a new file name (never an existing one, never through a link) with exactly the given mode.
+    void write_new(const std::string& name, const std::string& text, mode_t mode) const {
+        const Fd fd(::openat(fd_.get(), name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600));
+        bool ok = fd.get() >= 0 && ::fchmod(fd.get(), mode) == 0;
+        for (std::size_t done = 0; ok && done < text.size();) {
+            const ssize_t n = ::write(fd.get(), text.data() + done, text.size() - done);
+            if (n < 0 && errno == EINTR) continue;
+            ok = n > 0;
+            done += ok ? std::size_t(n) : 0;
+        }
+        if (!ok) throw NativeCodeError("native code: cannot write " + (path_ / name).string() + " (" + std::strerror(errno) + ")");
+    }
+
+    bool rename(const std::string& from, const std::string& to) const { return ::renameat(fd_.get(), from.c_str(), fd_.get(), to.c_str()) == 0; }
+
+    static std::optional<std::string> read_fd(const Fd& fd, std::size_t max) {
+        struct stat st {};
+        if (fd.get() < 0 || ::fstat(fd.get(), &st) != 0 || std::size_t(st.st_size) > max) return std::nullopt;
+        std::string text(std::size_t(st.st_size), '\0');
+        std::size_t got = 0;
+        while (got < text.size()) {
+            const ssize_t n = ::pread(fd.get(), text.data() + got, text.size() - got, off_t(got));
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) return std::nullopt;
+            got += std::size_t(n);
+        }
+        return text;
+    }
+
+    int fd() const { return fd_.get(); }
+
+private:
+    CacheDir(fs::path path, Fd fd) : path_(std::move(path)), fd_(std::move(fd)) {}
+    fs::path path_;
+    Fd fd_;
+};
+
+// The directory kept libraries go to (NativeOptions::cache_dir), created if missing and checked (CacheDir). One the
+// caller names (cache_dir or $PGI_JIT_CACHE) is the only candidate: unusable, it is an error naming it, not a silent
+// fallback; of the default ones the first usable is taken.
+CacheDir cache_directory(const NativeOptions& o) {
     std::vector<fs::path> candidates;
     const char* named = std::getenv("PGI_JIT_CACHE");
     if (!o.cache_dir.empty()) {
@@ -117,19 +226,19 @@ fs::path cache_directory(const NativeOptions& o) {
         if (const char* d = std::getenv("HOME"); d && *d) candidates.push_back(fs::path(d) / ".cache" / "pgi" / "jit");
         std::error_code ec;
         const fs::path tmp = fs::temp_directory_path(ec);
-        if (!ec) candidates.push_back(tmp / ("pgi-jit-" + std::to_string(::getuid())));
-    }
-    for (const fs::path& d : candidates) {
-        std::error_code ec;
-        fs::create_directories(d, ec);
-        if (!ec && ::access(d.c_str(), W_OK | X_OK) == 0) return d;
+        if (!ec) candidates.push_back(tmp / ("pgi-jit-" + std::to_string(::geteuid())));
     }
     std::string tried;
-    for (const fs::path& d : candidates) tried += (tried.empty() ? "" : ", ") + d.string();
-    throw NativeCodeError("native code: no writable directory for the compiled libraries (tried " + (tried.empty() ? "none" : tried) + ")");
+    for (const fs::path& d : candidates) {
+        std::string why_not;
+        if (std::optional<CacheDir> dir = CacheDir::open(d, why_not)) return std::move(*dir);
+        tried += (tried.empty() ? "" : "; ") + d.string() + ": " + why_not;
+    }
+    throw NativeCodeError("native code: no usable directory for the compiled libraries (" + (tried.empty() ? "none found" : tried) + ")");
 }
 
-// FNV-1a: the cache key of a source and its command (the kept source is compared in full before its library is used).
+// FNV-1a: the cache key of a source and its command, a name only (the kept source is compared in full, the library
+// against its SHA-256 digest, before either is used).
 std::string key_of(const std::string& text) {
     std::uint64_t h = 0xcbf29ce484222325ull;
     for (unsigned char c : text) h = (h ^ c) * 0x100000001b3ull;
@@ -138,56 +247,21 @@ std::string key_of(const std::string& text) {
     return buffer;
 }
 
-std::string read_all(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-void write_all(const fs::path& p, const std::string& text) {
-    std::ofstream out(p, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) throw NativeCodeError("native code: cannot write " + p.string());
-}
-
-std::string last_lines(const std::string& text, std::size_t n) {
-    std::size_t pos = text.size();
-    for (std::size_t i = 0; i <= n && pos > 0; ++i) pos = text.rfind('\n', pos - 1);
-    return pos == std::string::npos ? text : text.substr(pos + 1);
-}
-
-// Runs argv (argv[0] searched on PATH) with its output to log, at most timeout; "" when it exits 0, else what happened.
-std::string run(const std::vector<std::string>& argv, const fs::path& log, std::chrono::seconds timeout) {
-    std::vector<char*> args;
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    posix_spawn_file_actions_adddup2(&actions, 1, 2);
-    posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
-    pid_t pid = 0;
-    const int spawned = posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    if (spawned != 0) return "cannot be run (" + std::string(std::strerror(spawned)) + ")";
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    int status = 0;
-    for (auto pause = std::chrono::milliseconds(2);; pause = std::min(2 * pause, std::chrono::milliseconds(50))) {
-        const pid_t r = ::waitpid(pid, &status, WNOHANG);
-        if (r == pid) break;
-        if (r < 0 && errno != EINTR) return "lost (waitpid: " + std::string(std::strerror(errno)) + ")";
-        if (std::chrono::steady_clock::now() > deadline) {
-            ::kill(pid, SIGKILL);
-            ::waitpid(pid, &status, 0);
-            return "stopped after " + std::to_string(timeout.count()) + " s";
-        }
-        std::this_thread::sleep_for(pause);
-    }
-    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return "";
-    if (WIFEXITED(status)) return "exited with status " + std::to_string(WEXITSTATUS(status));
-    return "was killed by signal " + std::to_string(WTERMSIG(status));
+// The names pgi gives in its cache, and only those: KEY.cpp, KEY.so, KEY.hash (kept) and KEY.PID-RANDOM.EXT
+// (a build's temporaries), KEY 16 lowercase hex digits. Trimming never touches another name.
+enum class CacheName { other, kept, temporary };
+CacheName cache_name(std::string_view name) {
+    const auto hex = [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); };
+    const auto digits = [](std::string_view s) { return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; }); };
+    if (name.size() < 18 || !std::all_of(name.begin(), name.begin() + 16, hex) || name[16] != '.') return CacheName::other;
+    std::string_view rest = name.substr(17);
+    const std::size_t dot = rest.rfind('.');
+    const std::string_view ext = dot == std::string_view::npos ? rest : rest.substr(dot + 1);
+    if (dot == std::string_view::npos) return ext == "cpp" || ext == "so" || ext == "hash" ? CacheName::kept : CacheName::other;
+    const std::string_view suffix = rest.substr(0, dot);
+    const std::size_t dash = suffix.find('-');
+    const bool pgi_suffix = dash != std::string_view::npos && digits(suffix.substr(0, dash)) && digits(suffix.substr(dash + 1));
+    return pgi_suffix && (ext == "cpp" || ext == "so" || ext == "hash" || ext == "log") ? CacheName::temporary : CacheName::other;
 }
 
 // A name no other process picks: for files written and then renamed into place.
@@ -197,67 +271,116 @@ std::string unique_suffix() {
 }
 
 // Removes the temporaries of killed builds (a running build's, younger, are neither removed nor counted), then the
-// oldest kept sources and libraries (by last write, the pair of key spared) while they hold more than limit bytes.
-// Best effort: a file another process removes first, or cannot be read, is passed over.
-void trim_cache(const fs::path& dir, const std::string& key, std::uintmax_t limit, std::chrono::seconds timeout) {
-    std::error_code ec;
-    std::vector<std::pair<fs::file_time_type, fs::path>> files;
+// oldest kept files (by last write, the key's spared) while they hold more than limit bytes. Only pgi's own names
+// (cache_name) that are regular files are looked at. Best effort: a file another process removes first is passed over.
+void trim_cache(const CacheDir& dir, const std::string& key, std::uintmax_t limit, std::chrono::seconds timeout) {
+    DIR* listing = ::fdopendir(::dup(dir.fd()));
+    if (!listing) return;
+    const std::unique_ptr<DIR, int (*)(DIR*)> closer(listing, ::closedir);
+    // a temporary older than a compiler is given is a build that was killed: it goes
+    const std::time_t stale = std::time(nullptr) - std::time_t(timeout.count()) - 60;
+    std::vector<std::pair<std::time_t, std::string>> kept;
+    std::map<std::string, std::uintmax_t> sizes;
     std::uintmax_t total = 0;
-    // a temporary (KEY.SUFFIX.cpp, .so, .log) older than a compiler is given is a build that was killed: it goes
-    const auto stale = fs::file_time_type::clock::now() - timeout - std::chrono::minutes(1);
-    for (const auto& e : fs::directory_iterator(dir, ec)) {
-        const std::uintmax_t size = e.file_size(ec);
-        if (ec) continue;
-        const fs::file_time_type written = e.last_write_time(ec);
-        if (ec) continue;
-        if (e.path().stem().string().find('.') != std::string::npos) {  // a temporary: a running build's is left alone
-            if (written < stale) fs::remove(e.path(), ec);
+    while (const dirent* e = ::readdir(listing)) {
+        const std::string name = e->d_name;
+        const CacheName kind = cache_name(name);
+        struct stat st {};
+        if (kind == CacheName::other || ::fstatat(dir.fd(), name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0 || !S_ISREG(st.st_mode)) continue;
+        if (kind == CacheName::temporary) {
+            if (st.st_mtime < stale) ::unlinkat(dir.fd(), name.c_str(), 0);
             continue;
         }
-        total += size;
-        if (e.path().stem() != key) files.push_back({written, e.path()});
+        total += std::uintmax_t(st.st_size);
+        if (name.compare(0, key.size(), key) != 0) kept.push_back({st.st_mtime, name}), sizes[name] = std::uintmax_t(st.st_size);
     }
-    std::sort(files.begin(), files.end());
-    for (const auto& [time, path] : files) {
+    std::sort(kept.begin(), kept.end());
+    for (const auto& [time, name] : kept) {
         if (total <= limit) break;
-        const std::uintmax_t size = fs::file_size(path, ec);
-        if (!ec && fs::remove(path, ec)) total -= size;
+        if (::unlinkat(dir.fd(), name.c_str(), 0) == 0) total -= sizes[name];
     }
 }
 
-// The library of source in dir: the kept one if its source is the same, else compiled now (written under a temporary
-// name, then renamed into place: a concurrent build of the same source writes the same bytes).
-fs::path library_for(const std::string& source, const NativeOptions& o) {
-    const std::string compiler = compiler_of(o);
+// dlclose as a shared_ptr's deleter.
+std::shared_ptr<void> own_handle(void* handle) {
+    return std::shared_ptr<void>(handle, [](void* h) { ::dlclose(h); });
+}
+
+// The library name in dir, loaded (RTLD_NOW | RTLD_LOCAL) through the directory's descriptor (/proc/self/fd/N/NAME, so
+// a directory swapped after it was checked is never where it is loaded from), with every symbol in place; "" and the
+// handle, or why not. NOTE: glibc returns an object already loaded under the same name; the names are keyed by the
+// source, so such an object holds the same code.
+std::string load_checked(const CacheDir& dir, const std::string& name, const std::vector<std::string>& symbols, std::shared_ptr<void>& handle) {
+    const std::string via_fd = "/proc/self/fd/" + std::to_string(dir.fd());
+    const std::string path = (::access(via_fd.c_str(), X_OK) == 0 ? fs::path(via_fd) : dir.path()) / name;
+    void* h = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!h) {
+        const char* error = ::dlerror();
+        return "is not a loadable library (" + printable(error ? error : "dlopen failed") + ")";
+    }
+    handle = own_handle(h);
+    for (const std::string& s : symbols)
+        if (!::dlsym(h, s.c_str())) {
+            handle.reset();
+            return "is a library without the function " + s;
+        }
+    return "";
+}
+
+// The largest library read to check its digest.
+constexpr std::size_t max_library_bytes = std::size_t(1) << 30;
+
+// The kept library of key, loaded, when its source is source, its digest the one pgi wrote beside it and it holds
+// every symbol; else null (and it is built anew, replacing whatever was there).
+std::shared_ptr<void> load_kept(const CacheDir& dir, const std::string& key, const std::string& source, const std::vector<std::string>& symbols) {
+    const std::optional<std::string> kept_source = dir.read(key + ".cpp", source.size());
+    const std::optional<std::string> digest = dir.read(key + ".hash", 256);
+    if (!kept_source || *kept_source != source || !digest) return nullptr;
+    const Fd fd = dir.open_file(key + ".so");
+    const std::optional<std::string> bytes = CacheDir::read_fd(fd, max_library_bytes);
+    if (!bytes || *digest != detail::sha256_hex(*bytes) + "\n") return nullptr;
+    std::shared_ptr<void> handle;
+    load_checked(dir, key + ".so", symbols, handle);
+    return handle;
+}
+
+// The library of source with the given symbols, loaded: the kept one if its source, digest and symbols check (load_kept),
+// else compiled now into temporaries, loaded and checked, then renamed into place with its digest beside it (a
+// concurrent build of the same source keeps one of the two; a pair that does not match is built again).
+std::shared_ptr<void> library_for(const std::string& source, const std::vector<std::string>& symbols, const NativeOptions& o) {
+    std::vector<std::string> argv = compiler_words(compiler_of(o));
     const std::vector<std::string> flags = compiler_flags();
-    std::vector<std::string> argv = compiler_words(compiler);
     argv.insert(argv.end(), flags.begin(), flags.end());
     std::string command;
     for (const std::string& word : argv) command += (command.empty() ? "" : " ") + word;
-    const fs::path dir = cache_directory(o);
+    const CacheDir dir = cache_directory(o);
     const std::string key = key_of(command + "\n" + source);
-    const fs::path kept_source = dir / (key + ".cpp"), library = dir / (key + ".so");
-    std::error_code ec;
-    if (fs::exists(library, ec) && fs::exists(kept_source, ec) && read_all(kept_source) == source) return library;
-    const std::string tmp = unique_suffix();
-    const fs::path src = dir / (key + "." + tmp + ".cpp"), lib = dir / (key + "." + tmp + ".so"), log = dir / (key + "." + tmp + ".log");
-    write_all(src, source);
-    argv.insert(argv.end(), {"-o", lib.string(), src.string()});
-    const std::string failure = run(argv, log, o.timeout);
-    const std::string output = read_all(log);
-    fs::remove(log, ec);
-    if (!failure.empty()) {
-        fs::remove(src, ec), fs::remove(lib, ec);
-        throw NativeCodeError("native code: the compiler `" + command + "` " + failure + (output.empty() ? "" : ":\n" + last_lines(output, 10)));
+    if (std::shared_ptr<void> kept = load_kept(dir, key, source, symbols)) return kept;
+    const std::string tmp = key + "." + unique_suffix();
+    TemporaryFile src((dir.path() / (tmp + ".cpp")).string()), lib((dir.path() / (tmp + ".so")).string()),
+        hash((dir.path() / (tmp + ".hash")).string());
+    dir.write_new(tmp + ".cpp", source, 0600);
+    argv.insert(argv.end(), {"-o", lib.path(), src.path()});
+    const std::string compiler = "native code: the compiler `" + printable(command) + "` ";
+    const ChildResult run = run_child(argv, {.timeout = o.timeout, .output_limit = std::size_t(64) << 10});
+    if (!run.ok()) {
+        const std::string output = output_tail(run.output);
+        throw NativeCodeError(compiler + run.failure + (output.empty() ? "" : ": " + output));
     }
-    fs::rename(lib, library, ec);
-    if (!ec) fs::rename(src, kept_source, ec);
-    if (ec) {
-        fs::remove(src, ec), fs::remove(lib, ec);
-        throw NativeCodeError("native code: cannot keep the library in " + dir.string());
-    }
+    const Fd fd = dir.open_file(tmp + ".so");
+    if (fd.get() < 0) throw NativeCodeError(compiler + "exited with status 0 but wrote no library");
+    ::fchmod(fd.get(), 0700);
+    const std::optional<std::string> bytes = CacheDir::read_fd(fd, max_library_bytes);
+    std::shared_ptr<void> handle;
+    const std::string why = bytes ? load_checked(dir, tmp + ".so", symbols, handle) : "cannot be read";
+    if (!why.empty()) throw NativeCodeError(compiler + "exited with status 0 but what it wrote " + why + " (nothing kept)");
+    dir.write_new(tmp + ".hash", detail::sha256_hex(*bytes) + "\n", 0600);
+    // the library first, its digest last: a reader between the renames finds a mismatch and builds again
+    if (!dir.rename(tmp + ".so", key + ".so") || !dir.rename(tmp + ".cpp", key + ".cpp") || !dir.rename(tmp + ".hash", key + ".hash"))
+        throw NativeCodeError("native code: cannot keep the library in " + dir.path().string() + " (" + std::strerror(errno) + ")");
+    src.keep(), lib.keep(), hash.keep();
     trim_cache(dir, key, o.cache_limit_bytes, o.timeout);
-    return library;
+    return handle;
 }
 
 }  // namespace
@@ -425,16 +548,12 @@ std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const Nati
     if (todo.empty()) return native;
     std::string source = preamble();
     for (std::size_t i = 0; i < todo.size(); ++i) source += map_source(*todo[i], "pgi_map_" + std::to_string(i), options.vectors);
-    const fs::path library = library_for(source, options);
-    void* handle = ::dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!handle) throw NativeCodeError("native code: cannot load " + library.string() + ": " + ::dlerror());
-    const std::shared_ptr<const void> loaded(handle, [](const void* h) { ::dlclose(const_cast<void*>(h)); });
+    std::vector<std::string> symbols;
+    for (std::size_t i = 0; i < todo.size(); ++i) symbols.push_back("pgi_map_" + std::to_string(i));
+    const std::shared_ptr<void> handle = library_for(source, symbols, options);
+    const std::shared_ptr<const void> loaded = handle;
     std::vector<CompiledMap::NativeEval> found;
-    for (std::size_t i = 0; i < todo.size(); ++i) {
-        void* f = ::dlsym(handle, ("pgi_map_" + std::to_string(i)).c_str());
-        if (!f) throw NativeCodeError("native code: " + library.string() + " lacks pgi_map_" + std::to_string(i));
-        found.push_back(reinterpret_cast<CompiledMap::NativeEval>(f));
-    }
+    for (const std::string& s : symbols) found.push_back(reinterpret_cast<CompiledMap::NativeEval>(::dlsym(handle.get(), s.c_str())));
     for (std::size_t i = 0; i < todo.size(); ++i) todo[i]->attach_native(loaded, found[i]);
     return native + todo.size();
 }

@@ -147,7 +147,7 @@ TEST_CASE("native: a copy shares the loaded code; a kept library is loaded, not 
     REQUIRE(attach_native_code({&first}, options) == 1);
     std::vector<fs::path> kept;
     for (const auto& e : fs::directory_iterator(options.cache_dir)) kept.push_back(e.path());
-    REQUIRE(kept.size() == 2);  // the source and its library, nothing left over
+    REQUIRE(kept.size() == 3);  // the source, its library and its digest, nothing left over
     const auto written = fs::last_write_time(kept[0]);
     // the same map again, with a "compiler" that would fail if it were run: the kept library serves
     CompiledMap second = CompiledMap::build({f}, {0, 1});
@@ -156,7 +156,7 @@ TEST_CASE("native: a copy shares the loaded code; a kept library is loaded, not 
     CHECK(attach_native_code({&second}, no_compiler) == 1);
     std::size_t files = 0;
     for ([[maybe_unused]] const auto& e : fs::directory_iterator(options.cache_dir)) ++files;
-    CHECK(files == 2);
+    CHECK(files == 3);
     CHECK(fs::last_write_time(kept[0]) == written);
     const CompiledMap copy = second;
     const double x[2] = {0.5, 3};
@@ -297,14 +297,15 @@ TEST_CASE("native: past the cache's limit the oldest kept libraries go, the newe
     REQUIRE(attach_native_code({&first}, o) == 1);
     std::size_t files = 0;
     for ([[maybe_unused]] const auto& e : fs::directory_iterator(o.cache_dir)) ++files;
-    REQUIRE(files == 2);
+    REQUIRE(files == 3);
     o.cache_limit_bytes = 1;  // below any library: every older one goes
     CompiledMap second = CompiledMap::build({pow(Poly::gen(r, 0), 3)}, {0});
     REQUIRE(attach_native_code({&second}, o) == 1);
     std::vector<fs::path> kept;
     for (const auto& e : fs::directory_iterator(o.cache_dir)) kept.push_back(e.path());
-    REQUIRE(kept.size() == 2);  // the second map's source and library only
+    REQUIRE(kept.size() == 3);  // the second map's source, library and digest only
     CHECK(kept[0].stem() == kept[1].stem());
+    CHECK(kept[1].stem() == kept[2].stem());
     const double x = 2;
     double y1 = 0, y2 = 0;
     first.eval(&x, &y1);   // still loaded, though its file is gone

@@ -2,9 +2,10 @@
 // AtomicFile: output written to a fresh temporary file beside its target (created exclusively, with an
 // unpredictable name, never through a link), flushed to disk and renamed into place by commit(), so a
 // reader never sees half a file; an uncommitted file is removed by the destructor, and by
-// remove_temporaries_on_signals()'s handler when SIGINT or SIGTERM ends the program.
+// the signal handler (series/child_process.hpp) when SIGINT or SIGTERM ends the program.
+#include "series/child_process.hpp"
+
 #include <cerrno>
-#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -27,36 +28,6 @@ public:
 };
 
 namespace detail {
-
-// The temporary files that exist now, for the signal handler: a fixed table of C strings (the handler
-// may call only async-signal-safe functions, so no allocation, no std::string). The one piece of global
-// state in the tools: a signal handler has no other way to find them.
-struct TempTable {
-    static constexpr int slots = 16;
-    char path[slots][4096];
-    volatile std::sig_atomic_t used[slots];
-};
-inline TempTable temp_table{};  // constant-initialised: no guard, safe to read in a handler
-
-inline int register_temp(const std::string& path) {
-    if (path.size() >= sizeof temp_table.path[0]) return -1;
-    for (int i = 0; i < TempTable::slots; ++i)
-        if (!temp_table.used[i]) {
-            std::memcpy(temp_table.path[i], path.c_str(), path.size() + 1);
-            temp_table.used[i] = 1;
-            return i;
-        }
-    return -1;
-}
-inline void unregister_temp(int slot) {
-    if (slot >= 0) temp_table.used[slot] = 0;
-}
-
-extern "C" inline void remove_temps_and_exit(int sig) {
-    for (int i = 0; i < TempTable::slots; ++i)
-        if (temp_table.used[i]) ::unlink(temp_table.path[i]);
-    ::_exit(128 + sig);  // 130 for SIGINT, 143 for SIGTERM, as the shell reports a signal
-}
 
 // A stream buffer over a file descriptor that remembers the first failed write.
 class FdBuffer : public std::streambuf {
@@ -95,17 +66,9 @@ inline std::filesystem::path directory_of(const std::filesystem::path& target) {
 
 }  // namespace detail
 
-/// Installs the handler that removes the temporary files of unfinished AtomicFiles on SIGINT and
-/// SIGTERM, then exits with 128 + the signal number (130, 143).
-inline void remove_temporaries_on_signals() {
-    struct sigaction sa {};
-    sa.sa_handler = detail::remove_temps_and_exit;
-    sigemptyset(&sa.sa_mask);
-    sigaddset(&sa.sa_mask, SIGINT);
-    sigaddset(&sa.sa_mask, SIGTERM);
-    ::sigaction(SIGINT, &sa, nullptr);
-    ::sigaction(SIGTERM, &sa, nullptr);
-}
+/// Installs the handler that removes the temporary files of unfinished AtomicFiles (and of native code) and kills
+/// running child processes on SIGINT and SIGTERM, then exits with 128 + the signal number (130, 143).
+inline void remove_temporaries_on_signals() { end_cleanly_on_signals(); }
 
 /// Whether target can receive an output file, checked before any work: its directory exists and is
 /// writable, and the target is absent or a regular file (not a directory, FIFO or device) that is not
@@ -151,16 +114,14 @@ public:
         const mode_t mask = ::umask(0);  // the permissions an ordinary new file would get (mkostemp gives 0600)
         ::umask(mask);
         ::fchmod(fd_, 0666 & ~mask);
-        slot_ = detail::register_temp(temp_);
+        temp_file_ = std::make_unique<TemporaryFile>(temp_);
         buffer_ = std::make_unique<detail::FdBuffer>(fd_);
         stream_ = std::make_unique<std::ostream>(buffer_.get());
     }
     AtomicFile(const AtomicFile&) = delete;
     AtomicFile& operator=(const AtomicFile&) = delete;
     ~AtomicFile() {
-        if (fd_ >= 0) ::close(fd_);
-        if (!committed_) ::unlink(temp_.c_str());
-        detail::unregister_temp(slot_);
+        if (fd_ >= 0) ::close(fd_);  // temp_file_ removes the file unless committed
     }
 
     std::ostream& stream() { return *stream_; }
@@ -176,16 +137,16 @@ public:
             throw OutputError(target_.string() + ": write failed (" + std::strerror(written ? errno : saved) + ")");
         if (::rename(temp_.c_str(), target_.c_str()) != 0)
             throw OutputError(target_.string() + ": cannot rename the written file into place (" + std::strerror(errno) + ")");
-        committed_ = true;
+        temp_file_->keep();
     }
 
 private:
     std::filesystem::path target_;
     std::string temp_;
-    int fd_ = -1, slot_ = -1;
+    int fd_ = -1;
+    std::unique_ptr<TemporaryFile> temp_file_;
     std::unique_ptr<detail::FdBuffer> buffer_;
     std::unique_ptr<std::ostream> stream_;
-    bool committed_ = false;
 };
 
 }  // namespace pgi

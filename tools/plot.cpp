@@ -1,23 +1,23 @@
 #include "tools/plot.hpp"
 
+#include "series/child_process.hpp"
+#include "series/message.hpp"
 #include "tools/atomic_file.hpp"
 
 #include <fmt/format.h>
 
 #include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <limits>
 #include <sstream>
-
-extern char** environ;
 
 namespace pgi {
 
@@ -45,13 +45,14 @@ void RunSeries::record(std::size_t n, double t, const double* x, const std::vect
 
 namespace {
 
-// a directory removed with everything in it when it goes out of scope
+// A private directory (mkdtemp: 0700, an unpredictable name) for gnuplot's data, script and figures, removed with
+// everything in it when it goes out of scope. Only names pgi makes in it reach gnuplot.
 struct TempDir {
     fs::path path;
     TempDir() {
-        static std::size_t counter = 0;
-        path = fs::temp_directory_path() / fmt::format("pgi_plot_{}_{}", ::getpid(), counter++);
-        fs::create_directories(path);
+        std::string pattern = (fs::temp_directory_path() / "pgi-plot-XXXXXX").string();
+        if (!::mkdtemp(pattern.data())) throw OutputError(std::string("--plot: cannot create a temporary directory (") + std::strerror(errno) + ")");
+        path = pattern;
     }
     ~TempDir() {
         std::error_code ec;
@@ -67,34 +68,35 @@ bool on_path(const std::string& program) {
     return false;
 }
 
-// gnuplot's string literal: double quotes, backslashes and quotes escaped
+// A gnuplot string that gnuplot takes as text only: single quotes, in which it substitutes nothing (no `command`,
+// no @macro; a ' is written ''), control characters (a newline would end the command) shown as \xNN.
 std::string quoted(const std::string& s) {
-    std::string out = "\"";
-    for (char c : s) {
-        if (c == '"' || c == '\\') out += '\\';
-        out += c;
-    }
-    return out + "\"";
+    std::string out = "'";
+    for (char c : printable(s)) out += c == '\'' ? std::string("''") : std::string(1, c);
+    return out + "'";
 }
 
-void run_gnuplot(const fs::path& script, const fs::path& log) {
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    const std::string script_path = script.string();
-    const char* argv[] = {"gnuplot", script_path.c_str(), nullptr};
-    pid_t pid;
-    const int spawned = posix_spawnp(&pid, "gnuplot", &actions, nullptr, const_cast<char* const*>(argv), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    if (spawned != 0) throw OutputError("--plot: gnuplot is not installed (Debian: gnuplot-nox)");
-    int status = 0;
-    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        std::ifstream in(log);
-        std::stringstream text;
-        text << in.rdbuf();
-        throw OutputError("--plot: gnuplot failed: " + text.str());
+// gnuplot runs as every child does (series/child_process.hpp): no shell, its own process group, killed past a
+// minute or on a signal, its diagnostics bounded and sanitised.
+void run_gnuplot(const fs::path& script) {
+    const ChildResult run = run_child({"gnuplot", script.string()}, {.timeout = std::chrono::seconds(60), .output_limit = std::size_t(64) << 10});
+    if (run.failure.rfind("cannot be run", 0) == 0) throw OutputError("--plot: gnuplot is not installed (Debian: gnuplot-nox)");
+    if (!run.ok()) {
+        const std::string output = output_tail(run.output);
+        throw OutputError("--plot: gnuplot failed: " + run.failure + (output.empty() ? "" : ": " + output));
+    }
+}
+
+// Copies a figure gnuplot wrote into the private directory to its target, as every output is written (AtomicFile).
+void publish(const fs::path& figure, const fs::path& target) {
+    std::ifstream in(figure, std::ios::binary);
+    if (!in || fs::file_size(figure) == 0) throw OutputError("--plot: gnuplot wrote no " + target.string());
+    try {
+        AtomicFile out(target);
+        out.stream() << in.rdbuf();
+        out.commit();
+    } catch (const std::invalid_argument& e) {
+        throw OutputError(std::string("--plot: ") + e.what());
     }
 }
 
@@ -156,7 +158,7 @@ std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string
     {
         std::ofstream out(errs);
         for (std::size_t i = 0; i < s.invariant_names().size(); ++i) {
-            out << "# " << s.invariant_names()[i] << "\n";
+            out << "# " << printable(s.invariant_names()[i]) << "\n";
             for (const auto& b : s.bins())
                 if (b.error[i] > 0 && b.error_t[i] > 0) {  // log axes: zero errors (and t = 0) cannot be drawn
                     out << fmt::format("{:.17g} {:.17g}\n", b.error_t[i], std::isfinite(b.error[i]) ? b.error[i] : 1e300);
@@ -168,31 +170,23 @@ std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string
     }
     std::vector<fs::path> written;
     std::string script = fmt::format("title = {}\nset grid\nset encoding utf8\n", quoted(title));
-    std::vector<std::pair<fs::path, fs::path>> renames;
+    std::vector<std::pair<fs::path, fs::path>> figures;  // (in the private directory, target)
     for (const auto& [figure, body] : {std::pair{std::string("trajectory"), trajectory_plot(s, coords, traj.string())},
                                        std::pair{std::string("errors"), errors_plot(s, dt, errs.string(), has_points)}})
         for (const auto& [ext, terminal] : {std::pair{"svg", "svg size 900,560 font \"sans,12\" background \"white\" noenhanced"},
                                             std::pair{"png", "pngcairo size 900,560 font \"sans,11\" noenhanced"}}) {
-            const fs::path target = dir / fmt::format("{}-{}.{}", name, figure, ext);
-            const fs::path temp = target.string() + ".tmp" + std::to_string(::getpid());
-            script += fmt::format("reset\nset grid\nset terminal {}\nset output {}\n{}set output\n", terminal, quoted(temp.string()), body);
-            renames.push_back({temp, target});
+            const fs::path out = tmp.path / fmt::format("{}.{}", figure, ext);
+            script += fmt::format("reset\nset grid\nset terminal {}\nset output {}\n{}set output\n", terminal, quoted(out.string()), body);
+            figures.push_back({out, dir / fmt::format("{}-{}.{}", name, figure, ext)});
         }
     {
         std::ofstream out(tmp.path / "plot.gp");
         out << script;
     }
-    try {
-        run_gnuplot(tmp.path / "plot.gp", tmp.path / "gnuplot.log");
-        for (const auto& [temp, target] : renames) {
-            if (!fs::exists(temp) || fs::file_size(temp) == 0) throw OutputError("--plot: gnuplot wrote no " + target.string());
-            fs::rename(temp, target);
-            written.push_back(target);
-        }
-    } catch (...) {
-        std::error_code ec;
-        for (const auto& r : renames) fs::remove(r.first, ec);
-        throw;
+    run_gnuplot(tmp.path / "plot.gp");
+    for (const auto& [figure, target] : figures) {
+        publish(figure, target);
+        written.push_back(target);
     }
     return written;
 }
@@ -202,9 +196,9 @@ RunPlot::RunPlot(const Scene& scene, fs::path dir) : scene_(scene), dir_(std::mo
         throw SceneError(scene.file, "--plot", "'" + dir_.string() + "' is not an existing directory (create it first)");
     {  // a real file, not access(): root passes access() on read-only file systems and /proc
         const fs::path probe = dir_ / (".pgi_plot_probe" + std::to_string(::getpid()));
-        const bool writable = std::ofstream(probe).good();
-        std::error_code ec;
-        fs::remove(probe, ec);
+        const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);  // never through a link
+        const bool writable = fd >= 0;
+        if (writable) ::close(fd), ::unlink(probe.c_str());
         if (!writable) throw SceneError(scene.file, "--plot", "cannot write into '" + dir_.string() + "'");
     }
     if (!on_path("gnuplot")) throw SceneError(scene.file, "--plot", "gnuplot is not installed (Debian: gnuplot-nox)");
