@@ -18,11 +18,24 @@
 
 namespace pgi {
 
+TrajectoryStatus status_of(StepStatus s) {
+    switch (s) {  // every StepStatus (no default: a new one is a compiler warning here)
+        case StepStatus::ok: return TrajectoryStatus::ok;
+        case StepStatus::newton_not_converged: return TrajectoryStatus::newton_not_converged;
+        case StepStatus::non_finite: return TrajectoryStatus::non_finite;
+        case StepStatus::truncation_above_bound: return TrajectoryStatus::truncation_above_bound;
+        case StepStatus::ill_conditioned: return TrajectoryStatus::ill_conditioned;
+    }
+    throw std::logic_error("status_of: unknown StepStatus");
+}
+
 std::string to_string(TrajectoryStatus s) {
     switch (s) {
         case TrajectoryStatus::ok: return "ok";
         case TrajectoryStatus::newton_not_converged: return "newton_not_converged";
         case TrajectoryStatus::non_finite: return "non_finite";
+        case TrajectoryStatus::truncation_above_bound: return "truncation_above_bound";
+        case TrajectoryStatus::ill_conditioned: return "ill_conditioned";
         case TrajectoryStatus::non_finite_start: return "non_finite_start";
     }
     return "?";
@@ -59,12 +72,6 @@ struct Worker {
 
     Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes);
 };
-
-TrajectoryStatus status_of(StepStatus s) {
-    return s == StepStatus::newton_not_converged ? TrajectoryStatus::newton_not_converged
-         : s == StepStatus::non_finite           ? TrajectoryStatus::non_finite
-                                                 : TrajectoryStatus::ok;
-}
 
 // A row that is not finite: kept as it is, no step taken, its errors NaN.
 void end_non_finite_start(const Eigen::Ref<const RowMatrix>& X0, Eigen::Index i, EnsembleResult& r) {
@@ -241,13 +248,20 @@ std::size_t default_batch(std::size_t n) { return n < 40 ? 16 : 1; }
 // Each lane holds a copy of the step: bounded.
 constexpr std::size_t max_batch = 1024;
 
-void check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
-                     const EnsembleOptions& options) {
+// Everything a surface could get wrong, checked before any work: the run (plan_run), X0's shape, the options.
+RunPlan check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
+                        const EnsembleOptions& options) {
     const auto n = Eigen::Index(scheme.phase_space().dim());
     if (X0.cols() != n)
         throw InputError("X0", "must have " + std::to_string(n) + " columns (one per coordinate), got " + std::to_string(X0.cols()));
-    if (!(dt > 0) || !std::isfinite(dt)) throw InputError("dt", "must be positive and finite");
-    if (!(t_end >= 0) || !std::isfinite(t_end)) throw InputError("t_end", "must be finite and not negative");
+    RunRequest request;
+    request.dt = dt;
+    request.t_end = t_end;
+    request.every = 0;  // the final state only
+    request.dim = std::size_t(n);
+    request.invariants = 1 + scheme.casimirs().size();
+    request.trajectories = std::max<std::size_t>(1, std::size_t(X0.rows()));
+    const RunPlan plan = plan_run(request, options.control.limits);
     const std::size_t most = std::max<std::size_t>(256, 4 * std::size_t(tbb::info::default_concurrency()));
     if (options.threads > most)
         throw InputError("threads", std::to_string(options.threads) + " is above the limit of " + std::to_string(most) + " (4 per core, at least 256)");
@@ -257,13 +271,14 @@ void check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0
         if (xt->size() != n) throw InputError("x_typical", "must have " + std::to_string(n) + " values, got " + std::to_string(xt->size()));
         if (!xt->allFinite()) throw InputError("x_typical", "must be finite");
     }
+    return plan;
 }
 
 }  // namespace
 
 EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
                                   const EnsembleOptions& options) {
-    check_arguments(scheme, X0, dt, t_end, options);
+    const RunPlan plan = check_arguments(scheme, X0, dt, t_end, options);
     const Eigen::Index m = X0.rows(), n = X0.cols();
     EnsembleResult r;
     r.threads = options.threads ? options.threads : std::size_t(tbb::info::default_concurrency());
@@ -278,8 +293,9 @@ EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const R
     }
     r.x_typical = *typical;
     const NewtonStepper prototype = scheme.stepper(dt, *typical);
-    const RunLoop loop(scheme);
-    const std::size_t N = steps_to_reach(t_end, dt);
+    RunLoop loop(scheme);
+    loop.set_cancel(options.control.cancel);
+    const std::size_t N = plan.steps;
     const std::size_t batch = options.batch ? options.batch : default_batch(std::size_t(n));
     const std::size_t chunk = options.chunk ? options.chunk : std::max(batch, std::size_t(m) / (8 * r.threads));
     const std::size_t lanes = std::min(batch, chunk);

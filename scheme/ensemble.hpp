@@ -10,6 +10,7 @@
 // Within a chunk, trajectories are stepped in batches (poisson/batch_step: the predictor and grad, Hess S_dt
 // of all lanes evaluated at once in structure of arrays, then Newton lane by lane); a lane whose trajectory
 // ends takes the next row. The numbers stay the single run's bit for bit, whatever the batch size.
+#include "scheme/run_request.hpp"
 #include "scheme/scheme.hpp"
 
 #include <Eigen/Dense>
@@ -22,14 +23,19 @@ namespace pgi {
 
 using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-/// How a trajectory of an ensemble ended.
+/// How a trajectory of an ensemble ended: the step's own statuses (StepStatus, the single run's), plus a start
+/// that was not finite. A member ends with exactly the status its single run has.
 enum class TrajectoryStatus {
     ok,                      // every step solved to round-off
     newton_not_converged,    // a step's Newton did not reach round-off
-    non_finite,              // a step left a non-finite state
+    non_finite,              // a step left a non-finite state (or invariant)
+    truncation_above_bound,  // a step's neglected realisation terms were above their bound
+    ill_conditioned,         // a step's acceptance tolerance exceeded sqrt(u) |x|
     non_finite_start,        // the initial row was not finite: no step taken
 };
-/// "ok", "newton_not_converged", "non_finite", "non_finite_start" (identifiers, for arrays and CSV).
+/// The trajectory status of a run that ended with the step status s.
+TrajectoryStatus status_of(StepStatus s);
+/// The enumerator's name: "ok", "newton_not_converged", ..., "non_finite_start" (identifiers, for arrays and CSV).
 std::string to_string(TrajectoryStatus s);
 
 struct EnsembleOptions {
@@ -39,6 +45,7 @@ struct EnsembleOptions {
     /// The state the compiled step is built for (its realisation degree and predictor are chosen there).
     /// Default: typical_state(X0), the finite row of largest norm.
     std::optional<Eigen::VectorXd> x_typical;
+    RunControl control;   // the budgets, checked before any work, and the flag that stops the run (RunInterrupted)
 };
 
 /// Per trajectory: how it ended and its Newton statistics.
@@ -69,9 +76,10 @@ struct EnsembleResult {
 std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& X0);
 
 /// Integrates every row of X0 (m x n) over steps_to_reach(t_end, dt) steps of the step built once at
-/// options.x_typical. Throws InputError before any work on X0 without n columns, dt <= 0, t_end < 0 or
-/// not finite, a non-finite x_typical or one of the wrong length, threads or batch above their limits. Rows that are not finite are not
-/// an error: they end with status non_finite_start.
+/// options.x_typical. Throws before any work what plan_run throws (InputError on dt <= 0, t_end < 0 or not
+/// finite; RunBudgetError above options.control.limits), InputError on X0 without n columns, a non-finite x_typical or
+/// one of the wrong length, threads or batch above their limits. Rows that are not finite are not an error:
+/// they end with status non_finite_start.
 EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
                                   const EnsembleOptions& options = {});
 

@@ -52,6 +52,7 @@ bool RunLoop::all_finite() {
 }
 
 void RunLoop::commit(bool first) {
+    if (cancel_) cancel_->check();
     if (first) initial_ = values_;
     for (std::size_t i = 0; i < values_.size(); ++i) worst_[i] = std::max(worst_[i], error(i));
 }

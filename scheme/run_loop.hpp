@@ -6,6 +6,7 @@
 // trajectory (pgi::integrate, Python), write CSV rows and show progress (the command line), keep the final
 // state (each trajectory of an ensemble). All of them run this loop, so their numbers agree bit for bit.
 #include "poisson/events.hpp"
+#include "scheme/run_request.hpp"
 #include "scheme/scheme.hpp"
 #include "scheme/trajectory.hpp"
 
@@ -84,6 +85,8 @@ public:
     /// H, the Casimirs and the extras, compiled (what observe evaluates).
     const CompiledMap& invariants() const { return invariants_; }
     const std::string& non_finite() const { return non_finite_; }
+    /// Polled at every state observed (run(), observe(), observe_values()): once cancelled, RunInterrupted is thrown.
+    void set_cancel(const RunCancel* cancel) { cancel_ = cancel; }
 
     /// The invariants at the state observed last: H, the Casimirs, the extras.
     const std::vector<double>& values() const { return values_; }
@@ -111,6 +114,7 @@ private:
     std::vector<double> values_, initial_, worst_, scale_;
     Eigen::VectorXd last_;                    // the last state observed (the left end of the next step's events)
     std::string non_finite_;
+    const RunCancel* cancel_ = nullptr;
 };
 
 template <class OnState, class OnCrossing>

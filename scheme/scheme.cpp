@@ -118,8 +118,12 @@ const SchemeChecks& Scheme::checks() const {
 }
 
 void Scheme::require_valid() const {
-    const auto& names = phase_space().coordinates();
     std::lock_guard lock(cache_->mutex);
+    require_valid_locked();
+}
+
+void Scheme::require_valid_locked() const {
+    const auto& names = phase_space().coordinates();
     const SchemeChecks& c = structure_checks_locked();
     if (const auto& f = c.jacobi)
         throw InputError("brackets", "the Jacobi identity fails at (" + names[f->i] + ", " + names[f->j] + ", " + names[f->k] +
@@ -158,6 +162,7 @@ const std::vector<Poly>& Scheme::terms() const {
 
 const std::vector<Poly>& Scheme::terms_locked() const {
     if (!cache_->terms) {
+        require_valid_locked();  // S_1..S_k and everything built on them solve the Hamilton-Jacobi equation of a Poisson pi
         // S_1..S_k read alpha only through degree k - 1: a deeper realisation already built serves as is
         const std::size_t D = realisation_degree_for_order(k_);
         if (const RealisationPtr& r = cache_->realisation.deepest(); !r || r->degree < D) realisation_locked(D);

@@ -102,7 +102,8 @@ public:
     /// as a copy of its own (a stepper holds scratch, so each caller steps its own) whose dt() is dt. dt is a
     /// run-time argument of the compiled step: a build serves every dt up to the one it was built for and
     /// every typical state up to twice its own in norm; only a larger dt or state builds again. At most
-    /// stepper_cache_size builds are kept (the least recently used is dropped). Requires pi to satisfy Jacobi.
+    /// stepper_cache_size builds are kept (the least recently used is dropped). Throws what require_valid
+    /// throws first: S_1..S_k (terms(), modified_hamiltonian(), every stepper) exist only for a valid scheme.
     /// Native code when the scheme was made with jit (NativeCodeError if it cannot be built).
     NewtonStepper stepper(double dt, const Eigen::VectorXd& x_typical) const;
     /// The same with the step's tuning (predictor_order, max_degree, Newton's and the truncation's bounds)
@@ -116,6 +117,7 @@ public:
 private:
     struct Cache;
     const SchemeChecks& structure_checks_locked() const;
+    void require_valid_locked() const;
     RealisationPtr realisation_locked(std::size_t D) const;
     const std::vector<Poly>& terms_locked() const;
 

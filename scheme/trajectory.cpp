@@ -8,7 +8,6 @@
 
 namespace pgi {
 
-std::size_t steps_to_reach(double t_end, double dt) { return static_cast<std::size_t>(std::ceil(t_end / dt - 1e-9)); }
 
 double term_size(const Poly& f, std::span<const double> x) {
     double s = 0;
@@ -45,15 +44,18 @@ std::string step_failure_message(const NewtonStepper& s, std::size_t step, StepS
 }
 
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every,
-                     const std::optional<Eigen::VectorXd>& x_typical, const TrajectoryEvents& events) {
+                     const std::optional<Eigen::VectorXd>& x_typical, const TrajectoryEvents& events, const RunControl& control) {
     const std::size_t n = scheme.phase_space().dim();
-    if (every == 0) throw std::invalid_argument("every must be at least 1");
-    if (!(t_end >= 0) || !std::isfinite(t_end)) throw std::invalid_argument("t_end must be finite and not negative");
-    if (!(dt > 0) || !std::isfinite(dt)) throw std::invalid_argument("dt must be positive and finite");
+    if (every == 0) throw InputError("every", "must be at least 1");
+    RunRequest request;
+    request.dt = dt, request.t_end = t_end, request.every = every, request.dim = n;
+    request.invariants = 1 + scheme.casimirs().size();
+    request.event_samples = events.samples;
+    const RunPlan plan = plan_run(request, control.limits);
     if (static_cast<std::size_t>(x0.size()) != n || !x0.allFinite())
-        throw std::invalid_argument("x0 must have " + std::to_string(n) + " finite values");
+        throw InputError("x0", "must have " + std::to_string(n) + " finite values");
     if (x_typical && (x_typical->size() != x0.size() || !x_typical->allFinite()))
-        throw std::invalid_argument("x_typical must have " + std::to_string(n) + " finite values");
+        throw InputError("x_typical", "must have " + std::to_string(n) + " finite values");
     std::optional<EventSet> event_set;
     if (!events.specs.empty()) event_set = EventSet::build(scheme.phase_space(), events.specs, events.naming);
     NewtonStepper stepper = scheme.stepper(dt, x_typical ? *x_typical : x0);
@@ -61,8 +63,9 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
     if (event_set)
         detector.emplace(std::move(*event_set), DenseOutput::build(scheme.structure(), scheme.hamiltonian(), stepper.order()),
                          events.samples);
-    const std::size_t N = steps_to_reach(t_end, dt), C = scheme.casimirs().size();
+    const std::size_t N = plan.steps, C = scheme.casimirs().size();
     RunLoop loop(scheme);
+    loop.set_cancel(control.cancel);
     Trajectory r;
     r.dim = n;
     Eigen::VectorXd x = x0;

@@ -3,6 +3,7 @@
 // of the Casimirs, the Newton statistics, the crossings of events. What the Python module's integrate()
 // returns; it runs the loop the command line's run and the ensembles run (scheme/run_loop.hpp).
 #include "poisson/events.hpp"
+#include "scheme/run_request.hpp"
 #include "scheme/scheme.hpp"
 
 #include <optional>
@@ -12,8 +13,6 @@
 
 namespace pgi {
 
-/// Whole steps of size dt that reach t_end (t_end / dt rounded up, within 1e-9 of a step).
-std::size_t steps_to_reach(double t_end, double dt);
 /// sum_m |c_m x^m| over the terms of f (a polynomial in the coordinates): the size of what is summed to
 /// evaluate f at x, the scale its round-off and its drift are measured against.
 double term_size(const Poly& f, std::span<const double> x);
@@ -62,14 +61,16 @@ struct TrajectoryEvents {
     EventNaming naming;   // how errors name an event ("event 1", or Python's "events[0]")
 };
 
-/// Integrates with scheme.stepper(dt, x_typical) (default: x_typical = x0) from x0 over steps_to_reach(t_end, dt) steps, Kahan-summed
+/// Integrates with scheme.stepper(dt, x_typical) (default: x_typical = x0) from x0 over plan_run's steps_to_reach(t_end, dt) steps, Kahan-summed
 /// (integrate_steps), recording every `every`-th state and the last. Stops at the first failed step, or
 /// non-finite state or invariant (status, failed_step, message say why; the trajectory holds what came
-/// before). Throws std::invalid_argument on every = 0, t_end < 0, dt <= 0 or x0 of the wrong length or not
-/// finite, and (before any work) what EventSet::build throws for a bad event. A given x_typical (finite, of
+/// before). Throws, before any work, InputError on every = 0 or x0 of the wrong length or not finite, what
+/// plan_run throws (a bad dt or t_end, a run above control.limits) and what EventSet::build throws for a bad
+/// event; RunInterrupted once control.cancel is set. A given x_typical (finite, of
 /// x0's length) makes the run the one an ensemble built at x_typical makes. With events, each crossing is
 /// kept and a terminal one ends the run: its state at its t is the last row (terminal_event).
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1,
-                     const std::optional<Eigen::VectorXd>& x_typical = std::nullopt, const TrajectoryEvents& events = {});
+                     const std::optional<Eigen::VectorXd>& x_typical = std::nullopt, const TrajectoryEvents& events = {},
+                     const RunControl& control = {});
 
 }  // namespace pgi

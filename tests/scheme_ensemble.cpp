@@ -35,10 +35,10 @@ EnsembleOptions with(std::size_t threads, std::size_t chunk = 0, std::optional<E
 // the ensemble's row i against its single run with the ensemble's x_typical: every number equal
 void require_single_run(const Scheme& scheme, const RowMatrix& X0, const EnsembleResult& r, Eigen::Index i, double dt, double t_end) {
     CAPTURE(i);
-    const std::size_t N = steps_to_reach(t_end, dt);
+    const auto N = std::size_t(steps_to_reach(t_end, dt));
     const Trajectory tr = integrate(scheme, X0.row(i).transpose(), dt, t_end, N, r.x_typical);
     const EnsembleMember& m = r.members[std::size_t(i)];
-    CHECK(to_string(m.status) == (tr.status == StepStatus::ok ? "ok" : tr.status == StepStatus::non_finite ? "non_finite" : "newton_not_converged"));
+    CHECK(m.status == status_of(tr.status));
     CHECK(m.steps == tr.steps);
     const Eigen::Index last = Eigen::Index(tr.t.size()) - 1;
     for (Eigen::Index j = 0; j < 3; ++j) CHECK(r.x(i, j) == tr.x[std::size_t(last * 3 + j)]);
@@ -171,4 +171,85 @@ TEST_CASE("Ensemble: a trajectory whose energy drifts past a tenth gets the warn
     CHECK_FALSE(r.members[1].energy_warning);
     for (Eigen::Index i = 0; i < 2; ++i) require_single_run(*s.scheme, X0, r, i, 3, 30);
     CHECK(energy_drifted(std::nan("")));  // a NaN error is not a small one
+}
+
+TEST_CASE("Ensemble: a member whose first step fails ends with its single run's status, never ok") {
+    // the cyclic Lotka-Volterra system through the radial realisation at dt = 2: the single run's first step fails
+    SceneOverrides o;
+    o.realisation = "radial";
+    o.dt = "2";
+    const Scene s = load_scene(test::scene_path("lotka_volterra"), o);
+    const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), 3);
+    const Trajectory tr = integrate(*s.scheme, x0, 2.0, 10.0);
+    REQUIRE(tr.status != StepStatus::ok);
+    RowMatrix X0(2, 3);
+    X0 << x0.transpose(), x0.transpose();
+    for (std::size_t batch : {1, 2}) {
+        CAPTURE(batch);
+        const EnsembleResult r = integrate_ensemble(*s.scheme, X0, 2.0, 10.0, with(1, 0, x0, batch));
+        for (const EnsembleMember& m : r.members) {
+            CHECK(m.status == status_of(tr.status));
+            CHECK(to_string(m.status) != "ok");
+            CHECK(m.steps == tr.steps);
+            CHECK(m.failed_step == tr.failed_step);
+        }
+    }
+}
+
+TEST_CASE("Run budgets: steps, output and sizes are refused before any work on every run entry point") {
+    const Scene s = test::bundled("rigid_body");
+    const Scheme& scheme = *s.scheme;
+    const Eigen::VectorXd x0 = Eigen::Vector3d(1, 0.5, 0.2);
+    const RowMatrix X0 = rigid_body_states(4);
+    // t_end / dt past what a size_t holds: refused, never wrapped to 0 steps
+    CHECK_THROWS_AS(integrate(scheme, x0, 1e-300, 1e300), RunBudgetError);
+    CHECK_THROWS_AS(integrate_ensemble(scheme, X0, 1e-20, 1e20), RunBudgetError);
+    CHECK_THROWS_AS(integrate_ensemble(scheme, X0, 1e-9, 1), RunBudgetError);  // 1e9 steps
+    // 1e8 steps recorded at every step: 3.7 GB of rows, above the output budget
+    CHECK_THROWS_AS(integrate(scheme, x0, 1e-6, 100, 1), RunBudgetError);
+    TrajectoryEvents many;
+    many.specs.push_back({"x1", 0, false});
+    many.samples = 1'000'000'000;
+    CHECK_THROWS_AS(integrate(scheme, x0, 0.1, 1, 1, std::nullopt, many), RunBudgetError);
+    CHECK(scheme.stats().stepper_builds == 0);  // nothing was built
+    // a raised budget admits what the default refuses
+    RunControl raised;
+    raised.limits.max_output_mb = 1e5;
+    RunRequest r;
+    r.dt = 1e-6, r.t_end = 100, r.every = 1, r.dim = 3, r.invariants = 2;
+    CHECK_THROWS_AS(plan_run(r), RunBudgetError);
+    CHECK(plan_run(r, raised.limits).steps == 100'000'000);
+    CHECK(plan_run(r, raised.limits).records == 100'000'001);
+}
+
+TEST_CASE("Run plan: whole steps reaching t_end, the rows a stride records") {
+    RunRequest r;
+    r.dt = 0.1, r.t_end = 10, r.every = 7, r.dim = 3;
+    const RunPlan p = plan_run(r);
+    CHECK(p.steps == 100);          // t_end / dt = 100.00000000000001 is 100 steps
+    CHECK(p.records == 16);         // 0, 7, ..., 98 and the last
+    r.every = 0;
+    CHECK(plan_run(r).records == 1);
+    r.t_end = 0;
+    CHECK(plan_run(r).steps == 0);
+    r.t_end = 1e-12;                // a positive t_end takes one step at least
+    CHECK(plan_run(r).steps == 1);
+    r.dt = std::numeric_limits<double>::quiet_NaN();
+    CHECK_THROWS_WITH_AS(plan_run(r), "dt: must be positive and finite", InputError);
+}
+
+TEST_CASE("Run cancel: a cancelled run stops at its next step with RunInterrupted, single and ensemble") {
+    const Scene s = test::bundled("rigid_body");
+    const Eigen::VectorXd x0 = Eigen::Vector3d(1, 0.5, 0.2);
+    RunCancel cancel;
+    cancel.cancel();
+    RunControl control;
+    control.cancel = &cancel;
+    CHECK_THROWS_AS(integrate(*s.scheme, x0, 0.1, 1e6, 1000, std::nullopt, {}, control), RunInterrupted);
+    EnsembleOptions o = with(2);
+    o.control = control;
+    for (std::size_t batch : {1, 16}) {
+        o.batch = batch;
+        CHECK_THROWS_AS(integrate_ensemble(*s.scheme, rigid_body_states(64), 0.1, 1e6, o), RunInterrupted);
+    }
 }

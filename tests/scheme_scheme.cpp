@@ -67,6 +67,12 @@ TEST_CASE("Scheme: the checks report class, Jacobi, Casimirs and the realisation
     CHECK_FALSE(broken.checks().realisation_checked);
     CHECK_FALSE(broken.checks().ok());
     CHECK_THROWS_AS(broken.require_valid(), InputError);
+    // every artefact built on S_1..S_k refuses a structure that fails Jacobi, whoever asks (CLI, Python, C++)
+    const Eigen::VectorXd x = Eigen::VectorXd::Ones(Eigen::Index(broken.phase_space().dim()));
+    CHECK_THROWS_WITH_AS(broken.terms(), doctest::Contains("the Jacobi identity fails at"), InputError);
+    CHECK_THROWS_AS(broken.stepper(0.1, x), InputError);
+    CHECK_THROWS_AS(broken.modified_hamiltonian(2), InputError);
+    CHECK(broken.stats().terms_builds == 0);
 }
 
 TEST_CASE("Scheme: from strings equals the scene, and bad values name their entry") {

@@ -395,7 +395,7 @@ TEST_CASE("issue 11.1: the step count is computed in checked arithmetic and refu
     Run huge = pgi_run({"integrate", rb, "--t-end", "1e300", "--dt", "1e-300", "--json"});
     CHECK(huge.exit_code == 4);
     CHECK(huge.out.empty());
-    CHECK_MESSAGE(huge.err.find("above the step budget of 100000000 (raise it with --max-steps") != std::string::npos, huge.err);
+    CHECK_MESSAGE(huge.err.find("above the step budget of 100000000 (raise max_steps / --max-steps") != std::string::npos, huge.err);
     Run run = pgi_run({"run", rb, "--t-end", "1e9"});  // 1e10 steps: refused before the check is printed
     CHECK(run.exit_code == 4);
     CHECK(run.out.empty());

@@ -34,21 +34,18 @@ private:
     nlohmann::json partial_;
 };
 
-/// A budget of the tools refused the work before it started (exit code 4): the step count above
-/// --max-steps, a CSV above --max-csv-mb.
-class BudgetError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
+/// A budget refused the work before it started (exit code 4): the step count above --max-steps, a CSV above
+/// --max-csv-mb, kept results above --max-output-mb. The library's refusal (scheme/run_request.hpp), one type.
+using BudgetError = RunBudgetError;
 
-/// The default of --max-steps: 1e8 steps, about 30 s at the fastest step measured (rigid body, 330 ns)
-/// and minutes for larger scenes; longer runs say so with --max-steps.
-inline constexpr std::size_t default_max_steps = 100'000'000;
+/// The default of --max-steps: the library's (RunLimits::default_max_steps).
+inline constexpr std::size_t default_max_steps = RunLimits::default_max_steps;
 
 /// The number of steps of a run to the scene's t_end: ceil(t_end / dt) (a t_end that is not a whole
 /// number of steps is rounded up, and the run ends at N dt >= t_end), computed in floating point and
-/// checked. Throws BudgetError above max_steps (or when t_end / dt overflows), SceneError without t_end.
-std::size_t step_count(const Scene& scene, std::size_t max_steps);
+/// checked by plan_run. Throws BudgetError above max_steps (or when t_end / dt overflows) or above the limit
+/// of event samples, InputError for samples of 0, SceneError without t_end.
+std::size_t step_count(const Scene& scene, std::size_t max_steps, std::size_t event_samples = 1);
 
 /// H, the Casimirs, then the extra polynomials, compiled over the coordinates: what runs watch.
 CompiledMap invariants(const Scene& scene, const std::vector<Poly>& extra = {});

@@ -46,8 +46,9 @@ RowMatrix initial_states(const Scene& scene, const EnsembleCommandOptions& o) {
     if (!o.states.empty()) {
         if (o.x0_given) throw InputError("--x0", "is read only by --sample casimir (the level set through x0)");
         const std::filesystem::path p(o.states);
-        RowMatrix X = p.extension() == ".npy" ? read_npy(p)
-                    : p.extension() == ".csv" ? read_csv_states(p, n, names(scene.phase_space()))
+        const auto max_bytes = std::size_t(o.limits.max_output_mb * double(1 << 20));
+        RowMatrix X = p.extension() == ".npy" ? read_npy(p, max_bytes)
+                    : p.extension() == ".csv" ? read_csv_states(p, n, names(scene.phase_space()), max_bytes)
                                               : throw InputError(o.states, "--states must be a .npy or .csv file");
         if (std::size_t(X.cols()) != n)
             throw InputError(o.states, "holds " + std::to_string(X.cols()) + " columns, the scene has " + std::to_string(n) +
@@ -103,7 +104,7 @@ nlohmann::json summary(const Scene& scene, const EnsembleResult& r, const Ensemb
         if (r.casimir_error.cols()) casimir = std::max(casimir, r.casimir_error.row(Eigen::Index(i)).maxCoeff());
     }
     nlohmann::json j{{"scene", scene.file.string()}, {"trajectories", r.members.size()}, {"status", counts}, {"threads", r.threads},
-                     {"dt", dt}, {"t_end", t_end}, {"steps", steps_to_reach(t_end, dt)}, {"order", scene.order},
+                     {"dt", dt}, {"t_end", t_end}, {"steps", std::size_t(steps_to_reach(t_end, dt))}, {"order", scene.order},
                      {"method_order", scene.scheme->method_order()}, {"energy_error_max", energy}, {"casimir_error_max", casimir},
                      {"energy_warnings", warnings},
                      {"wall_seconds", seconds}, {"steps_per_second", seconds > 0 ? double(steps) / seconds : 0.0}, {"files", files}};
@@ -125,20 +126,42 @@ std::string summary_text(const nlohmann::json& j) {
     return s;
 }
 
+// The run's size, checked before any work: its steps and, when sampled, its count (a file's rows are checked
+// by integrate_ensemble once read; the file's size is bounded as it is read).
+void check_size(const Scene& scene, const EnsembleCommandOptions& o) {
+    RunRequest request;
+    request.dt = scene.dt;
+    request.t_end = *scene.t_end;
+    request.every = 0;
+    request.dim = scene.phase_space().dim();
+    request.invariants = 1 + scene.casimirs.size();
+    request.trajectories = o.sample.empty() ? 1 : std::max<std::size_t>(1, o.count);
+    try {
+        plan_run(request, o.limits);
+    } catch (const RunBudgetError& e) {
+        throw RunBudgetError(scene.file.string() + ": " + e.what() + (o.sample.empty() ? "" : " (--count)"));
+    }
+}
+
 }  // namespace
 
 int ensemble_command(const Scene& scene, const EnsembleCommandOptions& o, bool json) {
     if (!scene.t_end) throw InputError("--t-end", "missing: give --t-end or [run] t_end");
-    const RowMatrix X0 = initial_states(scene, o);
-    // every output opened before any work: a bad directory is refused here, and nothing is half-written
+    check_size(scene, o);
+    // every output opened before any work, none of them an input (the scene, the states): a bad directory is
+    // refused here, and nothing is half-written
+    std::vector<std::filesystem::path> inputs{scene.file};
+    if (!o.states.empty()) inputs.emplace_back(o.states);
     const std::vector<std::string> files{o.out + ".x0.npy", o.out + ".x.npy", o.out + ".errors.npy", o.out + ".csv"};
     std::vector<std::unique_ptr<AtomicFile>> out;
-    for (const auto& f : files) out.push_back(std::make_unique<AtomicFile>(f));
+    for (const auto& f : files) out.push_back(std::make_unique<AtomicFile>(f, inputs));
+    const RowMatrix X0 = initial_states(scene, o);
     require_valid(scene);
     EnsembleOptions options;
     options.threads = o.threads;
     options.chunk = o.chunk;
     options.batch = o.batch;
+    options.control.limits = o.limits;
     const auto start = std::chrono::steady_clock::now();
     const EnsembleResult r = integrate_ensemble(*scene.scheme, X0, scene.dt, *scene.t_end, options);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -1,6 +1,7 @@
 #include "tools/npy.hpp"
 
 #include "scheme/input.hpp"
+#include "tools/input_file.hpp"
 
 #include <bit>
 #include <charconv>
@@ -15,6 +16,12 @@ namespace pgi {
 static_assert(std::endian::native == std::endian::little, "NPY '<f8' is read and written as the host's doubles");
 
 namespace {
+
+// At most the first 40 characters of a field, for a message (a 50 MB field is not echoed whole).
+std::string excerpt(const std::string& field) {
+    constexpr std::size_t shown = 40;
+    return field.size() <= shown ? field : field.substr(0, shown) + "... (" + std::to_string(field.size()) + " characters)";
+}
 
 // The header's dict literal: {'key': value, ...} with string, True/False and tuple-of-integers values.
 class HeaderParser {
@@ -103,12 +110,11 @@ std::pair<std::size_t, std::size_t> shape_of(const std::string& t, const std::st
 
 }  // namespace
 
-RowMatrix read_npy(const std::filesystem::path& path) {
+RowMatrix read_npy(const std::filesystem::path& path, std::size_t max_bytes) {
     const std::string file = path.string();
-    std::error_code ec;
-    const auto size = std::filesystem::file_size(path, ec);
-    std::ifstream in(path, std::ios::binary);
-    if (ec || !in) throw InputError(file, "cannot read the file");
+    const std::string bytes = read_input_file(path, max_bytes, "states");
+    const std::size_t size = bytes.size();
+    std::istringstream in(bytes);
     char magic[8] = {};
     in.read(magic, 8);
     if (!in || std::string_view(magic, 6) != "\x93NUMPY") throw InputError(file, "not an NPY file (no \\x93NUMPY magic)");
@@ -154,10 +160,9 @@ void write_npy(std::ostream& out, const Eigen::Ref<const RowMatrix>& a) {
         out.write(reinterpret_cast<const char*>(a.row(i).data()), std::streamsize(sizeof(double) * std::size_t(a.cols())));
 }
 
-RowMatrix read_csv_states(const std::filesystem::path& path, std::size_t columns, const std::string& header) {
+RowMatrix read_csv_states(const std::filesystem::path& path, std::size_t columns, const std::string& header, std::size_t max_bytes) {
     const std::string file = path.string();
-    std::ifstream in(path);
-    if (!in) throw InputError(file, "cannot read the file");
+    std::istringstream in(read_input_file(path, max_bytes, "states"));
     std::vector<double> values;
     std::string line;
     bool first = true;
@@ -174,7 +179,7 @@ RowMatrix read_csv_states(const std::filesystem::path& path, std::size_t columns
             double v = 0;
             const auto [p, ec] = std::from_chars(field.data(), field.data() + field.size(), v);
             if (field.empty() || ec != std::errc() || p != field.data() + field.size())
-                throw InputError(file + ":" + std::to_string(number), "field " + std::to_string(count + 1) + " '" + field + "' is not a number");
+                throw InputError(file + ":" + std::to_string(number), "field " + std::to_string(count + 1) + " '" + excerpt(field) + "' is not a number");
             values.push_back(v);
             ++count;
             if (end == line.size()) break;

@@ -15,13 +15,15 @@ namespace pgi {
 
 /// A 2-D float64 C-order array. Throws InputError (key: the file) for anything else: a missing file, a bad
 /// magic or version, a header that is not the dict above, another dtype, Fortran order, a shape that is not
-/// (m, n), or a data length that is not m n 8 bytes exactly. Reads no more than the file holds.
-RowMatrix read_npy(const std::filesystem::path& file);
+/// (m, n), or a data length that is not m n 8 bytes exactly; and what read_input_file refuses (not a regular
+/// file, above max_bytes).
+RowMatrix read_npy(const std::filesystem::path& file, std::size_t max_bytes);
 void write_npy(std::ostream& out, const Eigen::Ref<const RowMatrix>& a);
 
 /// Rows of `columns` numbers separated by commas; blank lines and lines starting with '#' are skipped, and
 /// a first line equal to header (the coordinates' names joined by commas) too. nan and inf are read as
-/// such. Throws InputError naming the file and line for a row of another length or a field not a number.
-RowMatrix read_csv_states(const std::filesystem::path& file, std::size_t columns, const std::string& header);
+/// such. Throws InputError naming the file and line for a row of another length or a field not a number (its
+/// first 40 characters shown), and what read_input_file refuses (not a regular file, above max_bytes).
+RowMatrix read_csv_states(const std::filesystem::path& file, std::size_t columns, const std::string& header, std::size_t max_bytes);
 
 }  // namespace pgi

@@ -35,7 +35,7 @@ struct Options {
     std::string scene;
     bool json = false;
     pgi::SceneOverrides overrides;
-    std::string degree, upto = "4", every = "1", max_csv_mb = "1024", max_terms, max_steps;
+    std::string degree, upto = "4", every = "1", max_csv_mb = "1024", max_terms, max_steps, max_output_mb;
     std::size_t degree_value = 0, upto_value = 4;
     std::string format = "markdown", out;
     pgi::IntegrateOptions integrate;
@@ -58,6 +58,8 @@ void read_numbers(Options& o) {
     o.integrate.max_csv_mb = pgi::positive_number("--max-csv-mb", o.max_csv_mb, 1e9);
     if (!o.max_terms.empty()) o.overrides.max_terms = pgi::whole_number("--max-terms", o.max_terms, 1, max_count);
     if (!o.max_steps.empty()) o.integrate.max_steps = pgi::whole_number("--max-steps", o.max_steps, 1, max_count);
+    o.ensemble.limits.max_steps = o.integrate.max_steps;
+    if (!o.max_output_mb.empty()) o.ensemble.limits.max_output_mb = pgi::positive_number("--max-output-mb", o.max_output_mb, 1e9);
     if (!o.max_memory_mb.empty()) o.overrides.max_memory_mb = pgi::whole_number("--max-memory-mb", o.max_memory_mb, 1, std::size_t(1) << 40);
     if (!o.max_seconds.empty()) o.overrides.max_seconds = pgi::positive_number("--max-seconds", o.max_seconds, 1e9);
 }
@@ -285,7 +287,9 @@ int main(int argc, char** argv) {
     modified->add_option("--upto", o.upto, "last power of dt, 0..64 (default 4)");
     modified->add_option("--splitting", o.splitting, "lie-trotter | strang | yoshida: the splitting method's for [splitting] H = A + B")
         ->check(CLI::IsMember({"lie-trotter", "strang", "yoshida"}));
-    for (auto* cmd : {integrate, run, section, report})
+    ensemble->add_option("--max-output-mb", o.max_output_mb,
+                         "refuse an ensemble whose results (or --states file) would take more than this, before any work (default 1024)");
+    for (auto* cmd : {integrate, run, section, report, ensemble})
         cmd->add_option("--max-steps", o.max_steps, "refuse a run of more steps than this, before any work (default 1e8)");
     for (auto* cmd : {integrate, run}) {
         cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");

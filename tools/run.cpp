@@ -87,16 +87,20 @@ std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus
     return step_failure_message(s, step, status);
 }
 
-std::size_t step_count(const Scene& scene, std::size_t max_steps) {
+std::size_t step_count(const Scene& scene, std::size_t max_steps, std::size_t event_samples) {
     if (!scene.t_end) throw SceneError(scene.file, "run.t_end", "missing: give [run] t_end or --t-end");
-    const double q = *scene.t_end / scene.dt;  // both finite and positive: q is positive, possibly inf or 0
-    // whole steps reaching t_end; the 1e-9 keeps t_end = 10, dt = 0.1 (q = 100.00000000000001) at 100 steps
-    const double N = std::max(1.0, std::ceil(q - 1e-9));
-    if (!(N <= double(max_steps)))
-        throw BudgetError(fmt::format("{}: t_end / dt = {:.6g} / {:.6g} needs {:.6g} steps, above the step budget of {} "
-                                      "(raise it with --max-steps, or use a larger dt)",
-                                      scene.file.string(), *scene.t_end, scene.dt, N, max_steps));
-    return static_cast<std::size_t>(N);
+    RunRequest request;
+    request.dt = scene.dt;
+    request.t_end = *scene.t_end;
+    request.event_samples = event_samples;
+    request.every = 0;  // the run streams what it records: its CSV has a budget of its own (--max-csv-mb)
+    RunLimits limits;
+    limits.max_steps = max_steps;
+    try {
+        return plan_run(request, limits).steps;
+    } catch (const RunBudgetError& e) {
+        throw RunBudgetError(scene.file.string() + ": " + e.what());
+    }
 }
 
 json step_report(const Scene& scene) {

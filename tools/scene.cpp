@@ -1,6 +1,7 @@
 #include "tools/scene.hpp"
 
 #include "scheme/input.hpp"
+#include "tools/input_file.hpp"
 
 #include <toml++/toml.h>
 
@@ -66,32 +67,13 @@ private:
 
     [[noreturn]] void fail(const std::string& key, const std::string& problem) const { throw SceneError(file_, key, problem); }
 
-    // Opened without blocking (a FIFO would wait for a writer), then refused unless a regular file of at
-    // most max_scene_bytes; read whole.
+    // The input rules (tools/input_file.hpp), at most max_scene_bytes.
     std::string file_text() const {
-        const int fd = ::open(file_.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-        if (fd < 0) fail("", std::string("cannot read the file (") + std::strerror(errno) + ")");
-        struct Closer {
-            int fd;
-            ~Closer() { ::close(fd); }
-        } closer{fd};
-        struct stat st {};
-        if (::fstat(fd, &st) != 0) fail("", std::string("cannot read the file (") + std::strerror(errno) + ")");
-        if (!S_ISREG(st.st_mode)) fail("", S_ISDIR(st.st_mode) ? "is a directory, not a scene file" : "is not a regular file (a FIFO or device?)");
-        if (std::size_t(st.st_size) > max_scene_bytes)
-            fail("", "the file has " + std::to_string(st.st_size) + " bytes, above the limit of " + std::to_string(max_scene_bytes) +
-                         " for a scene");
-        std::string text(std::size_t(st.st_size), '\0');
-        std::size_t got = 0;
-        while (got < text.size()) {
-            const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
-            if (n < 0 && (errno == EINTR || errno == EAGAIN)) continue;
-            if (n < 0) fail("", std::string("cannot read the file (") + std::strerror(errno) + ")");
-            if (n == 0) break;  // shrank while read
-            got += std::size_t(n);
+        try {
+            return read_input_file(file_, max_scene_bytes, "scene");
+        } catch (const InputError& e) {
+            fail("", e.problem());
         }
-        text.resize(got);
-        return text;
     }
 
     toml::table parse_document(std::string_view text) const {

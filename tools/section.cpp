@@ -25,7 +25,7 @@ json section_report(const Scene& scene, const SectionOptions& options) {
     if (options.csv) file.emplace(*options.csv);
     const auto start = std::chrono::steady_clock::now();
     Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
-    const std::size_t N = step_count(scene, options.max_steps);  // refused above the step budget, before any work
+    const std::size_t N = step_count(scene, options.max_steps, options.samples);  // refused above the budgets, before any work
     NewtonStepper stepper = scene.scheme->stepper(scene.dt, x);
     EventDetector detector(std::move(events), DenseOutput::build(scene.pi, scene.H, stepper.order()), options.samples);
     json crossings = json::array();

@@ -1,0 +1,90 @@
+#pragma once
+// One validation of a run's request for every surface (the command line, Python, C++, ensembles, Dask):
+// dt, t_end, the recording stride, event samples and the number of trajectories are checked, and the run's
+// steps, recorded rows and kept bytes estimated, before any work, against one set of limits with one set of
+// messages. Surfaces translate the two errors only: InputError (a value outside its domain: exit 2,
+// pgi.InputError) and RunBudgetError (a run above its budget: exit 4, pgi.ResourceLimitError).
+#include "scheme/input.hpp"
+#include "series/budget.hpp"
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace pgi {
+
+/// A run refused before any work because it is larger than its budget: what() names the quantity, its size,
+/// the limit and how to raise it.
+class RunBudgetError : public ResourceLimitError {
+public:
+    using ResourceLimitError::ResourceLimitError;
+};
+
+/// A run stopped because its caller asked (RunCancel): nothing it computed is returned.
+class RunInterrupted : public std::runtime_error {
+public:
+    RunInterrupted() : std::runtime_error("interrupted") {}
+};
+
+/// What a run may take. The defaults are every surface's defaults; each surface lets its user raise them.
+struct RunLimits {
+    /// 1e8 steps: about 30 s at the fastest step measured and minutes for larger scenes (--max-steps, max_steps=).
+    static constexpr std::size_t default_max_steps = 100'000'000;
+    /// 1 GiB of recorded rows and ensemble results kept in memory (--max-output-mb, max_output_mb=).
+    static constexpr double default_max_output_mb = 1024;
+    /// Sign tests of an event per step: past this the dense output dominates any step.
+    static constexpr std::size_t max_event_samples = 10'000;
+    std::size_t max_steps = default_max_steps;         // steps of one trajectory
+    double max_output_mb = default_max_output_mb;      // bytes kept / 2^20
+};
+
+/// A run as a surface was asked for it. every = 0 records only the end state (an ensemble's default).
+struct RunRequest {
+    double dt = 0;
+    double t_end = 0;
+    std::size_t every = 1;
+    std::size_t dim = 0;            // coordinates
+    std::size_t invariants = 1;     // values kept per recorded row besides t and x (H, the Casimirs, ...)
+    std::size_t trajectories = 1;
+    std::size_t event_samples = 1;
+};
+
+/// What the run will do, known before it starts.
+struct RunPlan {
+    std::size_t steps = 0;      // whole steps of dt reaching t_end (steps_to_reach)
+    std::size_t records = 0;    // rows recorded per trajectory
+    double output_mb = 0;       // what the run keeps in memory, all trajectories together
+};
+
+/// Whole steps of size dt that reach t_end: 0 at t_end = 0, else max(1, ceil(t_end / dt - 1e-9)) (the 1e-9
+/// keeps t_end = 10, dt = 0.1 at 100 steps); +inf past what a size_t holds (plan_run refuses it).
+double steps_to_reach(double t_end, double dt);
+
+/// Checks r (InputError naming "dt", "t_end", "every", "event_samples" or "trajectories" on a value outside
+/// its domain) and its size (RunBudgetError above limits: steps, output, event samples), before any work.
+RunPlan plan_run(const RunRequest& r, const RunLimits& limits = {});
+
+/// A flag a run polls after every step (a relaxed load): once set, the run stops and throws
+/// RunInterrupted. Set from another thread or a signal handler (lock-free).
+class RunCancel {
+public:
+    void cancel() { flag_.store(true, std::memory_order_relaxed); }
+    bool cancelled() const { return flag_.load(std::memory_order_relaxed); }
+    /// Throws RunInterrupted once cancelled.
+    void check() const {
+        if (cancelled()) throw RunInterrupted();
+    }
+
+private:
+    std::atomic<bool> flag_{false};
+};
+
+/// What a caller controls of a run besides its request: its budgets and a flag to stop it.
+struct RunControl {
+    RunLimits limits;
+    const RunCancel* cancel = nullptr;  // polled after every step; null: never stopped
+};
+
+}  // namespace pgi
