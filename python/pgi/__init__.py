@@ -54,7 +54,8 @@ class Result:
     """A run: t (times recorded), x (one row per time), energy_error and casimir_error (relative, per row),
     their maxima over every step, energy_warning (energy_error_max above 0.1, or NaN: every step solved its
     equation, but at this dt the method no longer follows the flow of H), steps, dt, newton_iterations_mean/max,
-    status ("ok", "terminal_event" or why it stopped). With events: event_index (which event, its place in the list), event_t, event_x (one
+    status ("ok", "terminal_event" or why it stopped, in the ensemble's words: "newton_not_converged",
+    "non_finite", "truncation_above_bound", "ill_conditioned"; the message says it in full). With events: event_index (which event, its place in the list), event_t, event_x (one
     row per crossing) and event_step (the step that holds it), in time order."""
 
     def __init__(self, d):
@@ -69,7 +70,8 @@ class EnsembleResult:
     """An ensemble: per trajectory (one row of X0) x (m, n: the final state, or the last reached before a
     failure, or the row itself if it was not finite), energy_error (m,) and casimir_error (m, c) (the largest
     relative errors over every step; NaN for a row that was not finite), status ((m,) strings: "ok",
-    "newton_not_converged", "non_finite", "non_finite_start"), steps, failed_step (1-based, 0 if none),
+    "newton_not_converged", "non_finite", "truncation_above_bound", "ill_conditioned" (as its single run's
+    Result.status), "non_finite_start"), steps, failed_step (1-based, 0 if none),
     failed_t, residual, newton_iterations_mean, newton_iterations_max, energy_warning ((m,) bool: energy_error above
     0.1, as for one run; never for a row that was not finite); and x_typical (the state the step was
     built for), threads, dt, t_end."""
