@@ -83,7 +83,8 @@ std::vector<Poly> matched_field(const Scene& s, const std::vector<Series>& step,
 
 }  // namespace
 
-TEST_CASE("issue 16.3: H_j = 0 below the order, odd H_j = 0, and pi grad H_j equals the Lie-series matching of the step") {
+// issue 16.3
+TEST_CASE("H_j = 0 below the order, odd H_j = 0, and pi grad H_j equals the Lie-series matching of the step") {
     // The step's exact t-series (inverse of the source map, then the target map: no Magnus series and no
     // variation functions) fixes pi grad H_j order by order; H_j itself is fixed only modulo Casimirs, so the
     // fields are compared, exactly. The old check {H_j, C} = 0 held for any polynomial H_j: here a

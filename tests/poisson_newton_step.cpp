@@ -393,7 +393,8 @@ NewtonStepper stepper(const PoissonStructure& pi, const Poly& H, std::size_t k, 
 
 }  // namespace
 
-TEST_CASE("issue 16.1: the sl(2)* reproducer (order 1, dt = 1/4) gives the exact scheme to round-off") {
+// issue 16.1
+TEST_CASE("the sl(2)* reproducer (order 1, dt = 1/4) gives the exact scheme to round-off") {
     // The exact scheme from a 40-digit reference (issue 16); 57dddde truncated the Bernoulli series at D = 24
     // beyond its radius and was off by 6.5e-9. The step's own rounding: its residual tolerance 64 u (|x| + the
     // terms summed, ~3 |x| here) carried through the (well-conditioned) Newton system: 4e-15 |x| covers it.
@@ -407,7 +408,8 @@ TEST_CASE("issue 16.1: the sl(2)* reproducer (order 1, dt = 1/4) gives the exact
     CHECK(((x0 + inc) - exact).lpNorm<Eigen::Infinity>() <= 4e-15 * exact.lpNorm<Eigen::Infinity>());
 }
 
-TEST_CASE("issue 16.1: large steps on sl(2)* and e(3)* agree with a long double reference of the same scheme") {
+// issue 16.1
+TEST_CASE("large steps on sl(2)* and e(3)* agree with a long double reference of the same scheme") {
     // Steps whose |L(p)| lies past the D = 24 series' radius (1.38), for k = 1..4, against the scheme solved
     // in long double (Bernoulli series to degree 3000, converging as the spectral radii stay below 0.97 * 2 pi;
     // checked), from the double solution's base point (the same branch of the implicit equation). Tolerance:
@@ -448,7 +450,8 @@ TEST_CASE("issue 16.1: large steps on sl(2)* and e(3)* agree with a long double 
     }
 }
 
-TEST_CASE("issue 16.1: at the degree cap the truncation estimate comes from the non-zero neglected terms, and the step refuses") {
+// issue 16.1
+TEST_CASE("at the degree cap the truncation estimate comes from the non-zero neglected terms, and the step refuses") {
     // sl(2)* through the radial recursion (the Lie-Poisson series again, odd degrees vanishing) at the
     // reproducer's dt = 1/4: degree 24 is not enough. 57dddde read degree 25 (always zero), reported 0 and
     // stepped; now the estimate is the neglected degree 26 and beyond (~1e-9 here), and every step reports
@@ -463,7 +466,8 @@ TEST_CASE("issue 16.1: at the degree cap the truncation estimate comes from the 
     CHECK(st.step(x0, inc) != StepStatus::ok);
 }
 
-TEST_CASE("issue 11.2: the stop test works near x = 0 (canonical, H = p^2/2 + q^3/3 + q, x0 = 1e-30)") {
+// issue 11.2
+TEST_CASE("the stop test works near x = 0 (canonical, H = p^2/2 + q^3/3 + q, x0 = 1e-30)") {
     // The terms of alpha are of size dt (grad H has the constant 1) while |x| = 1e-30: a stop test relative
     // to |x| could never pass (57dddde: Newton did not converge). The result is checked against the
     // implicit midpoint rule (k = 1 on a constant structure), solved here by fixed-point iteration.
@@ -482,7 +486,8 @@ TEST_CASE("issue 11.2: the stop test works near x = 0 (canonical, H = p^2/2 + q^
     CHECK((x0 + inc - y).lpNorm<Eigen::Infinity>() <= 1e-16);
 }
 
-TEST_CASE("issue 11.2: steps that cannot be trusted fail instead of returning a state") {
+// issue 11.2
+TEST_CASE("steps that cannot be trusted fail instead of returning a state") {
     // 57dddde returned ok for each: the cyclic Lotka-Volterra system with the radial realisation at dt = 2
     // (degree cap, neglected terms ~1e-3: truncation_above_bound); the rigid body with H scaled by 1e50
     // (terms ~1e100 summed to a state of size 1: ill-conditioned, 57dddde gave x ~ 1e145).
@@ -505,7 +510,8 @@ TEST_CASE("issue 11.2: steps that cannot be trusted fail instead of returning a 
     }
 }
 
-TEST_CASE("issue 11.2: every accepted step satisfies its equation within the stated round-off tolerance") {
+// issue 11.2
+TEST_CASE("every accepted step satisfies its equation within the stated round-off tolerance") {
     // residual_at_solution recomputes alpha(xb, grad S_dt(xb)) - x at the accepted base point; the tolerance
     // is 64 u (|x| + terms summed) componentwise, and for these well-scaled scenes stays below 1e-13 |x|.
     for (const std::string name : {"rigid_body", "lotka_volterra", "nambu", "plane_quadratic", "henon_heiles", "volterra_chain"}) {
@@ -535,7 +541,8 @@ TEST_CASE("issue 11.2: every accepted step satisfies its equation within the sta
     }
 }
 
-TEST_CASE("issue 11.9: the one-step error against the exact flow scales as dt^(p+1), p = 2 ceil(k/2)") {
+// issue 11.9
+TEST_CASE("the one-step error against the exact flow scales as dt^(p+1), p = 2 ceil(k/2)") {
     // One step from x0 against RK4 with 2000 substeps (error < 1e-16 at these dt); the fitted slope of the
     // local error over dt = 0.4 .. 0.05 is p + 1, within 0.3 below and 0.5 above (higher terms at large dt).
     for (const std::string name : {"rigid_body", "lotka_volterra", "plane_quadratic"}) {

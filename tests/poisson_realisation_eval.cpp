@@ -62,7 +62,8 @@ TEST_CASE("realisation_eval: the closed form is offered only for skew structure 
 }
 
 
-TEST_CASE("issue 11.9 / 16.1: the Lie-Poisson evaluator equals g(L(p)) x in long double, inside and beyond its series' radius") {
+// issue 11.9 / 16.1
+TEST_CASE("the Lie-Poisson evaluator equals g(L(p)) x in long double, inside and beyond its series' radius") {
     // sl(2)* ({h,e} = 2e, {h,f} = -2f, {e,f} = h: real and imaginary spectra), e(3)* (defective L) and the
     // book algebra ({x1,x2} = x2, {x1,x3} = x3: L not skew), at |L|_inf from 0.1 to past the series radius
     // of D = 24 (1.38) to spectral radii near 0.8 * 2 pi. alpha is compared at round-off relative to the

@@ -99,7 +99,8 @@ std::string wide_scene(std::size_t n, bool lattice) {
 
 }  // namespace
 
-TEST_CASE("issue 11.10: the Jacobi check examines only the triples the brackets connect (none without brackets, n on a lattice)") {
+// issue 11.10
+TEST_CASE("the Jacobi check examines only the triples the brackets connect (none without brackets, n on a lattice)") {
     Scene free = parse_scene(wide_scene(1000, false), "free.toml");
     CHECK(free.pi.structure_class() == StructureClass::constant);
     CHECK(free.pi.jacobi_support().empty());

@@ -34,7 +34,8 @@ Poly wide(const RingPtr& r, std::size_t m, std::size_t bits, std::size_t shift) 
 
 }  // namespace
 
-TEST_CASE("issue 11.3: sums are bounded by the ring's term budget, not only products") {
+// issue 11.3
+TEST_CASE("sums are bounded by the ring's term budget, not only products") {
     auto r = make_ring(names(2), 50);
     Poly sum(r);
     CHECK_THROWS_WITH_AS(
@@ -45,7 +46,8 @@ TEST_CASE("issue 11.3: sums are bounded by the ring's term budget, not only prod
     CHECK(sum.length() <= 51);  // refused at the first result above the bound, not later
 }
 
-TEST_CASE("issue 11.3: a product is refused before it is formed when its bytes would exceed the memory budget") {
+// issue 11.3
+TEST_CASE("a product is refused before it is formed when its bytes would exceed the memory budget") {
     // 1500 x 1500 terms is below the term bound; with 40 variables and 600-bit coefficients the product
     // could take 2.25e6 * (6 exponent words + a 1200-bit coefficient) bytes, about 500 MB: far above a budget
     // of 64 MB more than the process holds now, whatever the resident memory does meanwhile (under
@@ -71,7 +73,8 @@ TEST_CASE("issue 11.3: a product is refused before it is formed when its bytes w
     CHECK(c.length() <= 90000);
 }
 
-TEST_CASE("issue 11.3: the estimate of a product counts the variables and the coefficient sizes") {
+// issue 11.3
+TEST_CASE("the estimate of a product counts the variables and the coefficient sizes") {
     const double few = bytes_per_term(2, 10, 10), many = bytes_per_term(60, 10, 10), big = bytes_per_term(2, 10, 6400);
     CHECK(few == 16);          // one exponent word (3 fields of 8 bits) and one coefficient word
     CHECK(many == 8 * 8 + 8);  // 61 fields of 8 bits: 8 words
@@ -82,7 +85,8 @@ TEST_CASE("issue 11.3: the estimate of a product counts the variables and the co
     CHECK(monomials_up_to(3, 2) == 10);
 }
 
-TEST_CASE("issue 11.3: the time budget stops an exact computation between operations, naming its stage") {
+// issue 11.3
+TEST_CASE("the time budget stops an exact computation between operations, naming its stage") {
     auto budget = std::make_shared<const Budget>(BudgetLimits{.max_seconds = 1e-9});
     auto r = make_ring(names(2), budget);
     BudgetStage stage(*budget, "Hamilton-Jacobi term S_2", 2, 3);
@@ -98,7 +102,8 @@ TEST_CASE("issue 11.3: the time budget stops an exact computation between operat
     }
 }
 
-TEST_CASE("issue 11.3: a refusal inside the Hamilton-Jacobi terms names the term as k of K") {
+// issue 11.3
+TEST_CASE("a refusal inside the Hamilton-Jacobi terms names the term as k of K") {
     PhaseSpace M({"x1", "x2", "x3"}, 60);  // so(3), 60 terms: its realisation fits, the terms of a cubic H do not
     std::vector<std::vector<Poly>> m(3, std::vector<Poly>(3, Poly(M.ring())));
     for (auto [i, j, s] : {std::tuple{0, 1, "x3"}, {1, 2, "x1"}, {2, 0, "x2"}}) {

@@ -229,7 +229,8 @@ TEST_CASE("compile: CompiledMap agrees with exact evaluation, in double and in l
     CHECK(total_long * 100 < total_double);
 }
 
-TEST_CASE("issue 11.4: a power is estimated before it is expanded and refused with its position") {
+// issue 11.4
+TEST_CASE("a power is estimated before it is expanded and refused with its position") {
     auto r = make_ring({"x1", "x2", "x3", "x4", "x5", "x6"}, 1000);
     // (x1+...+x6)^10 has binomial(15, 5) = 3003 terms: above 1000, refused before FLINT expands it
     CHECK_THROWS_WITH_AS(Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^10"),
@@ -244,7 +245,8 @@ TEST_CASE("issue 11.4: a power is estimated before it is expanded and refused wi
                          ResourceLimitError);
 }
 
-TEST_CASE("issue 11.4: nesting is bounded (parentheses, signs, divisions), with the position") {
+// issue 11.4
+TEST_CASE("nesting is bounded (parentheses, signs, divisions), with the position") {
     auto r = xyz();
     auto nested = [](const std::string& open, const std::string& inner, const std::string& close, int n) {
         std::string s;

@@ -235,7 +235,8 @@ TEST_CASE("cli: a run that ends with the energy off by more than a tenth says so
     CHECK(fine.err.find("energy error") == std::string::npos);
 }
 
-TEST_CASE("issue 11.9: cli: integrate --json --csv writes the summary and the trajectory") {
+// issue 11.9
+TEST_CASE("cli: integrate --json --csv writes the summary and the trajectory") {
     const fs::path csv = fs::temp_directory_path() / ("pgi_test_" + std::to_string(::getpid()) + ".csv");
     Run r = pgi_run({"integrate", test::scene_path("nambu"), "--t-end", "10", "--csv", csv.string(), "--every", "50", "--json"});
     REQUIRE(r.exit_code == 0);
@@ -389,7 +390,8 @@ TEST_CASE("cli: no bad scene leaves an output file behind") {
     fs::remove_all(dir);
 }
 
-TEST_CASE("issue 11.1: the step count is computed in checked arithmetic and refused above --max-steps before any work") {
+// issue 11.1
+TEST_CASE("the step count is computed in checked arithmetic and refused above --max-steps before any work") {
     const std::string rb = test::scene_path("rigid_body");
     // t_end / dt = 1e600 steps: on 57dddde the cast to size_t gave 0 steps and exit 0
     Run huge = pgi_run({"integrate", rb, "--t-end", "1e300", "--dt", "1e-300", "--json"});
@@ -427,7 +429,8 @@ TEST_CASE("issue 11.1: the step count is computed in checked arithmetic and refu
     CHECK(nlohmann::json::parse(tiny.out)["steps"] == 1);
 }
 
-TEST_CASE("issue 11.2: a failed step stops the run: step, t, residual and a hint on stderr; --json gives status and the last good state") {
+// issue 11.2
+TEST_CASE("a failed step stops the run: step, t, residual and a hint on stderr; --json gives status and the last good state") {
     const std::string rb = test::scene_path("rigid_body");
     Run r = pgi_run({"integrate", rb, "--dt", "5", "--order", "2", "--json"});
     CHECK(r.exit_code == 3);
@@ -453,7 +456,8 @@ TEST_CASE("issue 11.2: a failed step stops the run: step, t, residual and a hint
     CHECK(nlohmann::json::parse(good.out)["status"] == "ok");
 }
 
-TEST_CASE("issue 11.5: every numeric option is one finite number in its range; lists are strict") {
+// issue 11.5
+TEST_CASE("every numeric option is one finite number in its range; lists are strict") {
     const std::string rb = test::scene_path("rigid_body"), nambu = test::scene_path("nambu");
     const std::vector<std::pair<std::vector<std::string>, std::string>> cases{
         {{"integrate", nambu, "--max-csv-mb", "nan", "--csv", "/tmp/pgi_never.csv"}, "--max-csv-mb: 'nan' is not a number above 0"},
@@ -488,7 +492,8 @@ TEST_CASE("issue 11.5: every numeric option is one finite number in its range; l
     CHECK_FALSE(fs::exists("/tmp/pgi_never.csv"));
 }
 
-TEST_CASE("issue 11.6: a Casimir through 0 has its error measured against the size of its terms, not against |C(x0)|") {
+// issue 11.6
+TEST_CASE("a Casimir through 0 has its error measured against the size of its terms, not against |C(x0)|") {
     // C = x1^2 + x2^2 + x3^2 - 1 at a point of the unit sphere: C(x0) = -1.1e-16 in double, the size of its
     // terms 2; 57dddde divided the round-off drift by |C(x0)| and reported about 2
     TempScene scene("casimir_zero", "name = \"rigid body, C through 0\"\ncoordinates = [\"x1\", \"x2\", \"x3\"]\n[brackets]\n"
@@ -509,7 +514,8 @@ TEST_CASE("issue 11.6: a Casimir through 0 has its error measured against the si
     CHECK(relative_error(3.0, 1.0, 0.0) == 2.0);  // all terms 0 at x0: the absolute change
 }
 
-TEST_CASE("issue 11.7: output paths are checked before the run; temporaries are exclusive and removed on SIGTERM") {
+// issue 11.7
+TEST_CASE("output paths are checked before the run; temporaries are exclusive and removed on SIGTERM") {
     const std::string rb = test::scene_path("rigid_body");
     TempDir dir("files");
     const fs::path fifo = dir.path / "fifo.csv";
@@ -565,7 +571,8 @@ TEST_CASE("issue 11.7: output paths are checked before the run; temporaries are 
     CHECK((st.st_mode & 0777) == (0666 & ~mask));
 }
 
-TEST_CASE("issue 11.8: names with control characters are refused; what can be checked is checked before anything is printed") {
+// issue 11.8
+TEST_CASE("names with control characters are refused; what can be checked is checked before anything is printed") {
     TempScene name("ctl_name", "name = \"a\\u001b[2Jb\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = \"q^2\"\n");
     Run r = pgi_run({"check", name.path.string()});
     CHECK(r.exit_code == 2);
@@ -595,7 +602,8 @@ TEST_CASE("issue 11.8: names with control characters are refused; what can be ch
     CHECK_MESSAGE(rc == 0, slurp(dir.path / "r.log"));
 }
 
-TEST_CASE("issue 13: --trust-jacobi skips the Jacobi check and says so; without it a non-Jacobi structure is refused") {
+// issue 13
+TEST_CASE("--trust-jacobi skips the Jacobi check and says so; without it a non-Jacobi structure is refused") {
     const std::string bad = (fs::path(PGI_SCENES_DIR) / "../../tests/bad_scenes/jacobi_failure.toml").string();
     const std::string note = "the Jacobi identity is not checked (--trust-jacobi";
     // refused without the option, before any work

@@ -91,7 +91,8 @@ std::string power_scene(const std::string& H) {
 
 }  // namespace
 
-TEST_CASE("issue 11.3: under a memory cap pgi ends with exit 4 or 5 and a message, never an abort") {
+// issue 11.3
+TEST_CASE("under a memory cap pgi ends with exit 4 or 5 and a message, never an abort") {
     if (address_sanitizer) return;
     // (x1+...+x6)^60 has 8.3 million terms, about 500 MB: above a 300 MB address space
     TempScene big("power60", power_scene(std::string(1, '(').append(sum_of(6)).append(")^60")));
@@ -116,7 +117,8 @@ TEST_CASE("issue 11.3: under a memory cap pgi ends with exit 4 or 5 and a messag
     CHECK(phase.out.find("above the memory budget of 220 MB (raise it with --max-memory-mb)") != std::string::npos);
 }
 
-TEST_CASE("issue 11.3: a long exact phase shows progress on a terminal, --quiet silences it, --max-seconds stops it") {
+// issue 11.3
+TEST_CASE("a long exact phase shows progress on a terminal, --quiet silences it, --max-seconds stops it") {
     TempScene lattice("volterra30", volterra(30, 6));
     // script(1) gives pgi a terminal; the modified Hamiltonian through dt^8 runs more than a minute in a
     // release build, so a time budget of two seconds stops it after a progress line
@@ -135,7 +137,8 @@ TEST_CASE("issue 11.3: a long exact phase shows progress on a terminal, --quiet 
     CHECK(piped.out.find("pgi: exact phase: ") == std::string::npos);
 }
 
-TEST_CASE("issue 11.4: a huge power in a scene is refused at once with exit 4, naming the key and the position") {
+// issue 11.4
+TEST_CASE("a huge power in a scene is refused at once with exit 4, naming the key and the position") {
     TempScene big("power1000", power_scene(std::string(1, '(').append(sum_of(6)).append(")^1000")));
     Shell r = shell(pgi() + " check " + big.path());
     CHECK_MESSAGE(r.exit_code == 4, r.out);

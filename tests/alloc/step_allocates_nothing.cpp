@@ -53,7 +53,8 @@ TEST_CASE("newton_step: no allocation in the hot loop, for every realisation for
     std::filesystem::remove_all(cache);
 }
 
-TEST_CASE("issue 16.1: no allocation in the Lie-Poisson step past its series' radius (scaling and squaring)") {
+// issue 16.1
+TEST_CASE("no allocation in the Lie-Poisson step past its series' radius (scaling and squaring)") {
     // sl(2)* at dt = 1/4 from (0.5, 1, -2): |L(p)| ~ 6, beyond the radius of every series degree
     pgi::PhaseSpace M({"h", "e", "f"});
     std::vector<std::vector<pgi::Poly>> pi(3, std::vector<pgi::Poly>(3, pgi::Poly(M.ring())));
