@@ -229,7 +229,7 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
     s.realisation_.check_lanes<N>(xb_, p_, check_, maps_, &values_);  // (values_: this step's last Newton system, nearby)
     T r[N], tol[N];
     for (int i = 0; i < N; ++i) {
-        r[i] = check_.alpha[i] - x_[i];
+        r[i] = (xb_[i] - x_[i]) + check_.shift[i];  // alpha - x to below the ulps of x
         tol[i] = (residual_kappa * unit_roundoff) * (lanes::abs(x_[i]) + check_.size[i]);
     }
     T ratio = tolerance_ratio<N>(r, tol);
@@ -255,13 +255,35 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
     return lanes::both(C, ratio <= 1.0);
 }
 
+// NewtonStepper::polish for the lanes of E: where the last correction was above round-off, one more simplified
+// round from the accepted r_ (the kept factors, p updated by the kept Hessian) and delta there (on every lane: the
+// others' inputs are unchanged, so is their delta).
+template <int N, class T>
+void LaneStep<N, T>::polish(const NewtonStepper& s, Mask E) {
+    const Mask P = lanes::both(E, newton_rules::polishes(correction_, lanes::max(x_norm_, inf_norm<N>(xb_))));
+    if (!lanes::any(P)) return;
+    T d[N], p[N];
+    solve_kept(r_, d);
+    const Mask go = lanes::both(P, all_finite<N>(d));
+    for (int i = 0; i < N; ++i) {
+        T q{};
+        for (int k = 0; k < N; ++k) q = q + H_[i + N * k] * d[k];
+        p[i] = p_[i] - q;
+        xb_[i] = select(go, xb_[i] - d[i], xb_[i]);
+    }
+    commit<N>(go, p, p_);
+    commit<N>(go, d, dx_);
+    s.realisation_.delta_lanes<N>(xb_, p_, check_.delta, maps_, &values_);
+}
+
 // NewtonStepper::finish for the lanes of E (accepted): ill-conditioned when the tolerance exceeds sqrt(u) |x|, else
-// the increment delta, non-finite, above the truncation bound, or ok.
+// the increment delta (polished), non-finite, above the truncation bound, or ok.
 template <int N, class T>
 void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
     const Mask ill = lanes::both(E, newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm_, inf_norm<N>(xb_))));
     end(ill, StepStatus::ill_conditioned);
     const Mask solved = lanes::both(E, lanes::negate(ill));
+    polish(s, solved);
     commit<N>(solved, check_.delta, increment);
     const Mask non_finite = lanes::both(solved, lanes::negate(all_finite<N>(check_.delta)));
     end(non_finite, StepStatus::non_finite);

@@ -69,12 +69,26 @@ void RealisationEvaluator::log_canonical_derivatives(const T* x, const T* p, T* 
     }
 }
 
+// delta alone, as log_canonical_check writes it.
+template <class T>
+void RealisationEvaluator::log_canonical_delta(const T* x, const T* p, T* delta, const T* exponent_near, const T* em1_near) const {
+    for (std::size_t j = 0; j < n_; ++j) {
+        T u{};
+        for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
+            const int l = a_pattern_.inner[std::size_t(k)];
+            u = u + a_values_[std::size_t(k)] * x[l] * p[l];
+        }
+        const T em1 = exponent_near ? expm1_near(u, exponent_near[j], em1_near[j]) : expm1_lanes(0.5 * u), e = 1.0 + em1;
+        delta[j] = x[j] * -(em1 + em1 / e);
+    }
+}
+
 // alpha and delta as above, and the size of each alpha_j's terms: the rounding of u_j (relative to the sum w_j of
-// its terms' sizes) enters alpha_j multiplied by |alpha_j|. With exponent_near and em1_near (a derivatives evaluation's,
+// its terms' sizes) enters alpha_j multiplied by |alpha_j|; shift_j = alpha_j - x_j = x_j (e^{u_j/2} - 1). With exponent_near and em1_near (a derivatives evaluation's,
 // the Newton iterate this one corrects by a small step), e^{u_j/2} - 1 is taken from them (expm1_near): the acceptance
 // test after a converged Newton correction then calls no exponential.
 template <class T>
-void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, const T* exponent_near,
+void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift, const T* exponent_near,
                                                const T* em1_near) const {
     for (std::size_t j = 0; j < n_; ++j) {
         T u{}, w{};
@@ -85,6 +99,7 @@ void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha,
         }
         const T em1 = exponent_near ? expm1_near(u, exponent_near[j], em1_near[j]) : expm1_lanes(0.5 * u), e = 1.0 + em1;
         alpha[j] = x[j] * e;
+        shift[j] = x[j] * em1;
         delta[j] = x[j] * -(em1 + em1 / e);
         size[j] = lanes::abs(x[j]) + lanes::abs(alpha[j]) * (1.0 + 0.5 * w);
     }

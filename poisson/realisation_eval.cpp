@@ -18,7 +18,7 @@ RealisationValues::RealisationValues(std::size_t n)
       alpha_p(alpha_x), delta_x(alpha_x), delta_p(alpha_x) {}
 
 RealisationCheck::RealisationCheck(std::size_t n)
-    : alpha(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n))), delta(alpha), size(alpha) {}
+    : alpha(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n))), delta(alpha), size(alpha), shift(alpha) {}
 
 Poly absolute_coefficients(const Poly& f) {
     Poly a = f;
@@ -79,12 +79,15 @@ RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi
     for (const auto* f : {&alpha, &delta}) push_derivatives(*f, e.pattern_x_, xs, outputs);
     for (const auto* f : {&alpha, &delta}) push_derivatives(*f, e.pattern_p_, ps, outputs);
     e.map_ = CompiledMap::build(outputs, inputs);
-    std::vector<Poly> values = alpha, sizes;
+    // the acceptance test's values: alpha - x (check's shift; alpha = x + shift), delta, the neglected parts
+    std::vector<Poly> values, sizes;
+    for (std::size_t i = 0; i < n; ++i) values.push_back(alpha[i] - M.x_gen(i));
     values.insert(values.end(), delta.begin(), delta.end());
     values.insert(values.end(), neglected.begin(), neglected.end());
     for (const auto& a : alpha) sizes.push_back(absolute_coefficients(a));
     e.values_map_ = CompiledMap::build(values, inputs);
     e.size_map_ = CompiledMap::build(sizes, inputs);
+    e.delta_map_ = CompiledMap::build(delta, inputs);
     e.in_.resize(static_cast<Eigen::Index>(2 * n));
     e.out_.resize(static_cast<Eigen::Index>(std::max(outputs.size(), values.size())));
     return e;
@@ -237,7 +240,7 @@ std::size_t RealisationEvaluator::cost(bool sparse) const {
 
 std::vector<CompiledMap*> RealisationEvaluator::compiled_maps() {
     if (form_ != Form::polynomial) return {};
-    return {&map_, &values_map_, &size_map_};
+    return {&map_, &values_map_, &size_map_, &delta_map_};
 }
 
 const double* RealisationEvaluator::eval_polynomial(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha,
@@ -260,7 +263,7 @@ LaneMapScratch<T> RealisationEvaluator::lane_scratch() const {
     s.out.resize(std::max({map_.num_outputs(), values_map_.num_outputs(), n_}));
     if constexpr (!std::is_same_v<T, double>) {
         std::size_t block = 0;
-        for (const CompiledMap* m : {&map_, &values_map_, &size_map_})
+        for (const CompiledMap* m : {&map_, &values_map_, &size_map_, &delta_map_})
             block = std::max(block, m->num_monomials() + m->num_inputs() + m->num_outputs());
         s.map.resize(block * CompiledMap::batch_lanes);
     }
@@ -448,7 +451,8 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             in_.head(n) = x;
             in_.tail(n) = p;
             values_map_.eval(in_.data(), out_.data());
-            c.alpha = out_.segment(0, n);
+            c.shift = out_.segment(0, n);
+            c.alpha = x + c.shift;
             c.delta = out_.segment(n, n);
             for (std::size_t o = 2 * n_; o < values_map_.num_outputs(); ++o) c.neglected = std::max(c.neglected, std::abs(out_[Eigen::Index(o)]));
             in_ = in_.cwiseAbs();
@@ -461,24 +465,28 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             const double norm = operator_norm(L_);
             if (norm <= radius_) {
                 // alpha = sum_m b_m L^m x; every term is at most |b_m| |L|^m |x| in size
+                // (b_0 = 1: shift = alpha - x sums the terms m >= 1)
                 v_prev_ = x;
-                c.alpha = b_[0] * x;
+                c.shift.setZero();
                 double size = 1, power = 1;
                 for (std::size_t m = 1; m < b_.size(); ++m) {
                     v_next_.noalias() = L_ * v_prev_;
                     v_prev_.swap(v_next_);
                     power *= norm;
                     if (b_[m] == 0) continue;
-                    c.alpha += b_[m] * v_prev_;
+                    c.shift += b_[m] * v_prev_;
                     size += std::abs(b_[m]) * power;
                 }
+                c.alpha = x + c.shift;
                 c.size.setConstant(size * x.lpNorm<Eigen::Infinity>());
             } else {
                 coth_form(false);
                 G_ = Q_;
                 G_.noalias() -= 0.5 * L_;
-                c.alpha.noalias() = G_ * x;
                 c.size.noalias() = G_.cwiseAbs() * x.cwiseAbs();
+                G_.diagonal().array() -= 1.0;  // shift = (g(L) - I) x
+                c.shift.noalias() = G_ * x;
+                c.alpha = x + c.shift;
             }
             c.size += x.cwiseAbs();
             c.delta.noalias() = L_ * x;
@@ -491,10 +499,34 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             c.alpha = Eigen::Map<const Eigen::Vector3d>(r.alpha);
             c.delta = Eigen::Map<const Eigen::Vector3d>(r.delta);
             c.size = Eigen::Map<const Eigen::Vector3d>(r.size);
+            c.shift = Eigen::Map<const Eigen::Vector3d>(r.shift);
             return;
         }
         case Form::log_canonical:
-            log_canonical_check(x.data(), p.data(), c.alpha.data(), c.delta.data(), c.size.data());
+            log_canonical_check(x.data(), p.data(), c.alpha.data(), c.delta.data(), c.size.data(), c.shift.data());
+            return;
+    }
+}
+
+void RealisationEvaluator::delta(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& delta) const {
+    const auto n = static_cast<Eigen::Index>(n_);
+    switch (form_) {
+        case Form::polynomial:
+            in_.head(n) = x;
+            in_.tail(n) = p;
+            delta_map_.eval(in_.data(), delta.data());
+            return;
+        case Form::lie_poisson:
+            form_L(p);
+            delta.noalias() = L_ * x;
+            return;
+        case Form::rotation: {
+            LaneMapScratch<double> unused;
+            delta_lanes<3>(x.data(), p.data(), delta.data(), unused);
+            return;
+        }
+        case Form::log_canonical:
+            log_canonical_delta(x.data(), p.data(), delta.data());
             return;
     }
 }

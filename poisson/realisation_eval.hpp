@@ -25,8 +25,10 @@ struct SparseRealisationValues {
 /// What the step's acceptance test reads at the solution (no derivatives): alpha, delta, the size of
 /// the terms summed into each alpha_i (an upper bound, for a round-off tolerance), and the size of the
 /// first neglected p-degrees of a truncated realisation (0 where the evaluation is exact to round-off).
+/// shift = alpha - x summed as its own expression (the p-dependent terms, without x): the step's residual
+/// (x_b - x) + shift then resolves what alpha, rounded to the ulps of x, cannot (docs/math.md 6, Casimirs).
 struct RealisationCheck {
-    Eigen::VectorXd alpha, delta, size;
+    Eigen::VectorXd alpha, delta, size, shift;
     double neglected = 0;                                // max_i |A_{D+1,i}| + |A_{D+2,i}| at (x, p)
     explicit RealisationCheck(std::size_t n = 0);
 };
@@ -42,7 +44,7 @@ struct LaneRealisation {
 /// RealisationCheck over lanes.
 template <int N, class T>
 struct LaneCheck {
-    T alpha[N], delta[N], size[N], neglected;
+    T alpha[N], delta[N], size[N], shift[N], neglected;
 };
 /// The compiled polynomial form's inputs and outputs over lanes, and CompiledMap::eval_batch's scratch.
 template <class T>
@@ -96,6 +98,8 @@ public:
     void eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, SparseRealisationValues& v) const;
     /// Writes every field of c (alpha and delta as eval writes them). Allocates nothing.
     void check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const;
+    /// delta alone, as check writes it: the increment after the Newton step's last (polishing) round.
+    void delta(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& delta) const;
     /// Whether eval_lanes and check_lanes serve this form: the so(3) and log-canonical closed forms and the compiled
     /// polynomial one (the Lie-Poisson series has none yet).
     bool has_lane_form() const { return form_ == Form::rotation || form_ == Form::log_canonical || form_ == Form::polynomial; }
@@ -108,6 +112,9 @@ public:
     void eval_lanes(const T* x, const T* p, LaneRealisation<N, T>& v, LaneMapScratch<T>& s) const;
     template <int N, class T>
     void check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s, const LaneRealisation<N, T>* near = nullptr) const;
+    /// check_lanes' delta alone.
+    template <int N, class T>
+    void delta_lanes(const T* x, const T* p, T* delta, LaneMapScratch<T>& s, const LaneRealisation<N, T>* near = nullptr) const;
     /// Lie-Poisson: the largest |L(p)|_inf at which the truncated series is used (beyond: scaling and squaring).
     double series_radius() const { return radius_; }
     /// Lie-Poisson: |L(p)|_inf, and the smallest D in [D_min, D_max] whose series is used at that norm (D_max if none).
@@ -120,7 +127,9 @@ private:
     template <class T, class Put>  // (poisson/log_canonical.ipp)
     void log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put, T* exponent = nullptr, T* em1 = nullptr) const;
     template <class T>
-    void log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, const T* exponent_near = nullptr,
+    void log_canonical_delta(const T* x, const T* p, T* delta, const T* exponent_near = nullptr, const T* em1_near = nullptr) const;
+    template <class T>
+    void log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift, const T* exponent_near = nullptr,
                              const T* em1_near = nullptr) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
@@ -147,6 +156,7 @@ private:
     CompiledMap map_;                   // polynomial: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
     CompiledMap values_map_;            // polynomial: alpha, delta, then the neglected parts
     CompiledMap size_map_;              // polynomial: alpha with every coefficient replaced by its absolute value
+    CompiledMap delta_map_;             // polynomial: delta alone
     mutable Eigen::VectorXd in_, out_, u_, v_prev_, v_next_;
     mutable Eigen::MatrixXd L_, W_prev_, W_next_, power_, tmp_;
     // Lie-Poisson, scaling and squaring: Z, its square, Q and its next, a^2, and dQ/dp_j for each j

@@ -189,7 +189,7 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
     }
 }
 
-// so(3): alpha and delta as eval_lanes, the sizes of alpha's three terms. Polynomial: the compiled values (alpha,
+// so(3): alpha and delta as eval_lanes, the sizes of alpha's three terms. Polynomial: the compiled values (alpha - x,
 // delta, the neglected parts: their largest |value| in `neglected`) and the sizes (every coefficient made
 // positive, at (|x|, |p|)) plus |x|.
 template <int N, class T>
@@ -202,6 +202,7 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
             rotation_coefficient<false>(r.s, b_, h, dh);
             for (int i = 0; i < 3; ++i) {
                 c.alpha[i] = (r.X.v[i] - 0.5 * r.Lx.v[i]) + h * r.L2x.v[i];
+                c.shift[i] = h * r.L2x.v[i] - 0.5 * r.Lx.v[i];
                 c.delta[i] = r.Lx.v[i];
                 c.size[i] = (lanes::abs(r.X.v[i]) + 0.5 * lanes::abs(r.Lx.v[i])) + lanes::abs(h) * lanes::abs(r.L2x.v[i]);
             }
@@ -209,16 +210,35 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
         }
     }
     if (form_ == Form::log_canonical) {
-        log_canonical_check(x, p, c.alpha, c.delta, c.size, near ? near->exponent : nullptr, near ? near->em1 : nullptr);
+        log_canonical_check(x, p, c.alpha, c.delta, c.size, c.shift, near ? near->exponent : nullptr, near ? near->em1 : nullptr);
         return;
     }
     for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
     eval_map(values_map_, s.in.data(), s.out.data(), s.map);
-    for (int i = 0; i < N; ++i) c.alpha[i] = s.out[std::size_t(i)], c.delta[i] = s.out[std::size_t(N + i)];
+    for (int i = 0; i < N; ++i) c.shift[i] = s.out[std::size_t(i)], c.alpha[i] = x[i] + c.shift[i], c.delta[i] = s.out[std::size_t(N + i)];
     for (std::size_t o = 2 * N; o < values_map_.num_outputs(); ++o) c.neglected = lanes::max(c.neglected, lanes::abs(s.out[o]));
     for (auto& e : s.in) e = lanes::abs(e);
     eval_map(size_map_, s.in.data(), c.size, s.map);
     for (int i = 0; i < N; ++i) c.size[i] = c.size[i] + lanes::abs(x[i]);
+}
+
+template <int N, class T>
+void RealisationEvaluator::delta_lanes(const T* x, const T* p, T* delta, LaneMapScratch<T>& s, const LaneRealisation<N, T>* near) const {
+    if constexpr (N == 3) {
+        if (form_ == Form::rotation) {  // delta = L x = w x x (RotationAt's Lx)
+            Vec3<T> w;
+            for (int i = 0; i < 3; ++i) w.v[i] = (p[0] * axial_[0][i] + p[1] * axial_[1][i]) + p[2] * axial_[2][i];
+            const Vec3<T> Lx = cross(w, Vec3<T>{{x[0], x[1], x[2]}});
+            for (int i = 0; i < 3; ++i) delta[i] = Lx.v[i];
+            return;
+        }
+    }
+    if (form_ == Form::log_canonical) {
+        log_canonical_delta(x, p, delta, near ? near->exponent : nullptr, near ? near->em1 : nullptr);
+        return;
+    }
+    for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
+    eval_map(delta_map_, s.in.data(), delta, s.map);
 }
 
 #define PGI_REALISATION_LANES(T)                                                                                          \
@@ -229,6 +249,7 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
 #define PGI_LANE_FORMS(N, T)                                                                                                       \
     template void RealisationEvaluator::eval_lanes<N, T>(const T*, const T*, LaneRealisation<N, T>&, LaneMapScratch<T>&) const; \
     template void RealisationEvaluator::check_lanes<N, T>(const T*, const T*, LaneCheck<N, T>&, LaneMapScratch<T>&,              \
-                                                         const LaneRealisation<N, T>*) const;
+                                                         const LaneRealisation<N, T>*) const;                                   \
+    template void RealisationEvaluator::delta_lanes<N, T>(const T*, const T*, T*, LaneMapScratch<T>&, const LaneRealisation<N, T>*) const;
 
 }  // namespace pgi
