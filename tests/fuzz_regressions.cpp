@@ -21,6 +21,7 @@ TEST_CASE("fuzz: every regression seed ends in a documented outcome through the 
         CAPTURE(entry.path().filename().string());
         CHECK_NOTHROW((void)pgi::fuzz::run_pipeline(bytes.str()));
         CHECK_NOTHROW((void)pgi::fuzz::run_parser(bytes.str()));
+        CHECK_NOTHROW((void)pgi::fuzz::run_states(bytes.str()));
         ++seen;
     }
     CHECK(seen > 0);

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Fuzzes the whole pipeline (scene reader, checks, S_1..S_k, modified Hamiltonian, Magnus series, a few
-# steps; tests/fuzz/pipeline.hpp) and the polynomial reader with libFuzzer for N seconds (default 600):
+# steps; tests/fuzz/pipeline.hpp), the polynomial reader and the ensemble states reader (NPY, CSV) with
+# libFuzzer for N seconds (default 600):
 #   bash tools/fuzz.sh [SECONDS]
 # Builds build-fuzz/ with clang (-fsanitize=fuzzer,address,undefined), seeds the corpus with the bundled
 # scenes, the bad scenes and the regression seeds, and leaves new inputs in build-fuzz/corpus and crashes
@@ -13,7 +14,7 @@ command -v clang++ >/dev/null || bash tools/deps.sh clang libclang-rt-14-dev
 cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPGI_FUZZ=ON >/dev/null
 cmake --build build-fuzz --target pgi_fuzz_pipeline -j "$(nproc)"
 mkdir -p build-fuzz/corpus build-fuzz/crashes
-cp tools/scenes/*.toml tests/bad_scenes/*.toml tests/fuzz/regressions/*.toml build-fuzz/corpus/
+cp tools/scenes/*.toml tests/bad_scenes/*.toml tests/fuzz/regressions/* build-fuzz/corpus/
 cd build-fuzz
 # -timeout and -rss_limit_mb sit well above the pipeline's own budget (2 s and 1 GB of exact phase), so a
 # report means pgi failed to bound itself

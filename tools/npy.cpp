@@ -111,8 +111,10 @@ std::pair<std::size_t, std::size_t> shape_of(const std::string& t, const std::st
 }  // namespace
 
 RowMatrix read_npy(const std::filesystem::path& path, std::size_t max_bytes) {
-    const std::string file = path.string();
-    const std::string bytes = read_input_file(path, max_bytes, "states");
+    return parse_npy(read_input_file(path, max_bytes, "states"), path.string());
+}
+
+RowMatrix parse_npy(const std::string& bytes, const std::string& file) {
     const std::size_t size = bytes.size();
     std::istringstream in(bytes);
     char magic[8] = {};
@@ -161,8 +163,11 @@ void write_npy(std::ostream& out, const Eigen::Ref<const RowMatrix>& a) {
 }
 
 RowMatrix read_csv_states(const std::filesystem::path& path, std::size_t columns, const std::string& header, std::size_t max_bytes) {
-    const std::string file = path.string();
-    std::istringstream in(read_input_file(path, max_bytes, "states"));
+    return parse_csv_states(read_input_file(path, max_bytes, "states"), path.string(), columns, header);
+}
+
+RowMatrix parse_csv_states(const std::string& text, const std::string& file, std::size_t columns, const std::string& header) {
+    std::istringstream in(text);
     std::vector<double> values;
     std::string line;
     bool first = true;

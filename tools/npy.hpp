@@ -18,6 +18,8 @@ namespace pgi {
 /// (m, n), or a data length that is not m n 8 bytes exactly; and what read_input_file refuses (not a regular
 /// file, above max_bytes).
 RowMatrix read_npy(const std::filesystem::path& file, std::size_t max_bytes);
+/// read_npy's parser on the file's bytes (file names it in messages).
+RowMatrix parse_npy(const std::string& bytes, const std::string& file);
 void write_npy(std::ostream& out, const Eigen::Ref<const RowMatrix>& a);
 
 /// Rows of `columns` numbers separated by commas; blank lines and lines starting with '#' are skipped, and
@@ -25,5 +27,7 @@ void write_npy(std::ostream& out, const Eigen::Ref<const RowMatrix>& a);
 /// such. Throws InputError naming the file and line for a row of another length or a field not a number (its
 /// first 40 characters shown), and what read_input_file refuses (not a regular file, above max_bytes).
 RowMatrix read_csv_states(const std::filesystem::path& file, std::size_t columns, const std::string& header, std::size_t max_bytes);
+/// read_csv_states' parser on the file's text (file names it in messages).
+RowMatrix parse_csv_states(const std::string& text, const std::string& file, std::size_t columns, const std::string& header);
 
 }  // namespace pgi

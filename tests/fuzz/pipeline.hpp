@@ -9,6 +9,7 @@
 // abort inside FLINT, a sanitizer report or a hang is a finding.
 #include "magnus/magnus.hpp"
 #include "tools/commands.hpp"
+#include "tools/npy.hpp"
 
 #include <algorithm>
 #include <string_view>
@@ -64,6 +65,18 @@ inline Outcome run_parser(std::string_view text) {
     } catch (const std::invalid_argument&) {
         return Outcome::bad_input;
     }
+}
+
+/// An ensemble's states file, read as NPY and as CSV of three columns: parsed, or refused with InputError.
+inline Outcome run_states(std::string_view text) {
+    const std::string bytes(text);
+    Outcome outcome = Outcome::completed;
+    for (int kind = 0; kind < 2; ++kind) try {
+            (void)(kind == 0 ? parse_npy(bytes, "states.npy") : parse_csv_states(bytes, "states.csv", 3, "x1,x2,x3"));
+        } catch (const InputError&) {
+            outcome = Outcome::bad_input;
+        }
+    return outcome;
 }
 
 }  // namespace pgi::fuzz
