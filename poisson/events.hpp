@@ -81,13 +81,6 @@ private:
     std::vector<Crossing> found_;
 };
 
-struct EventRun {
-    IntegrationSummary integration;   // steps taken, and the status of a failed step
-    std::size_t crossings = 0;        // reported
-    bool stopped = false;             // by a terminal event or by the callback
-    double t = 0;                     // where the run ended (the stopping crossing's t when stopped)
-};
-
 /// The event work of step n (x_previous -> x_n, of size dt) inside a run's observer: its crossings passed
 /// to on_crossing(const Crossing&) in time order (and counted); the first that stops the run (on_crossing
 /// returned true, or its event is terminal) is returned, nullptr when none does.
@@ -99,32 +92,6 @@ const Crossing* report_crossings(EventDetector& detector, const Eigen::VectorXd&
         if (on_crossing(c) || detector.events().spec(c.event).terminal) return &c;
     }
     return nullptr;
-}
-
-/// Integrates N steps from x (in place; at the end, x is the final state or the stopping crossing's
-/// state), calling on_crossing(const Crossing&) for every crossing in time order; it returns true to
-/// stop the run there, as a terminal event does.
-template <class OnCrossing>
-EventRun integrate_with_events(NewtonStepper& stepper, EventDetector& detector, Eigen::VectorXd& x, std::size_t N,
-                               OnCrossing&& on_crossing) {
-    EventRun run;
-    detector.start(x);
-    Eigen::VectorXd previous = x, stop_state;
-    const double dt = stepper.dt();
-    run.integration = integrate_steps(stepper, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& xn) {
-        if (n == 0) return false;
-        if (const Crossing* c = report_crossings(detector, previous, xn, dt, n, run.crossings, on_crossing)) {
-            run.stopped = true;
-            run.t = c->t;
-            stop_state = c->x;
-            return true;
-        }
-        previous = xn;
-        run.t = t;
-        return false;
-    });
-    if (run.stopped) x = stop_state;
-    return run;
 }
 
 }  // namespace pgi

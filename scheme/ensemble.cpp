@@ -111,59 +111,54 @@ void run_one(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, do
     record(w.x, end, w.loop, w.stepper.last_residual(), dt, i, r);
 }
 
-// One trajectory of a batch, stepped by the batch: RunLoop::run's bookkeeping without events (integrate_steps'
-// compensated sum, its statistics, the invariants at every state), so its numbers are run_one's bit for bit.
+// One trajectory of a batch, stepped by the batch: integrate_steps' TrajectoryState (the compensated sum, the
+// step's statistics and status) and RunLoop::run's observation of every state, so its numbers are run_one's bit
+// for bit.
 struct LaneRun {
     Eigen::Index row = -1;
     RunLoop loop;
-    Eigen::VectorXd x, last;
-    CompensatedSum sum;
+    TrajectoryState state;
+    Eigen::VectorXd last;    // the last state observed
     RunEnd end;
-    std::size_t steps = 0;   // steps taken (end.steps: those observed)
-    long iterations = 0;     // over the steps that succeeded
     double residual = 0;     // the last step's Newton residual
-    int last_iterations = 0; // the last step's Newton iterations
 
-    LaneRun(const RunLoop& l, Eigen::Index n) : loop(l), x(n), last(n), sum(n) {}
+    LaneRun(const RunLoop& l, Eigen::Index n) : loop(l), state(n), last(n) {}
 
     // Starts row i at x0 (finite) for N steps; false when the run ends there (N = 0, an invariant not finite).
     bool begin(Eigen::Index i, const Eigen::VectorXd& x0, std::size_t N, double prototype_residual) {
         row = i;
-        x = last = x0;
-        sum.reset();
+        state.begin(x0);
+        last = x0;
         end = RunEnd{};
-        steps = 0, iterations = 0, residual = prototype_residual;
+        residual = prototype_residual;
         loop.begin(x0);
         if (!loop.observe(x0, true)) return stop(StepStatus::non_finite);
         end.started = true;
         return N > 0;
     }
     // After one more step that ended with status s, its Newton iterations and residual, its increment at
-    // inc[v stride]: false when the run ends (a failed step); else observed() follows, with the invariants at x.
+    // inc[v stride]: false when the run ends (a failed step, a non-finite state); else observed() follows.
     bool stepped(StepStatus s, int step_iterations, double step_residual, const double* inc, std::size_t stride) {
         residual = step_residual;
-        iterations += step_iterations;
-        if (s != StepStatus::ok) return stop(s);
-        sum.add(x, inc, stride);
-        ++steps;
-        end.mean_iterations = double(iterations) / double(steps);
-        last_iterations = step_iterations;
+        if (!state.stepped(s, step_iterations, inc, stride)) return stop(state.status());
+        end.mean_iterations = state.mean_iterations();
         return true;
     }
-    // The invariants at the new x at values[i stride]: false when the run ends (step N, a state or an
-    // invariant not finite).
+    // The invariants at the new state at values[i stride]: false when the run ends (step N, an invariant not finite).
     bool observed(const double* values, std::size_t stride, std::size_t N) {
-        if (!x.allFinite() || !loop.observe_values(values, stride, false)) return stop(StepStatus::non_finite);
-        end.max_iterations = std::max(end.max_iterations, last_iterations);
-        end.steps = steps;
-        last = x;
-        return steps < N;
+        if (!loop.observe_values(values, stride, false)) return stop(StepStatus::non_finite);
+        end.max_iterations = std::max(end.max_iterations, state.last_iterations());
+        end.steps = state.steps();
+        last = state.x();
+        return state.steps() < N;
     }
     bool stop(StepStatus s) {
         end.status = s;
-        x = last;
+        end.mean_iterations = state.mean_iterations();
+        state.x() = last;
         return false;
     }
+    const Eigen::VectorXd& x() const { return state.x(); }
 };
 
 Worker::Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes) : prototype(&p), stepper(p), loop(l), x(Eigen::Index(p.dim())) {
@@ -200,7 +195,7 @@ void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N
                 free.pop_back();
                 busy.push_back(lane);
             } else {
-                record(lane->x, lane->end, lane->loop, lane->residual, dt, i, r);
+                record(lane->x(), lane->end, lane->loop, lane->residual, dt, i, r);
             }
         }
     };
@@ -208,7 +203,7 @@ void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N
     while (!busy.empty()) {
         const std::size_t m = busy.size();
         for (std::size_t j = 0; j < m; ++j)
-            for (std::size_t v = 0; v < n; ++v) w.X[v * m + j] = busy[j]->x[Eigen::Index(v)];
+            for (std::size_t v = 0; v < n; ++v) w.X[v * m + j] = busy[j]->x()[Eigen::Index(v)];
         w.batch->step(w.X.data(), m, dt, w.increments.data(), w.status.data());
         // the lanes that stepped, then the invariants at their new states at once (eval_batch: eval's bits); a
         // lane whose run ends is recorded and freed
@@ -218,14 +213,14 @@ void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N
                 busy[kept++] = lane;
                 return;
             }
-            record(lane->x, lane->end, lane->loop, lane->residual, dt, lane->row, r);
+            record(lane->x(), lane->end, lane->loop, lane->residual, dt, lane->row, r);
             free.push_back(lane);
         };
         for (std::size_t j = 0; j < m; ++j)
             keep(busy[j], busy[j]->stepped(w.status[j], w.batch->last_iterations(j), w.batch->last_residual(j), w.increments.data() + j, m));
         const std::size_t stepped = kept;
         for (std::size_t j = 0; j < stepped; ++j)
-            for (std::size_t v = 0; v < n; ++v) w.X[v * stepped + j] = busy[j]->x[Eigen::Index(v)];
+            for (std::size_t v = 0; v < n; ++v) w.X[v * stepped + j] = busy[j]->x()[Eigen::Index(v)];
         w.loop.invariants().eval_batch(w.X.data(), w.values.data(), stepped, w.map_scratch);
         kept = 0;
         for (std::size_t j = 0; j < stepped; ++j) keep(busy[j], busy[j]->observed(w.values.data() + j, stepped, N));

@@ -1,6 +1,7 @@
 // Events: crossings located on the dense output, against the exact flow (oscillator) and a fine
 // reference (rigid body); directions, terminal events, interior samples and refused polynomials.
 #include "poisson/events.hpp"
+#include "scheme/run_loop.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>
@@ -16,7 +17,7 @@ Eigen::VectorXd vec(const std::vector<double>& v) { return Eigen::Map<const Eige
 
 struct Run {
     std::vector<Crossing> crossings;
-    EventRun summary;
+    RunEnd summary;
     Eigen::VectorXd x;
 };
 
@@ -30,11 +31,13 @@ Run run(const Scene& s, std::size_t k, double dt, Eigen::VectorXd x0, double T, 
                            DenseOutput::build(s.pi, s.H, st.order()), samples);
     Run r;
     r.x = std::move(x0);
-    r.summary = integrate_with_events(st, detector, r.x, std::size_t(std::llround(T / dt)), [&](const Crossing& c) {
-        r.crossings.push_back(c);
-        return false;
-    });
-    REQUIRE(r.summary.integration.status == StepStatus::ok);
+    RunLoop loop(*s.scheme);  // the run of every surface, watching s's invariants
+    r.summary = loop.run(st, r.x, std::size_t(std::llround(T / dt)), [](const RunPoint&) { return false; }, &detector,
+                         [&](const Crossing& c) {
+                             r.crossings.push_back(c);
+                             return false;
+                         });
+    REQUIRE(r.summary.status == StepStatus::ok);
     return r;
 }
 
@@ -108,7 +111,7 @@ TEST_CASE("events: a terminal event stops the run at its first crossing, with th
     REQUIRE(r.crossings.size() == 1);  // p rises only at pi, after q's fall at pi/2
     CHECK(r.summary.stopped);
     CHECK(r.summary.crossings == 1);
-    CHECK(r.summary.integration.steps == 16);  // pi/2 lies in step 16 (t from 1.5 to 1.6)
+    CHECK(r.summary.steps == 16);  // pi/2 lies in step 16 (t from 1.5 to 1.6)
     CHECK(r.summary.t == r.crossings[0].t);
     CHECK(std::abs(r.summary.t - std::numbers::pi / 2) < 1e-4);
     CHECK(r.x == r.crossings[0].x);

@@ -4,6 +4,7 @@
 // crossings, the worst energy error at a crossing, and the time of the same orbits without events) on stdout.
 // Usage: pgi_section_henon_heiles SCENE OUT.csv [E = 1/8] [ORBITS = 200] [T = 1000] [SEED = 1]
 #include "poisson/events.hpp"
+#include "scheme/run_loop.hpp"
 #include "tools/scene.hpp"
 
 #include <fmt/format.h>
@@ -40,6 +41,7 @@ int main(int argc, char** argv) try {
     pgi::NewtonStepper stepper = pgi::NewtonStepper::build(s.pi, s.H, opt, starts.front());
     pgi::EventDetector detector(pgi::EventSet::build(s.phase_space(), {{"q1", +1, false}}),
                                 pgi::DenseOutput::build(s.pi, s.H, stepper.order()));
+    pgi::RunLoop loop(*s.scheme);  // the run of every surface (it watches H at every step, with events or not)
     const auto build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const auto N = static_cast<std::size_t>(std::ceil(T / s.dt - 1e-9));
     std::size_t steps = 0, crossings = 0, failed = 0;
@@ -48,22 +50,22 @@ int main(int argc, char** argv) try {
     for (std::size_t o = 0; o < orbits; ++o) {
         Eigen::VectorXd x = starts[o];
         const double H0 = pgi::evaluate(s.H, std::vector<double>{x(0), x(1), x(2), x(3), 0, 0, 0, 0});
-        const auto run = pgi::integrate_with_events(stepper, detector, x, N, [&](const pgi::Crossing& c) {
+        const auto run = loop.run(stepper, x, N, [](const pgi::RunPoint&) { return false; }, &detector, [&](const pgi::Crossing& c) {
             csv += fmt::format("{},{},{},{}\n", o, c.t, c.x(1), c.x(3));
             const double h = 0.5 * (c.x(2) * c.x(2) + c.x(3) * c.x(3) + c.x(1) * c.x(1)) - c.x(1) * c.x(1) * c.x(1) / 3;
             energy_error = std::max(energy_error, std::abs(h - H0) / H0);
             return false;
         });
-        steps += run.integration.steps;
+        steps += run.steps;
         crossings += run.crossings;
-        if (run.integration.status != pgi::StepStatus::ok) ++failed;
+        if (!run.ok()) ++failed;
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     // the same orbits without events: what locating the crossings adds to the run
     const auto t1 = std::chrono::steady_clock::now();
     for (std::size_t o = 0; o < orbits; ++o) {
         Eigen::VectorXd x = starts[o];
-        (void)pgi::integrate_steps(stepper, x, N, [](std::size_t, double, const Eigen::VectorXd&) { return false; });
+        (void)loop.run(stepper, x, N, [](const pgi::RunPoint&) { return false; });
     }
     const double plain_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     std::ofstream(argv[2]) << csv;
