@@ -145,10 +145,15 @@ public:
     // The directory at path, created (0700) if missing; nullopt with why_not set when it cannot be used.
     static std::optional<CacheDir> open(const fs::path& path, std::string& why_not) {
         create_private_directories(path);
+        struct stat link {};
+        if (::lstat(path.c_str(), &link) == 0 && S_ISLNK(link.st_mode)) {
+            why_not = "it is a symbolic link";
+            return std::nullopt;
+        }
         Fd fd(::open(path.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC));
         struct stat st {};
         if (fd.get() < 0 || ::fstat(fd.get(), &st) != 0) {
-            why_not = errno == ELOOP ? "it is a symbolic link" : std::string("cannot be opened (") + std::strerror(errno) + ")";
+            why_not = errno == ELOOP ? "it is a symbolic link" : std::string("cannot be opened (") + std::strerror(errno) + ")";  // (made one meanwhile)
             return std::nullopt;
         }
         if (st.st_uid != ::geteuid())

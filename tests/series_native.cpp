@@ -7,6 +7,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -15,6 +16,9 @@
 #include <fstream>
 #include <limits>
 #include <random>
+
+#include <sys/stat.h>
+#include <unistd.h>
 
 using namespace pgi;
 namespace fs = std::filesystem;
@@ -331,4 +335,182 @@ TEST_CASE("native: a cache directory named by PGI_JIT_CACHE that cannot be used 
     CHECK_FALSE(map.native());
     CHECK(fs::file_size(file) == std::string("not a directory").size());  // untouched
     fs::remove(file);
+}
+
+namespace {
+
+// A shell script standing in for the compiler (NativeOptions::compiler): body runs with $out the library it is asked
+// to write and $src the source.
+std::string fake_compiler(const fs::path& dir, const std::string& name, const std::string& body) {
+    fs::create_directories(dir);
+    const fs::path p = dir / name;
+    std::ofstream(p) << "#!/bin/sh\nwhile [ $# -gt 1 ]; do [ \"$1\" = -o ] && out=$2; shift; done\nsrc=$1\n" << body << "\n";
+    fs::permissions(p, fs::perms::owner_all);
+    return p.string();
+}
+
+// A fresh directory for the fake compilers and planted files of one test, removed with them.
+struct Scratch {
+    fs::path path;
+    explicit Scratch(const std::string& name) : path(fs::temp_directory_path() / ("pgi-native-scratch-" + std::to_string(::getpid()) + "-" + name)) {
+        fs::remove_all(path);
+        fs::create_directories(path);
+    }
+    ~Scratch() { fs::remove_all(path); }
+};
+
+std::vector<std::string> names_in(const fs::path& dir) {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+}  // namespace
+
+TEST_CASE("native: a compiler that exits 0 without a usable library is refused before anything enters the cache") {
+    // each once left its output in the cache under the kept name, and every later run failed until it was cleaned
+    const Scratch scratch("bad-compilers");
+    const auto r = make_ring({"x"});
+    for (const auto& [body, why] : {std::pair<std::string, std::string>{"exit 0", "wrote no library"},
+                                    {"echo garbage > \"$out\"", "not a loadable library"},
+                                    {"echo 'int unrelated;' | c++ -shared -fPIC -x c++ - -o \"$out\"", "without the function pgi_map_0"}}) {
+        CAPTURE(body);
+        CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+        NativeOptions o = test_options("bad-compiler");
+        o.compiler = fake_compiler(scratch.path, "cc", body);
+        const std::string what = native_code_error(map, o);  // (also checks the cache is left empty)
+        CHECK_MESSAGE(what.find(why) != std::string::npos, what);
+        // the real compiler afterwards, in the same directory, builds and loads
+        o.compiler.clear();
+        REQUIRE(attach_native_code({&map}, o) == 1);
+        fs::remove_all(o.cache_dir);
+    }
+}
+
+TEST_CASE("native: the compiler's diagnostics become one bounded line, terminal codes and NULs shown as \\xNN") {
+    const Scratch scratch("noisy");
+    const auto r = make_ring({"x"});
+    CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+    NativeOptions o = test_options("noisy");
+    // 100 MB of diagnostics, an escape sequence and a NUL at the end
+    o.compiler = fake_compiler(scratch.path, "cc",
+                               "head -c 100000000 /dev/zero | tr '\\000' 'x'\nprintf '\\nerror: \\033[31mred\\000 after a NUL\\033[0m\\n' >&2\nexit 1");
+    const std::string what = native_code_error(map, o);
+    CHECK(what.size() < 2000);
+    CHECK(what.find('\x1b') == std::string::npos);
+    CHECK(what.find('\n') == std::string::npos);
+    CHECK_MESSAGE(what.find("error: \\x1b[31mred\\x00 after a NUL\\x1b[0m") != std::string::npos, what);
+    CHECK(what.find("exited with status 1") != std::string::npos);
+}
+
+TEST_CASE("native: a library planted under a kept name, without pgi's digest or with another's, is never loaded") {
+    const Scratch scratch("planted");
+    const auto r = make_ring({"x"});
+    NativeOptions o = test_options("planted");
+    CompiledMap first = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+    REQUIRE(attach_native_code({&first}, o) == 1);
+    std::string key;
+    for (const std::string& name : names_in(o.cache_dir))
+        if (name.size() > 3 && name.substr(name.size() - 3) == ".so") key = name.substr(0, name.size() - 3);
+    REQUIRE(key.size() == 16);
+    // a library with the right symbol whose constructor leaves a mark when it is loaded
+    const fs::path marker = scratch.path / "LOADED", evil_source = scratch.path / "evil.cpp", evil = scratch.path / "evil.so";
+    std::ofstream(evil_source) << "#include <cstdio>\n__attribute__((constructor)) static void mark() { std::fopen(\"" << marker.string()
+                               << "\", \"w\"); }\nextern \"C\" void pgi_map_0(const double*, double* out) { out[0] = 666; }\n";
+    REQUIRE(std::system(("c++ -shared -fPIC -o '" + evil.string() + "' '" + evil_source.string() + "'").c_str()) == 0);
+    const fs::path library = fs::path(o.cache_dir) / (key + ".so"), digest = fs::path(o.cache_dir) / (key + ".hash");
+    for (const bool keep_digest : {false, true}) {
+        CAPTURE(keep_digest);
+        // put in place by a rename, as a planter would (writing over it would change the library this process has mapped)
+        fs::copy_file(evil, library.string() + ".planting", fs::copy_options::overwrite_existing);
+        fs::rename(library.string() + ".planting", library);  // pgi's digest (if kept) is the real library's
+        if (!keep_digest) fs::remove(digest);
+        CompiledMap again = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+        REQUIRE(attach_native_code({&again}, o) == 1);  // built anew instead
+        const double x = 3;
+        double y = 0;
+        again.eval(&x, &y);
+        CHECK(y == 9);
+        CHECK_FALSE(fs::exists(marker));
+        CHECK(fs::exists(digest));
+    }
+    fs::remove_all(o.cache_dir);
+}
+
+TEST_CASE("native: a cache directory others can write, a link, or another user's is refused, naming why") {
+    const Scratch scratch("unsafe-dirs");
+    const auto r = make_ring({"x"});
+    const auto refused = [&](const fs::path& dir, const std::string& why) {
+        CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+        NativeOptions o;
+        o.cache_dir = dir.string();
+        try {
+            attach_native_code({&map}, o);
+            FAIL("accepted " << dir);
+        } catch (const NativeCodeError& e) {
+            const std::string what = e.what();
+            CHECK_MESSAGE(what.find(dir.string() + ": " + why) != std::string::npos, what);
+        }
+        CHECK(names_in(dir).empty());
+    };
+    fs::create_directories(scratch.path / "open");
+    fs::permissions(scratch.path / "open", fs::perms::all);
+    refused(scratch.path / "open", "it is writable by others (mode 0777");
+    fs::create_directories(scratch.path / "group");
+    fs::permissions(scratch.path / "group", fs::perms::owner_all | fs::perms::group_all);
+    refused(scratch.path / "group", "it is writable by its group");
+    fs::create_directories(scratch.path / "target");
+    fs::create_directory_symlink(scratch.path / "target", scratch.path / "link");
+    refused(scratch.path / "link", "it is a symbolic link");
+    if (::geteuid() == 0) {
+        fs::create_directories(scratch.path / "foreign");
+        REQUIRE(::chown((scratch.path / "foreign").c_str(), 65534, 65534) == 0);
+        fs::permissions(scratch.path / "foreign", fs::perms::owner_all);
+        refused(scratch.path / "foreign", "it is owned by uid 65534, not by the effective user (uid 0)");
+    } else {
+        MESSAGE("not root: a directory of another user is tested by tools_child_process.cpp's unprivileged run only");
+    }
+}
+
+TEST_CASE("native: under umask 000 the cache, its parents and its files are private") {
+    const Scratch scratch("umask");
+    const auto r = make_ring({"x"});
+    CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+    NativeOptions o;
+    o.cache_dir = (scratch.path / "made" / "by" / "pgi").string();
+    const mode_t previous = ::umask(0);
+    const std::size_t attached = attach_native_code({&map}, o);
+    ::umask(previous);
+    REQUIRE(attached == 1);
+    const auto mode = [](const fs::path& p) { return fs::status(p).permissions(); };
+    for (const fs::path& d : {scratch.path / "made", scratch.path / "made" / "by", fs::path(o.cache_dir)}) CHECK(mode(d) == fs::perms::owner_all);
+    for (const auto& e : fs::directory_iterator(o.cache_dir)) {
+        CAPTURE(e.path());
+        CHECK(mode(e.path()) == (e.path().extension() == ".so" ? fs::perms::owner_all : fs::perms::owner_read | fs::perms::owner_write));
+    }
+}
+
+TEST_CASE("native: trimming the cache removes only pgi's own files, never the user's, whatever their names and sizes") {
+    const auto r = make_ring({"x"});
+    NativeOptions o = test_options("shared");
+    fs::create_directories(o.cache_dir);
+    fs::permissions(o.cache_dir, fs::perms::owner_all);
+    const std::vector<std::string> user_files{"thesis.final.tex", "data.2024.csv", "notes.txt", "big.bin", "0123456789abcdef.txt",
+                                              "0123456789abcdef.old.so", "0123456789ABCDEF.so"};
+    for (const std::string& name : user_files) {
+        std::ofstream(fs::path(o.cache_dir) / name) << std::string(name == "big.bin" ? 3 << 20 : 10, 'u');
+        fs::last_write_time(fs::path(o.cache_dir) / name, fs::file_time_type::clock::now() - std::chrono::hours(24));
+    }
+    o.cache_limit_bytes = 1;  // every kept library but the newest goes, and nothing else
+    for (int power : {2, 3}) {
+        CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), power)}, {0});
+        REQUIRE(attach_native_code({&map}, o) == 1);
+    }
+    for (const std::string& name : user_files) {
+        CAPTURE(name);
+        CHECK(fs::exists(fs::path(o.cache_dir) / name));
+    }
+    CHECK(names_in(o.cache_dir).size() == user_files.size() + 3);  // and the newest library's three files
+    fs::remove_all(o.cache_dir);
 }

@@ -68,13 +68,19 @@ bool on_path(const std::string& program) {
     return false;
 }
 
-// A gnuplot string that gnuplot takes as text only: single quotes, in which it substitutes nothing (no `command`,
-// no @macro; a ' is written ''), control characters (a newline would end the command) shown as \xNN.
+// A gnuplot string expression that gnuplot takes as text only: single-quoted pieces, in which it runs no `command`,
+// joined by pgi_q and pgi_at (script_preamble) where s has a quote or an @ (gnuplot expands @macros even inside
+// quotes, and its doubled quotes break when two follow each other); control characters (a newline would end the
+// command) shown as \xNN.
 std::string quoted(const std::string& s) {
     std::string out = "'";
-    for (char c : printable(s)) out += c == '\'' ? std::string("''") : std::string(1, c);
+    for (char c : printable(s)) out += c == '\'' ? std::string("'.pgi_q.'") : c == '@' ? std::string("'.pgi_at.'") : std::string(1, c);
     return out + "'";
 }
+
+// Defines the two characters quoted() never writes inside a string literal, as octal escapes: the script holds no raw
+// quote or @ of the user's.
+constexpr const char* script_preamble = "pgi_q = \"\\047\"; pgi_at = \"\\100\"\n";
 
 // gnuplot runs as every child does (series/child_process.hpp): no shell, its own process group, killed past a
 // minute or on a signal, its diagnostics bounded and sanitised.
@@ -169,7 +175,7 @@ std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string
         }
     }
     std::vector<fs::path> written;
-    std::string script = fmt::format("title = {}\nset grid\nset encoding utf8\n", quoted(title));
+    std::string script = script_preamble + fmt::format("title = {}\nset grid\nset encoding utf8\n", quoted(title));
     std::vector<std::pair<fs::path, fs::path>> figures;  // (in the private directory, target)
     for (const auto& [figure, body] : {std::pair{std::string("trajectory"), trajectory_plot(s, coords, traj.string())},
                                        std::pair{std::string("errors"), errors_plot(s, dt, errs.string(), has_points)}})
