@@ -38,14 +38,17 @@ struct NativeOptions {
     NativeVectors vectors = NativeVectors::automatic;
     /// Where built libraries are kept, keyed by a hash of their source and command (a later build of the same maps
     /// loads the kept library instead of compiling): empty means $PGI_JIT_CACHE, else $XDG_CACHE_HOME/pgi/jit, else
-    /// $HOME/.cache/pgi/jit, else a directory under the system's temporary directory. A directory named here or by
-    /// $PGI_JIT_CACHE that cannot be created or written is a NativeCodeError naming it.
+    /// $HOME/.cache/pgi/jit, else $TMPDIR/pgi-jit-EUID. Missing directories are created 0700. The directory must be owned
+    /// by the effective user, not writable by group or others and not a symbolic link; one named here or by
+    /// $PGI_JIT_CACHE that fails this is a NativeCodeError saying why, of the defaults the first that passes is used.
+    /// A kept library is loaded only if its source matches and its SHA-256 is the one pgi wrote beside it (KEY.hash).
     std::string cache_dir;
     /// After a library is added, the temporaries of builds killed before they ended (older than timeout and a minute)
-    /// are removed, then the oldest kept libraries (by last write) while the directory holds more than this (a
-    /// library loaded by a running process stays mapped: only its name goes).
+    /// are removed, then the oldest kept libraries (by last write) while they hold more than this; only pgi's own names
+    /// (KEY.cpp, KEY.so, KEY.hash, KEY.PID-N.EXT, KEY 16 hex digits) are looked at, never another file (a library
+    /// loaded by a running process stays mapped: only its name goes).
     std::uintmax_t cache_limit_bytes = std::uintmax_t(256) << 20;
-    /// The compiler is stopped past this.
+    /// The compiler's process group is killed past this (series/child_process.hpp).
     std::chrono::seconds timeout{300};
     /// The terms and monomials compiled at most, over all maps: the maps are taken in the order given while they
     /// fit, the rest stay interpreted (the compiler's time grows with the source: 0.1-0.3 s per thousand here).
