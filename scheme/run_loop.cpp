@@ -33,6 +33,9 @@ RunLoop::RunLoop(const Scheme& scheme, std::vector<Poly> extra, std::vector<std:
 void RunLoop::start(const Eigen::VectorXd& x0) {
     scale_ = invariant_scales(*scheme_, std::span<const double>(x0.data(), std::size_t(x0.size())), extra_);
     std::fill(worst_.begin(), worst_.end(), 0.0);
+    fit_count_ = fit_n_ = fit_nn_ = 0;
+    fit_e_.assign(values_.size(), 0.0);
+    fit_ne_.assign(values_.size(), 0.0);
     non_finite_.clear();
     last_ = x0;
 }
@@ -55,6 +58,20 @@ void RunLoop::commit(bool first) {
     if (cancel_) cancel_->check();
     if (first) initial_ = values_;
     for (std::size_t i = 0; i < values_.size(); ++i) worst_[i] = std::max(worst_[i], error(i));
+    const double n = fit_count_;
+    fit_count_ += 1, fit_n_ += n, fit_nn_ += n * n;
+    for (std::size_t i = 0; i < values_.size(); ++i) {
+        const double e = scale_[i] > 0 ? (values_[i] - initial_[i]) / scale_[i] : values_[i] - initial_[i];
+        fit_e_[i] += e, fit_ne_[i] += n * e;
+    }
+}
+
+std::vector<double> RunLoop::drift_per_step() const {
+    std::vector<double> slope(fit_e_.size(), 0.0);
+    const double d = fit_count_ * fit_nn_ - fit_n_ * fit_n_;
+    if (d > 0)
+        for (std::size_t i = 0; i < slope.size(); ++i) slope[i] = (fit_count_ * fit_ne_[i] - fit_n_ * fit_e_[i]) / d;
+    return slope;
 }
 
 std::string RunLoop::failure_message(const NewtonStepper& stepper, const RunEnd& end) const {

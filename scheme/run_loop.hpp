@@ -94,6 +94,10 @@ public:
     double error(std::size_t i) const { return relative_error(values_[i], initial_[i], scale_[i]); }
     /// The largest error of each invariant over every state observed.
     const std::vector<double>& error_max() const { return worst_; }
+    /// The least-squares slope of each invariant's signed relative error against the index of the state observed
+    /// (0 at the start, then the step): a bias per step, which a round-off random walk has not (docs/math.md 6). The
+    /// Casimirs' entries are what a run reports as casimir_drift_per_step. Kept as running sums, O(1) a state.
+    std::vector<double> drift_per_step() const;
     const std::vector<std::string>& names() const { return names_; }
 
     /// The message of a run that ended early (end.ok() false): a failed step as step_failure_message
@@ -112,6 +116,8 @@ private:
     CompiledMap invariants_;
     std::vector<std::string> names_;
     std::vector<double> values_, initial_, worst_, scale_;
+    double fit_count_ = 0, fit_n_ = 0, fit_nn_ = 0;  // drift_per_step's sums: states, sum n, sum n^2 ...
+    std::vector<double> fit_e_, fit_ne_;              // ... and per invariant sum e, sum n e
     Eigen::VectorXd last_;                    // the last state observed (the left end of the next step's events)
     std::string non_finite_;
     const RunCancel* cancel_ = nullptr;
