@@ -27,6 +27,16 @@ bool gone(pid_t pid) {
     return paren != std::string::npos && line.size() > paren + 2 && line[paren + 2] == 'Z';
 }
 
+// Whether the process whose pid a child wrote to the file pids is gone within two seconds; the file is removed.
+bool background_gone(const fs::path& pids) {
+    pid_t background = 0;
+    std::ifstream(pids) >> background;
+    fs::remove(pids);
+    if (background <= 0) return false;
+    for (int i = 0; i < 100 && !gone(background); ++i) ::usleep(20000);
+    return gone(background);
+}
+
 }  // namespace
 
 TEST_CASE("child process: its status and the tail of its output, stdin empty, no shell between") {
@@ -58,26 +68,14 @@ TEST_CASE("child process: past its time-out its whole group is killed, what it s
     const auto took = std::chrono::steady_clock::now() - start;
     CHECK(took < std::chrono::seconds(10));
     CHECK(r.failure == "stopped after 300 ms");
-    std::ifstream in(pids);
-    pid_t background = 0;
-    in >> background;
-    REQUIRE(background > 0);
-    for (int i = 0; i < 100 && !gone(background); ++i) ::usleep(20000);
-    CHECK(gone(background));
-    fs::remove(pids);
+    CHECK(background_gone(pids));
 }
 
 TEST_CASE("child process: a child that ends leaves nothing running behind it") {
     const fs::path pids = fs::temp_directory_path() / ("pgi-child-left-" + std::to_string(::getpid()));
     ChildResult r = run_child({"sh", "-c", "sleep 30 > /dev/null 2>&1 & echo $! > '" + pids.string() + "'"});
     CHECK(r.ok());
-    std::ifstream in(pids);
-    pid_t background = 0;
-    in >> background;
-    REQUIRE(background > 0);
-    for (int i = 0; i < 100 && !gone(background); ++i) ::usleep(20000);
-    CHECK(gone(background));
-    fs::remove(pids);
+    CHECK(background_gone(pids));
 }
 
 TEST_CASE("child process: a temporary file is removed unless kept") {
