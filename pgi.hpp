@@ -11,6 +11,7 @@
 #include "poisson/realisation.hpp"
 #include "poisson/structure.hpp"
 #include "scheme/ensemble.hpp"
+#include "scheme/evaluators.hpp"
 #include "scheme/input.hpp"
 #include "scheme/run_loop.hpp"
 #include "scheme/scheme.hpp"

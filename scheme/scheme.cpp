@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <map>
 #include <mutex>
 
 namespace pgi {
@@ -29,6 +30,16 @@ struct StepperEntry {
     }
 };
 
+// slot's value, built by build() the first time it is asked for (counted in builds).
+template <class T, class Build>
+const T& built_once(std::optional<T>& slot, std::size_t& builds, Build build) {
+    if (!slot) {
+        slot.emplace(build());
+        ++builds;
+    }
+    return *slot;
+}
+
 }  // namespace
 
 // What has been computed so far. One recursive mutex: artefacts call each other (the checks ask for
@@ -42,6 +53,10 @@ struct Scheme::Cache {
     std::vector<Poly> modified;                     // H_0..H_m for the largest m asked so far
     std::vector<StepperEntry> steppers;             // at most stepper_cache_size
     std::uint64_t clock = 0;                        // the last use of each entry, for eviction
+    // the evaluators' maps: node-based, never dropped, so the references handed out stay valid
+    std::optional<CompiledMap> vector_field, invariants;
+    std::optional<CompiledBrackets> brackets;
+    std::map<std::size_t, std::optional<CompiledMap>> modified_maps;  // by upto
     SchemeStats stats;
 };
 
@@ -227,11 +242,49 @@ SchemeStats Scheme::stats() const {
     return s;
 }
 
-CompiledMap Scheme::invariants(const std::vector<Poly>& extra) const {
+// H, the Casimirs, then extra, compiled over the coordinates.
+CompiledMap Scheme::compile_invariants(const std::vector<Poly>& extra) const {
     std::vector<Poly> f{H_};
     f.insert(f.end(), casimirs_.begin(), casimirs_.end());
     f.insert(f.end(), extra.begin(), extra.end());
     return CompiledMap::build(f, phase_space().coordinate_vars());
+}
+
+CompiledMap Scheme::invariants(const std::vector<Poly>& extra) const {
+    return extra.empty() ? invariants_map() : compile_invariants(extra);
+}
+
+const CompiledMap& Scheme::invariants_map() const {
+    std::lock_guard lock(cache_->mutex);
+    return built_once(cache_->invariants, cache_->stats.evaluator_builds, [&] { return compile_invariants({}); });
+}
+
+const CompiledMap& Scheme::vector_field_map() const {
+    std::lock_guard lock(cache_->mutex);
+    return built_once(cache_->vector_field, cache_->stats.evaluator_builds,
+                      [&] { return CompiledMap::build(pi_.hamiltonian_vector_field(H_), phase_space().coordinate_vars()); });
+}
+
+const CompiledBrackets& Scheme::brackets_map() const {
+    std::lock_guard lock(cache_->mutex);
+    return built_once(cache_->brackets, cache_->stats.evaluator_builds, [&] {
+        CompiledBrackets b;
+        std::vector<Poly> entries;
+        for (std::size_t i = 0; i < pi_.dim(); ++i)
+            for (std::size_t j : pi_.row_support(i))
+                if (j > i) {
+                    entries.push_back(pi_(i, j));
+                    b.entries.emplace_back(i, j);
+                }
+        b.map = CompiledMap::build(entries, phase_space().coordinate_vars());
+        return b;
+    });
+}
+
+const CompiledMap& Scheme::modified_hamiltonian_map(std::size_t upto) const {
+    std::lock_guard lock(cache_->mutex);
+    return built_once(cache_->modified_maps[upto], cache_->stats.evaluator_builds,
+                      [&] { return CompiledMap::build(modified_hamiltonian(upto), phase_space().coordinate_vars()); });
 }
 
 }  // namespace pgi

@@ -6,6 +6,7 @@
 // line, the report, the Python module, a C++ program) goes through it.
 #include "poisson/newton_step.hpp"
 #include "scheme/input.hpp"
+#include "series/compile.hpp"
 
 #include <Eigen/Dense>
 
@@ -48,7 +49,15 @@ struct SchemeChecks {
 /// How many times each artefact was computed: what the tests read to show that nothing is computed twice.
 struct SchemeStats {
     std::size_t realisation_builds = 0, terms_builds = 0, modified_builds = 0, stepper_builds = 0;
+    std::size_t evaluator_builds = 0;  // the evaluators' compiled maps (vector_field_map(), ...), each built once
     std::size_t steppers_kept = 0;  // compiled steps in the cache now (at most Scheme::stepper_cache_size)
+};
+
+/// The brackets a scheme's pi holds, compiled: output e is {x_i, x_j} for (i, j) = entries[e], i < j; every other
+/// entry above the diagonal is zero.
+struct CompiledBrackets {
+    CompiledMap map;
+    std::vector<std::pair<std::size_t, std::size_t>> entries;
 };
 
 class Scheme {
@@ -111,7 +120,21 @@ public:
     NewtonStepper stepper(const StepOptions& opt, const Eigen::VectorXd& x_typical) const;
     static constexpr std::size_t stepper_cache_size = 8;
     /// H, the Casimirs, then extra, compiled over the coordinates: what a run watches.
+    /// Without extra, a copy of invariants_map().
     CompiledMap invariants(const std::vector<Poly>& extra = {}) const;
+
+    // The numeric evaluators' maps (scheme/evaluators.hpp), over the coordinates, each compiled the first time it is
+    // asked for and kept for the scheme's life: the references stay valid. Evaluate them with eval_batch (thread-safe),
+    // or eval on a copy (eval's scratch is the map's).
+    /// pi grad H: output i is dx_i/dt (n outputs).
+    const CompiledMap& vector_field_map() const;
+    /// The non-zero brackets {x_i, x_j}, i < j.
+    const CompiledBrackets& brackets_map() const;
+    /// H, then the Casimirs.
+    const CompiledMap& invariants_map() const;
+    /// H_0..H_upto of the modified Hamiltonian (upto + 1 outputs), one map per upto; throws what
+    /// modified_hamiltonian(upto) throws.
+    const CompiledMap& modified_hamiltonian_map(std::size_t upto) const;
     SchemeStats stats() const;
 
 private:
@@ -120,6 +143,7 @@ private:
     void require_valid_locked() const;
     RealisationPtr realisation_locked(std::size_t D) const;
     const std::vector<Poly>& terms_locked() const;
+    CompiledMap compile_invariants(const std::vector<Poly>& extra) const;
 
     PoissonStructure pi_;
     Poly H_;
