@@ -3,6 +3,7 @@
 // Every failure here becomes a Python exception: the library's InputError, ResourceLimitError (a run above its
 // budget: RunBudgetError), NativeCodeError; std::bad_alloc a MemoryError; Ctrl-C a KeyboardInterrupt (interruptible).
 #include "scheme/ensemble.hpp"
+#include "scheme/evaluators.hpp"
 #include "scheme/run_request.hpp"
 #include "scheme/scheme.hpp"
 #include "scheme/trajectory.hpp"
@@ -328,26 +329,26 @@ std::string shape_of(const py::array& a) {
     return shape + (a.ndim() == 1 ? ",)" : ")");
 }
 
-// X0 as the ensemble reads it: a 2-D float64 numpy array with one column per coordinate, checked before any
-// work and not copied yet.
-py::array ensemble_states(const PyScheme& s, const py::object& X0) {
-    if (!py::isinstance<py::array>(X0)) throw pgi::InputError("X0", "must be a numpy array of shape (m, n), float64");
+// X0 as the ensemble reads it (and the evaluators their x, named so): a 2-D float64 numpy array with one column
+// per coordinate, checked before any work and not copied yet.
+py::array ensemble_states(const PyScheme& s, const py::object& X0, const std::string& name = "X0") {
+    if (!py::isinstance<py::array>(X0)) throw pgi::InputError(name, "must be a numpy array of shape (m, n), float64");
     const auto a = py::reinterpret_borrow<py::array>(X0);
     const std::size_t n = s.M().dim();
     if (!py::array_t<double>::check_(a))  // dtype equivalent to float64 (native byte order)
-        throw pgi::InputError("X0", "must have dtype float64, got " + py::str(a.dtype()).cast<std::string>());
+        throw pgi::InputError(name, "must have dtype float64, got " + py::str(a.dtype()).cast<std::string>());
     if (a.ndim() != 2 || std::size_t(a.shape(1)) != n)
-        throw pgi::InputError("X0", "must have shape (m, " + std::to_string(n) + "), one column per coordinate, got " + shape_of(a));
+        throw pgi::InputError(name, "must have shape (m, " + std::to_string(n) + "), one column per coordinate, got " + shape_of(a));
     return a;
 }
 
 // a as a C-contiguous float64 array: itself, or a copy. ensure() returns a null array (its error cleared) when
-// the copy fails: raised as MemoryError naming X0 and the size, never used.
-py::array_t<double, py::array::c_style> contiguous(const py::array& a) {
+// the copy fails: raised as MemoryError naming the argument (name) and the size, never used.
+py::array_t<double, py::array::c_style> contiguous(const py::array& a, const std::string& name = "X0") {
     auto c = py::array_t<double, py::array::c_style>::ensure(a);
     if (!c) {
         const double mb = double(a.size()) * 8.0 / double(1 << 20);
-        PyErr_SetString(PyExc_MemoryError, ("X0: out of memory for a C-contiguous copy of shape " + shape_of(a) + " (about " +
+        PyErr_SetString(PyExc_MemoryError, (name + ": out of memory for a C-contiguous copy of shape " + shape_of(a) + " (about " +
                                             std::to_string(long(mb)) + " MB); pass fewer rows at a time").c_str());
         throw py::error_already_set();
     }
@@ -418,6 +419,29 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
                     "status"_a = status, "steps"_a = steps, "failed_step"_a = failed_step, "failed_t"_a = failed_t,
                     "residual"_a = residual, "newton_iterations_mean"_a = newton_mean, "newton_iterations_max"_a = newton_max,
                     "energy_warning"_a = energy_warning, "x_typical"_a = x_typ, "threads"_a = r.threads, "dt"_a = dt, "t_end"_a = t_end);
+}
+
+// f(scheme, X) at the rows X of x (an (m, n) float64 array; InputError naming x), returned as numpy, with the GIL
+// released: interruptible (on a thread of its own) when f may run the exact phase, else on this thread (cheap
+// enough for an ODE solver's every call).
+template <class F>
+py::object evaluate(const PyScheme& s, const py::object& x, bool exact_phase, F f) {
+    const auto rows = contiguous(ensemble_states(s, x, "x"), "x");
+    const Eigen::Map<const pgi::RowMatrix> X = as_matrix(rows);
+    const pgi::Scheme& scheme = *s.scheme;
+    if (exact_phase) return py::cast(interruptible([&](const pgi::RunCancel&) { return f(scheme, X); }));
+    auto values = [&] {
+        py::gil_scoped_release release;
+        return f(scheme, X);
+    }();
+    return py::cast(std::move(values));
+}
+
+py::dict stats(const PyScheme& s) {
+    const pgi::SchemeStats st = s.scheme->stats();
+    return py::dict("realisation_builds"_a = st.realisation_builds, "terms_builds"_a = st.terms_builds,
+                    "modified_builds"_a = st.modified_builds, "stepper_builds"_a = st.stepper_builds,
+                    "steppers_kept"_a = st.steppers_kept, "evaluator_builds"_a = st.evaluator_builds);
 }
 
 }  // namespace
@@ -496,6 +520,25 @@ PYBIND11_MODULE(_pgi, m) {
                                    std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
                  check_ensemble_plan(s, m, s.step_size(dt), run_length(s, t_end), limits(max_steps, max_output_mb));
              }, "m"_a, "dt"_a = py::none(), "t_end"_a = py::none(), "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
+        .def("stats", &stats)
+        .def("_vector_field", [](const PyScheme& s, const py::object& x) {
+                 return evaluate(s, x, false, [](const pgi::Scheme& scheme, const auto& X) { return pgi::vector_field(scheme, X); });
+             }, "x"_a)
+        .def("_poisson_matrices", [](const PyScheme& s, const py::object& x) {
+                 return evaluate(s, x, false, [](const pgi::Scheme& scheme, const auto& X) { return pgi::poisson_matrices(scheme, X); });
+             }, "x"_a)
+        .def("_hamiltonian_values", [](const PyScheme& s, const py::object& x) {
+                 return evaluate(s, x, false, [](const pgi::Scheme& scheme, const auto& X) { return pgi::hamiltonian_values(scheme, X); });
+             }, "x"_a)
+        .def("_casimir_values", [](const PyScheme& s, const py::object& x) {
+                 return evaluate(s, x, false, [](const pgi::Scheme& scheme, const auto& X) { return pgi::casimir_values(scheme, X); });
+             }, "x"_a)
+        .def("_modified_hamiltonian_values", [](const PyScheme& s, const py::object& x, std::optional<double> dt, std::size_t upto) {
+                 const double h = s.step_size(dt);
+                 return evaluate(s, x, true, [&](const pgi::Scheme& scheme, const auto& X) {
+                     return pgi::modified_hamiltonian_values(scheme, X, h, upto);
+                 });
+             }, "x"_a, "dt"_a = py::none(), "upto"_a = 4)
         .def("_typical_state", [](const PyScheme& s, const py::object& X0) {
                  const auto a = contiguous(ensemble_states(s, X0));
                  return pgi::typical_state(as_matrix(a));

@@ -190,13 +190,13 @@ def _state(name, value, n):
     return a
 
 
-def _states(X0):
+def _states(X0, name="X0"):
     """X0 as a numpy array: a numpy array as given (not copied; shape and dtype, float64 only, are checked by
     the C++ side), or converted from nested lists. Complex values, a ragged or non-numeric list are an InputError
-    naming X0."""
+    naming the argument (name)."""
     if isinstance(X0, _np.ndarray):  # complex128 included: refused by its dtype, never converted
         return X0
-    return _real_array("X0", X0, "an (m, n) array of numbers")
+    return _real_array(name, X0, "an (m, n) array of numbers")
 
 
 def _polynomial(name, text):
@@ -269,7 +269,9 @@ class Scheme:
     t_end=None) or Scheme.from_toml(path) (a pgi scene: its dt, x0 and t_end become the defaults).
     Properties: coordinates, order (k), method_order, realisation, structure_class, hamiltonian, casimirs,
     dt, x0, t_end, name, jacobi_trusted, jit. Methods: check(), require_valid(), terms(), modified_hamiltonian(),
-    realisation_terms(), step(), integrate(), integrate_ensemble(), typical_state() and the sympy conversions.
+    realisation_terms(), step(), integrate(), integrate_ensemble(), typical_state(), stats(), the sympy conversions
+    and the numeric evaluators vector_field(), poisson_matrix(), hamiltonian_value(), casimir_values(),
+    modified_hamiltonian_value().
 
     Polynomials are strings in the coordinates with +, -, *, / by numbers and ^ for powers ("x1^2/4 + x2*x3").
     A scheme whose brackets fail the Jacobi identity, or a Casimir that does not commute with every
@@ -467,6 +469,55 @@ class Scheme:
     def typical_state(self, X0):
         """The row integrate_ensemble builds its step at by default: the finite row of largest norm (None if none)."""
         return self._core._typical_state(_states(X0))
+
+    def stats(self):
+        """How many times each exact artefact was computed (each is computed once): {"realisation_builds",
+        "terms_builds" (S_1..S_k), "modified_builds" (the modified Hamiltonian), "stepper_builds" (compiled steps),
+        "steppers_kept", "evaluator_builds" (the evaluators' compiled maps: one each, one per upto)}."""
+        return self._core.stats()
+
+    # The numeric evaluators: each from the exact polynomials, compiled once per scheme (per upto for the modified
+    # Hamiltonian), at one state x of shape (n,) (checked as step()'s x) or at m states, the rows of an (m, n)
+    # float64 array (checked as integrate_ensemble's X0), with the GIL released. A row's values are the same bits
+    # alone or among others. A wrong shape or dtype, or a value that is not finite, raises InputError naming x.
+    def _evaluated(self, method, x, *args):
+        """The core's method at x's rows, and the first row's values alone if x was one state."""
+        X = _states(x, "x")
+        one = X.ndim != 2
+        if one:
+            X = _state("x", X, len(self.coordinates))[None, :]
+        values = getattr(self._core, method)(X, *args)
+        return values[0] if one else values
+
+    def vector_field(self, x):
+        """pi(x) grad H(x), the time derivative of the flow (units of x per unit of time): shape (n,) for x of shape
+        (n,), (m, n) for x of shape (m, n). scipy's solve_ivp takes it as lambda t, x: s.vector_field(x). It needs
+        no exact phase, and is computed even for a scheme that fails its checks."""
+        return self._evaluated("_vector_field", x)
+
+    def poisson_matrix(self, x):
+        """pi(x), entry [i, j] the bracket {x_i, x_j} at x: shape (n, n) for x of shape (n,), (m, n, n) for x of
+        shape (m, n). Skew-symmetric with a zero diagonal, exactly."""
+        n = len(self.coordinates)
+        P = self._evaluated("_poisson_matrices", x)
+        return P.reshape((n, n) if P.ndim == 1 else (len(P), n, n))
+
+    def hamiltonian_value(self, x):
+        """H(x) (units of H): a float for x of shape (n,), shape (m,) for x of shape (m, n)."""
+        return self._evaluated("_hamiltonian_values", x)
+
+    def casimir_values(self, x):
+        """The Casimirs at x, in the order of s.casimirs: shape (c,) for x of shape (n,), (m, c) for x of shape
+        (m, n) (c = len(s.casimirs), possibly 0)."""
+        return self._evaluated("_casimir_values", x)
+
+    def modified_hamiltonian_value(self, x, dt=None, upto=4):
+        """H_0(x) + dt H_1(x) + ... + dt^upto H_upto(x) (units of H), the modified Hamiltonian that the method of
+        step dt (default: the scheme's; positive, finite, time units) conserves up to O(dt^(upto+1)); H_0..H_upto are
+        modified_hamiltonian(upto), upto in 0..64. A float for x of shape (n,), shape (m,) for x of shape (m, n). The
+        first call for an upto runs the exact phase (once; Ctrl-C raises KeyboardInterrupt); raises InputError for an
+        invalid scheme, as terms() does."""
+        return self._evaluated("_modified_hamiltonian_values", x, _positive_float("dt", dt), _count("upto", upto, 0, _MAX_UPTO))
 
     def __repr__(self):
         c = self._core
