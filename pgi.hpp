@@ -14,6 +14,7 @@
 #include "scheme/evaluators.hpp"
 #include "scheme/input.hpp"
 #include "scheme/run_loop.hpp"
+#include "scheme/scene.hpp"
 #include "scheme/scheme.hpp"
 #include "scheme/trajectory.hpp"
 #include "series/compile.hpp"

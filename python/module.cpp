@@ -9,7 +9,7 @@
 #include "scheme/trajectory.hpp"
 #include "scheme/version.hpp"
 #include "series/latex.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -308,6 +308,7 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
                "energy_error"_a = py::array_t<double>(rows, tr.energy_error.data()), "casimir_error"_a = cas,
                "energy_error_max"_a = tr.energy_error_max, "casimir_error_max"_a = tr.casimir_error_max,
                "energy_warning"_a = tr.energy_warning,
+               "casimir_drift_per_step"_a = tr.casimir_drift_per_step,
                "steps"_a = tr.steps, "dt"_a = dt, "newton_iterations_mean"_a = tr.newton_iterations_mean,
                "newton_iterations_max"_a = tr.newton_iterations_max,
                // the ensemble's vocabulary (status_of), so a member's status is its single run's, word for word
@@ -357,17 +358,6 @@ py::array_t<double, py::array::c_style> contiguous(const py::array& a, const std
 
 // What an ensemble of m trajectories keeps, checked as integrate_ensemble checks it (plan_run: the steps of one
 // trajectory, the results of all), here before X0 is copied: InputError or ResourceLimitError (RunBudgetError).
-void check_ensemble_plan(const PyScheme& s, std::size_t m, double dt, double t_end, const pgi::RunLimits& limits) {
-    pgi::RunRequest request;
-    request.dt = dt;
-    request.t_end = t_end;
-    request.every = 0;  // the final state only
-    request.dim = s.M().dim();
-    request.invariants = 1 + s.scheme->casimirs().size();
-    request.trajectories = std::max<std::size_t>(1, m);
-    pgi::plan_run(request, limits);
-}
-
 Eigen::Map<const pgi::RowMatrix> as_matrix(const py::array_t<double, py::array::c_style>& a) {
     return {a.data(), Eigen::Index(a.shape(0)), Eigen::Index(a.shape(1))};
 }
@@ -386,7 +376,7 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
     options.batch = batch;
     options.x_typical = x_typical;
     options.control.limits = limits(max_steps, max_output_mb);
-    check_ensemble_plan(s, std::size_t(states.shape(0)), dt, t_end, options.control.limits);  // before the copy
+    pgi::plan_ensemble(*s.scheme, std::size_t(states.shape(0)), dt, t_end, options.control.limits);  // before the copy
     const auto X0 = contiguous(states);
     // X0 stays alive (held here) and is only read; the run is C++ only, on a worker, stopped by Ctrl-C
     const auto& scheme = *s.scheme;
@@ -518,7 +508,7 @@ PYBIND11_MODULE(_pgi, m) {
              "max_output_mb"_a = py::none())
         .def("_check_ensemble", [](const PyScheme& s, std::size_t m, std::optional<double> dt, std::optional<double> t_end,
                                    std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
-                 check_ensemble_plan(s, m, s.step_size(dt), run_length(s, t_end), limits(max_steps, max_output_mb));
+                 pgi::plan_ensemble(*s.scheme, m, s.step_size(dt), run_length(s, t_end), limits(max_steps, max_output_mb));
              }, "m"_a, "dt"_a = py::none(), "t_end"_a = py::none(), "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
         .def("stats", &stats)
         .def("_vector_field", [](const PyScheme& s, const py::object& x) {

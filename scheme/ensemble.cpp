@@ -41,6 +41,17 @@ std::string to_string(TrajectoryStatus s) {
     return "?";
 }
 
+RunPlan plan_ensemble(const Scheme& scheme, std::size_t m, double dt, double t_end, const RunLimits& limits) {
+    RunRequest request;
+    request.dt = dt;
+    request.t_end = t_end;
+    request.every = 0;  // the final state only
+    request.dim = scheme.phase_space().dim();
+    request.invariants = 1 + scheme.casimirs().size();
+    request.trajectories = std::max<std::size_t>(1, m);
+    return plan_run(request, limits);
+}
+
 std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& X0) {
     std::optional<Eigen::Index> best;
     double best_norm = -1;
@@ -249,14 +260,7 @@ RunPlan check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>&
     const auto n = Eigen::Index(scheme.phase_space().dim());
     if (X0.cols() != n)
         throw InputError("X0", "must have " + std::to_string(n) + " columns (one per coordinate), got " + std::to_string(X0.cols()));
-    RunRequest request;
-    request.dt = dt;
-    request.t_end = t_end;
-    request.every = 0;  // the final state only
-    request.dim = std::size_t(n);
-    request.invariants = 1 + scheme.casimirs().size();
-    request.trajectories = std::max<std::size_t>(1, std::size_t(X0.rows()));
-    const RunPlan plan = plan_run(request, options.control.limits);
+    const RunPlan plan = plan_ensemble(scheme, std::size_t(X0.rows()), dt, t_end, options.control.limits);
     const std::size_t most = std::max<std::size_t>(256, 4 * std::size_t(tbb::info::default_concurrency()));
     if (options.threads > most)
         throw InputError("threads", std::to_string(options.threads) + " is above the limit of " + std::to_string(most) + " (4 per core, at least 256)");

@@ -70,6 +70,11 @@ struct EnsembleResult {
     std::vector<EnsembleMember> members;
 };
 
+/// plan_run for an ensemble of m trajectories of scheme (their final states and errors kept): what
+/// integrate_ensemble checks before any work, for a caller that must know it before it holds X0 (a sampler, a
+/// copy). Throws what plan_run throws.
+RunPlan plan_ensemble(const Scheme& scheme, std::size_t m, double dt, double t_end, const RunLimits& limits = {});
+
 /// The finite row of X0 of largest Euclidean norm (the first of equals): the default x_typical, chosen so
 /// the realisation degree that keeps the truncation below round-off there suffices for the smaller rows.
 /// None when no row is finite.

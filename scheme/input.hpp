@@ -1,6 +1,6 @@
 #pragma once
 // The exact objects of a scheme read from plain strings (coordinate names, "a,b" -> bracket, polynomials),
-// with errors that name the offending entry. Shared by the scene reader (tools/scene.cpp) and the
+// with errors that name the offending entry. Shared by the scene reader (scheme/scene.cpp) and the
 // Scheme's constructor from values (the Python module's and the C++ consumers' entry point).
 #include "poisson/structure.hpp"
 

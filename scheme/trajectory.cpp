@@ -90,6 +90,8 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
     r.energy_error_max = loop.error_max()[0];
     r.energy_warning = energy_drifted(r.energy_error_max);
     r.casimir_error_max.assign(loop.error_max().begin() + 1, loop.error_max().begin() + 1 + long(C));
+    const std::vector<double> drift = loop.drift_per_step();
+    r.casimir_drift_per_step.assign(drift.begin() + 1, drift.begin() + 1 + long(C));
     if (!end.ok()) {
         r.failed_step = end.started ? end.steps + 1 : 0;
         r.failed_t = double(end.steps) * dt;

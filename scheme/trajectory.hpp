@@ -42,6 +42,10 @@ struct Trajectory {
     double energy_error_max = 0;                 // over every step, not only the recorded ones
     bool energy_warning = false;                 // energy_drifted(energy_error_max)
     std::vector<double> casimir_error_max;
+    /// Per Casimir: the least-squares slope of its signed relative error against the step (RunLoop::drift_per_step),
+    /// a bias per step. Kept at round-off, a Casimir's error is a random walk and this is ~u / steps or less; a
+    /// systematic drift shows as a slope that times the steps is the error itself.
+    std::vector<double> casimir_drift_per_step;
     double newton_iterations_mean = 0;
     int newton_iterations_max = 0;
     StepStatus status = StepStatus::ok;

@@ -1,6 +1,6 @@
 #pragma once
 // Helpers shared by the test suites: building structures from bracket strings and loading bundled scenes.
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <filesystem>
 #include <fstream>

@@ -3,7 +3,7 @@
 #include "magnus/splitting.hpp"
 #include "poisson/newton_step.hpp"
 #include "scheme/trajectory.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -129,15 +129,9 @@ std::string summary_text(const nlohmann::json& j) {
 // The run's size, checked before any work: its steps and, when sampled, its count (a file's rows are checked
 // by integrate_ensemble once read; the file's size is bounded as it is read).
 void check_size(const Scene& scene, const EnsembleCommandOptions& o) {
-    RunRequest request;
-    request.dt = scene.dt;
-    request.t_end = *scene.t_end;
-    request.every = 0;
-    request.dim = scene.phase_space().dim();
-    request.invariants = 1 + scene.casimirs.size();
-    request.trajectories = o.sample.empty() ? 1 : std::max<std::size_t>(1, o.count);
+    const std::size_t m = o.sample.empty() ? 1 : o.count;
     try {
-        plan_run(request, o.limits);
+        plan_ensemble(*scene.scheme, m, scene.dt, *scene.t_end, o.limits);
     } catch (const RunBudgetError& e) {
         throw RunBudgetError(scene.file.string() + ": " + e.what() + (o.sample.empty() ? "" : " (--count)"));
     }

@@ -2,7 +2,7 @@
 // pgi ensemble SCENE: many initial states (an NPY or CSV file, or a seeded sampler) integrated on every
 // core, written as NPY and CSV. Built into the pgi program (it registers its options with CLI11).
 #include "scheme/run_request.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <cstdint>
 #include <string>

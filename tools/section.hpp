@@ -1,7 +1,7 @@
 #pragma once
 // pgi section: the crossings of an event polynomial along a scene's run (a Poincare section).
 #include "tools/commands.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <nlohmann/json.hpp>
 

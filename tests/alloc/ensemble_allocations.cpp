@@ -2,7 +2,7 @@
 // task, never per step, so the count does not grow with the number of steps.
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include "scheme/ensemble.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <doctest/doctest.h>
 

@@ -1,7 +1,7 @@
 // A separate test program (it replaces malloc to count calls): the compiled step allocates nothing.
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include "poisson/integrate.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <doctest/doctest.h>
 

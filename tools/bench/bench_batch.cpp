@@ -3,7 +3,7 @@
 // radial realisation alpha through p-degree 6 over (x, p). Prints one JSON object per line with the ratio
 // single / batch (above 1: the batch is faster). Usage: pgi_bench_batch SCENE...
 #include "scheme/scheme.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -5,7 +5,7 @@
 // Usage: pgi_bench_batch_step SCENE [m = 1024] [steps = 1000]
 #include "poisson/batch_step.hpp"
 #include "scheme/scheme.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -2,7 +2,7 @@
 // {"seconds": median wall time, "repetitions": R, "allocator": what the program allocates with (tools/program_allocator),
 // "result": [polynomials]} for one workload.
 #include "scheme/scheme.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 #include "tools/program_allocator.hpp"
 
 #include <nlohmann/json.hpp>

@@ -6,7 +6,7 @@
 // Prints one JSON object per line. Usage: pgi_bench_step SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER] [--jit] [--dt DT]
 // (--dt: instead of the scene's; --jit: the step's maps as native code, StepOptions::jit; its compilation is in build_seconds).
 #include "poisson/integrate.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -5,7 +5,7 @@
 // Usage: pgi_section_henon_heiles SCENE OUT.csv [E = 1/8] [ORBITS = 200] [T = 1000] [SEED = 1]
 #include "poisson/events.hpp"
 #include "scheme/run_loop.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

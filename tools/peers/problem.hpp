@@ -2,7 +2,7 @@
 // What every method in the peer comparison shares: the compiled vector field pi grad H (and its
 // Jacobian, for the implicit peers), the quantities watched along a run, and the outcome of a run.
 #include "series/compile.hpp"
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include <array>
 #include <chrono>

@@ -1,4 +1,4 @@
-#include "tools/input_file.hpp"
+#include "scheme/input_file.hpp"
 
 #include "scheme/input.hpp"
 

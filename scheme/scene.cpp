@@ -1,7 +1,7 @@
-#include "tools/scene.hpp"
+#include "scheme/scene.hpp"
 
 #include "scheme/input.hpp"
-#include "tools/input_file.hpp"
+#include "scheme/input_file.hpp"
 
 #include <toml++/toml.h>
 
@@ -67,7 +67,7 @@ private:
 
     [[noreturn]] void fail(const std::string& key, const std::string& problem) const { throw SceneError(file_, key, problem); }
 
-    // The input rules (tools/input_file.hpp), at most max_scene_bytes.
+    // The input rules (scheme/input_file.hpp), at most max_scene_bytes.
     std::string file_text() const {
         try {
             return read_input_file(file_, max_scene_bytes, "scene");
