@@ -427,6 +427,12 @@ py::object evaluate(const PyScheme& s, const py::object& x, bool exact_phase, F 
     return py::cast(std::move(values));
 }
 
+// The method of Scheme evaluating f, which runs no exact phase, at the rows of x.
+template <class Values>
+auto at_rows(Values (*f)(const pgi::Scheme&, const Eigen::Ref<const pgi::RowMatrix>&)) {
+    return [f](const PyScheme& s, const py::object& x) { return evaluate(s, x, false, f); };
+}
+
 py::dict stats(const PyScheme& s) {
     const pgi::SchemeStats st = s.scheme->stats();
     return py::dict("realisation_builds"_a = st.realisation_builds, "terms_builds"_a = st.terms_builds,
@@ -511,18 +517,10 @@ PYBIND11_MODULE(_pgi, m) {
                  pgi::plan_ensemble(*s.scheme, m, s.step_size(dt), run_length(s, t_end), limits(max_steps, max_output_mb));
              }, "m"_a, "dt"_a = py::none(), "t_end"_a = py::none(), "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
         .def("stats", &stats)
-        .def("_vector_field", [](const PyScheme& s, const py::object& x) {
-                 return evaluate(s, x, false, [](const pgi::Scheme& scheme, const auto& X) { return pgi::vector_field(scheme, X); });
-             }, "x"_a)
-        .def("_poisson_matrices", [](const PyScheme& s, const py::object& x) {
-                 return evaluate(s, x, false, [](const pgi::Scheme& scheme, const auto& X) { return pgi::poisson_matrices(scheme, X); });
-             }, "x"_a)
-        .def("_hamiltonian_values", [](const PyScheme& s, const py::object& x) {
-                 return evaluate(s, x, false, [](const pgi::Scheme& scheme, const auto& X) { return pgi::hamiltonian_values(scheme, X); });
-             }, "x"_a)
-        .def("_casimir_values", [](const PyScheme& s, const py::object& x) {
-                 return evaluate(s, x, false, [](const pgi::Scheme& scheme, const auto& X) { return pgi::casimir_values(scheme, X); });
-             }, "x"_a)
+        .def("_vector_field", at_rows(&pgi::vector_field), "x"_a)
+        .def("_poisson_matrices", at_rows(&pgi::poisson_matrices), "x"_a)
+        .def("_hamiltonian_values", at_rows(&pgi::hamiltonian_values), "x"_a)
+        .def("_casimir_values", at_rows(&pgi::casimir_values), "x"_a)
         .def("_modified_hamiltonian_values", [](const PyScheme& s, const py::object& x, std::optional<double> dt, std::size_t upto) {
                  const double h = s.step_size(dt);
                  return evaluate(s, x, true, [&](const pgi::Scheme& scheme, const auto& X) {
