@@ -16,6 +16,8 @@
 // whose maximum energy and Casimir errors are both at or below pgi's, or "none reaches them".
 // Suite (--suite): one run of every method at the scene's order and dt (adaptive peers at tolerance
 // --tol, default 1e-6) with its outcome: finished or why not, errors, watched quantities (final / initial).
+#include "series/child_process.hpp"
+#include "series/message.hpp"
 #include "tools/atomic_file.hpp"
 #include "tools/exit_codes.hpp"
 #include "tools/peers/methods.hpp"
@@ -25,12 +27,11 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <csignal>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
 
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 namespace {
@@ -219,22 +220,24 @@ json suite(const Problem& pr, const std::vector<Method>& methods, const State& x
 }
 
 // The work-precision diagram from the CSV, by gnuplot and tools/peers/plot.gp, written beside svg and
-// renamed into place. Throws if gnuplot is missing or fails.
+// renamed into place. The script hands the CSV's path to awk through sh and gnuplot expands @macros even in
+// quotes: a path or title with a quote, @, `, $, \\ or a control character is refused, never passed on. gnuplot runs
+// as every child of pgi does (series/child_process: no shell, its own process group, a time-out, bounded output).
+// Throws if gnuplot is missing or fails.
 void plot_work_precision(const std::string& csv, const std::string& svg, const std::string& title) {
     for (const auto* s : {&csv, &svg, &title})
-        if (s->find('\'') != std::string::npos) throw std::invalid_argument("--plot: quotes in '" + *s + "' are not supported");
+        for (char c : *s)
+            if (std::string_view("'@`$\\\"").find(c) != std::string_view::npos || static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+                throw std::invalid_argument("--plot: '" + pgi::printable(*s) + "' holds a character gnuplot or sh would interpret");
     const std::string tmp = svg + ".tmp" + std::to_string(::getpid());
+    pgi::TemporaryFile figure(tmp);
     const std::string vars = "kind='work-precision'; csv='" + csv + "'; out='" + tmp + "'; name='" + title + "'";
-    const char* argv[] = {"gnuplot", "-e", vars.c_str(), PGI_PEERS_PLOT_SCRIPT, nullptr};
-    pid_t pid = 0;
-    int status = 0;
-    if (posix_spawnp(&pid, "gnuplot", nullptr, nullptr, const_cast<char* const*>(argv), environ) != 0)
-        throw std::runtime_error("--plot: gnuplot is not installed (Debian: gnuplot-nox)");
-    if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        std::filesystem::remove(tmp);
-        throw std::runtime_error("--plot: gnuplot failed on " + csv);
-    }
+    const pgi::ChildResult r = pgi::run_child({"gnuplot", "-e", vars, PGI_PEERS_PLOT_SCRIPT});
+    if (!r.ok())
+        throw std::runtime_error("--plot: gnuplot " + r.failure + " on " + pgi::printable(csv) + ": " + pgi::output_tail(r.output) +
+                                 " (Debian: gnuplot-nox)");
     std::filesystem::rename(tmp, svg);
+    figure.keep();
 }
 
 }  // namespace
