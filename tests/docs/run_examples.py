@@ -2,7 +2,8 @@
 """Runs the examples of README.md and docs/*.md and compares the output they show (ctest docs_examples).
 
 Conventions (docs/contributing.md, "Examples in the docs"):
-- ```python blocks run with this interpreter from the repository root, each on its own;
+- ```python blocks run with this interpreter from the repository root, each on its own; a ```text block right
+  after one (only blank lines between) is what it prints, compared as below;
 - in ```console / ```sh blocks (and unlabelled ones), each line `$ pgi ...` runs through bash with the built
   pgi first on PATH; the lines after it, up to the next `$` line or the block's end, are its expected output;
 - output is compared line by line: words equal, or numbers equal to the digits shown; `~NUMBER` (a timing)
@@ -28,7 +29,7 @@ TOKEN = re.compile(r"~?[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|\s+|[^\s\d~+-]+
 
 
 def blocks(path):
-    """(language, first line number, lines, marker) of every fenced block of a Markdown file."""
+    """(language, first line number, lines, marker, closing line number) of every fenced block of a Markdown file."""
     lines = path.read_text().split("\n")
     i, out, marker = 0, [], None
     while i < len(lines):
@@ -43,9 +44,10 @@ def blocks(path):
             lang, start, body = f.group(1), i + 1, []
             i += 1
             while i < len(lines) and not lines[i].lstrip().startswith("```"):
-                body.append(lines[i][indent:] if lines[i][:indent].isspace() else lines[i].lstrip())
+                body.append(lines[i] if not indent else lines[i][indent:] if lines[i][:indent].isspace()
+                            else lines[i].lstrip())
                 i += 1
-            out.append((lang, start + 1, body, marker))
+            out.append((lang, start + 1, body, marker, i + 1))
             marker = None
         elif lines[i].strip():
             marker = None
@@ -161,7 +163,9 @@ def main():
     start = time.monotonic()
     for f in files:
         rel = f.resolve().relative_to(root.resolve()) if f.resolve().is_relative_to(root.resolve()) else f
-        for lang, line, body, marker in blocks(f):
+        found = blocks(f)
+        text_lines = f.read_text().split("\n")
+        for index, (lang, line, body, marker, end) in enumerate(found):
             where = f"{rel}:{line}"
             if marker and marker[0] == "skip":
                 continue
@@ -178,6 +182,13 @@ def main():
                 ran += 1
                 if r.returncode != 0:
                     failures.append(f"{where}: the Python block failed:\n{r.stderr.strip()[-3000:]}")
+                # a ```text block right after (blank lines between) shows what the block prints
+                if index + 1 < len(found) and found[index + 1][0] == "text" and found[index + 1][3] is None and \
+                        not any(s.strip() for s in text_lines[end:found[index + 1][1] - 2]):
+                    expected = found[index + 1][2]
+                    if r.returncode == 0 and not output_matches(expected, r.stdout.split("\n")):
+                        failures.append(f"{where}: the Python block's output differs from the doc\n--- shown:\n"
+                                        + "\n".join(expected) + "\n--- printed:\n" + r.stdout.rstrip())
                 print(f"{where}: python, {time.monotonic() - t0:.1f} s", flush=True)
             elif lang in ("console", "sh", "") and any(l.startswith("$ pgi ") for l in body):
                 t0 = time.monotonic()
