@@ -307,8 +307,8 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
     py::dict r("t"_a = py::array_t<double>(rows, tr.t.data()), "x"_a = x,
                "energy_error"_a = py::array_t<double>(rows, tr.energy_error.data()), "casimir_error"_a = cas,
                "energy_error_max"_a = tr.energy_error_max, "casimir_error_max"_a = tr.casimir_error_max,
-               "energy_warning"_a = tr.energy_warning,
                "casimir_drift_per_step"_a = tr.casimir_drift_per_step,
+               "energy_warning"_a = tr.energy_warning,
                "steps"_a = tr.steps, "dt"_a = dt, "newton_iterations_mean"_a = tr.newton_iterations_mean,
                "newton_iterations_max"_a = tr.newton_iterations_max,
                // the ensemble's vocabulary (status_of), so a member's status is its single run's, word for word

@@ -52,7 +52,8 @@ class StepFailure(ArithmeticError):
 
 class Result:
     """A run: t (times recorded), x (one row per time), energy_error and casimir_error (relative, per row),
-    their maxima over every step, energy_warning (energy_error_max above 0.1, or NaN: every step solved its
+    their maxima over every step, casimir_drift_per_step (per Casimir, the least-squares slope of its signed
+    relative error per step: a bias, which a round-off random walk has not), energy_warning (energy_error_max above 0.1, or NaN: every step solved its
     equation, but at this dt the method no longer follows the flow of H), steps, dt, newton_iterations_mean/max,
     status ("ok", "terminal_event" or why it stopped, in the ensemble's words: "newton_not_converged",
     "non_finite", "truncation_above_bound", "ill_conditioned"; the message says it in full). With events: event_index (which event, its place in the list), event_t, event_x (one
