@@ -404,6 +404,8 @@ class Scheme:
         compiled step for a dt is built once, sized at the scheme's x0 or else at the first x stepped with
         that dt. Raises StepFailure if the step is not solved to round-off."""
         n = len(self.coordinates)
+        if x is None:
+            raise InputError("x: missing: give the state to step from")
         r = self._core._step(_state("x", x, n), _positive_float("dt", dt))
         if not r["ok"]:
             raise StepFailure(r["message"], 1, 0.0, r["residual"])
