@@ -54,10 +54,10 @@ RunPlan plan_run(const RunRequest& r, const RunLimits& limits) {
     plan.output_mb = double(r.trajectories) * per_trajectory / double(1 << 20);
     if (!(plan.output_mb <= limits.max_output_mb))
         throw RunBudgetError(format("the run would keep about %.4g MB (%zu trajector%s of %zu recorded row%s), above the "
-                                         "output budget of %.4g MB (record less with a larger every / --every, or raise "
-                                         "max_output_mb / --max-output-mb)",
+                                         "output budget of %.4g MB (%s, or raise max_output_mb / --max-output-mb)",
                                          plan.output_mb, r.trajectories, r.trajectories == 1 ? "y" : "ies", plan.records,
-                                         plan.records == 1 ? "" : "s", limits.max_output_mb));
+                                         plan.records == 1 ? "" : "s", limits.max_output_mb,
+                                         r.every == 0 ? "run fewer trajectories at once" : "record less with a larger every / --every"));
     return plan;
 }
 
