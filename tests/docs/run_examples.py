@@ -9,6 +9,7 @@ Conventions (docs/contributing.md, "Examples in the docs"):
 - output is compared line by line: words equal, or numbers equal to the digits shown; `~NUMBER` (a timing)
   matches any number; a line ending in `...` matches a line beginning with the text before it; a line `...`
   alone matches any number of lines;
+- ```toml blocks are scenes: `pgi check` must accept each;
 - `<!-- docs-test: skip -->` before a block skips it; `<!-- docs-test: excerpt examples/F.cpp -->` before a
   block requires the block to appear verbatim in that file (which ctest install_consumer builds and runs).
 
@@ -19,6 +20,7 @@ import os
 import re
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -190,6 +192,15 @@ def main():
                         failures.append(f"{where}: the Python block's output differs from the doc\n--- shown:\n"
                                         + "\n".join(expected) + "\n--- printed:\n" + r.stdout.rstrip())
                 print(f"{where}: python, {time.monotonic() - t0:.1f} s", flush=True)
+            elif lang == "toml":  # a scene shown in the docs is a valid scene
+                with tempfile.TemporaryDirectory() as d:
+                    scene = Path(d) / "scene.toml"
+                    scene.write_text("\n".join(body) + "\n")
+                    r = subprocess.run([str(Path(args.pgi).resolve()), "check", str(scene)], cwd=root, env=env,
+                                       capture_output=True, text=True, timeout=300)
+                ran += 1
+                if r.returncode != 0:
+                    failures.append(f"{where}: the scene is refused by pgi check: {r.stderr.strip()[-2000:]}")
             elif lang in ("console", "sh", "") and any(l.startswith("$ pgi ") for l in body):
                 t0 = time.monotonic()
                 msgs = run_console(body, env, root)
