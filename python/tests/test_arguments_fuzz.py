@@ -25,8 +25,9 @@ arrays = st.one_of(scalars, st.lists(scalars, max_size=5),
                    st.lists(st.lists(st.floats(-2, 2), min_size=3, max_size=3), min_size=1, max_size=3).map(np.array),
                    st.sampled_from([np.zeros((2, 3), dtype=np.complex128), np.zeros((2, 3), dtype=np.float32),
                                     np.zeros((0, 3)), np.zeros((2, 3, 1)), np.array(["a", "b", "c"])]))
-# derandomized: every run tries the same examples (run with derandomize=False and more examples to search anew)
-fuzz = settings(max_examples=150, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+# derandomized: every run tries the same examples (run with derandomize=False and more examples to search anew);
+# no example database: the tests write nothing into the source tree
+fuzz = settings(max_examples=150, deadline=None, derandomize=True, database=None, suppress_health_check=list(HealthCheck))
 
 
 def documented(call):
