@@ -1,7 +1,7 @@
 """The Python argument conversion under generated hostile values (hypothesis): every public entry point either
 runs or raises one of pgi's documented exceptions (InputError, ResourceLimitError, StepFailure) naming the problem;
 never pybind11's raw TypeError, a SystemError, a crash, nor a run past its budget."""
-import math
+import tempfile
 import warnings
 
 import numpy as np
@@ -9,6 +9,11 @@ import pytest
 
 hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
+from hypothesis.configuration import set_hypothesis_home_dir  # noqa: E402
+
+# hypothesis keeps caches in a home directory (./.hypothesis by default): a temporary one, removed at exit
+_HOME = tempfile.TemporaryDirectory(prefix="pgi-hypothesis-")
+set_hypothesis_home_dir(_HOME.name)
 
 import pgi  # noqa: E402
 from test_scheme import RIGID_BODY  # noqa: E402
