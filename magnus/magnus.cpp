@@ -16,7 +16,8 @@ Series poisson_bracket(const PoissonStructure& pi, const Series& A, const Series
 Series magnus_series(const PoissonStructure& pi, const Series& h, std::size_t m) {
     Series M(h.ring(), m + 1);
     for (std::size_t j = 1; j <= m; ++j) {
-        BudgetStage stage(h.ring()->budget(), "Magnus series, term M_" + std::to_string(j), j, m);  // names refusals, progress
+        BudgetStage stage(h.ring()->budget(), "Magnus series, term M_" + std::to_string(j), j,
+                          m);  // names refusals, progress
         // [e^{j-1}] of sum_{i<j} B_i/i! ad_M^i h: ad_M raises the order by one, so M_1..M_{j-1} suffice
         Series hj(h.ring(), j);
         for (std::size_t d = 0; d < std::min(j, h.order()); ++d) hj[d] = h[d];

@@ -20,8 +20,8 @@ Series variation_functions(const PhaseSpace& M, const Realisation& r, const std:
     return compose(std::vector<Series>{dS}, images, N).front();
 }
 
-std::vector<Poly> modified_hamiltonian(const PoissonStructure& pi, const Poly& H, std::size_t k, RealisationChoice choice,
-                                       std::size_t m) {
+std::vector<Poly> modified_hamiltonian(const PoissonStructure& pi, const Poly& H, std::size_t k,
+                                       RealisationChoice choice, std::size_t m) {
     if (k < 1) throw std::invalid_argument("modified_hamiltonian: the order k must be at least 1");
     const PhaseSpace& M = pi.phase_space();
     BudgetStage stage(M.ring()->budget(), "modified Hamiltonian through dt^" + std::to_string(m), 0, 0);

@@ -13,8 +13,8 @@ Series variation_functions(const PhaseSpace& M, const Realisation& r, const std:
 /// Set the result to H_0..H_m (H_0 = H) with Htilde(dt) = sum_j dt^j H_j = M_dt / dt the modified Hamiltonian
 /// of the order-k scheme built on the realisation choice: its time-dt flow agrees with one step to the
 /// truncation order. Unique modulo Casimirs. Requires k >= 1 and pi to satisfy Jacobi.
-std::vector<Poly> modified_hamiltonian(const PoissonStructure& pi, const Poly& H, std::size_t k, RealisationChoice choice,
-                                       std::size_t m);
+std::vector<Poly> modified_hamiltonian(const PoissonStructure& pi, const Poly& H, std::size_t k,
+                                       RealisationChoice choice, std::size_t m);
 /// The same from a realisation r of pi through p-degree m at least and the scheme's S_1..S_k
 /// (std::invalid_argument if r is shallower): what a Scheme, which already holds both, calls.
 std::vector<Poly> modified_hamiltonian(const PoissonStructure& pi, const Realisation& r, const std::vector<Poly>& S,

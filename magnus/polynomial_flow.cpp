@@ -28,7 +28,8 @@ void PolynomialFlow::apply(double t, std::vector<double>& x) const {
     }
 }
 
-void splitting_step(SplittingMethod method, const PolynomialFlow& A, const PolynomialFlow& B, double dt, std::vector<double>& x) {
+void splitting_step(SplittingMethod method, const PolynomialFlow& A, const PolynomialFlow& B, double dt,
+                    std::vector<double>& x) {
     auto strang = [&](double h) {
         A.apply(h / 2, x);
         B.apply(h, x);
@@ -39,7 +40,9 @@ void splitting_step(SplittingMethod method, const PolynomialFlow& A, const Polyn
             A.apply(dt, x);
             B.apply(dt, x);
             return;
-        case SplittingMethod::strang: strang(dt); return;
+        case SplittingMethod::strang:
+            strang(dt);
+            return;
         case SplittingMethod::yoshida: {
             const double w = yoshida_weight();
             strang(w * dt);

@@ -28,6 +28,7 @@ private:
 };
 
 /// One step of size dt of the splitting method, from exact flows of H_A and H_B (see SplittingMethod).
-void splitting_step(SplittingMethod method, const PolynomialFlow& A, const PolynomialFlow& B, double dt, std::vector<double>& x);
+void splitting_step(SplittingMethod method, const PolynomialFlow& A, const PolynomialFlow& B, double dt,
+                    std::vector<double>& x);
 
 }  // namespace pgi

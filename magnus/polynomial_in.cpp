@@ -68,7 +68,8 @@ std::optional<Poly> as_polynomial_in(const Poly& P, const std::vector<Poly>& G, 
     Matrix A(slong(rows.size()), slong(columns.size())), b(slong(rows.size()), 1), x(slong(columns.size()), 1);
     for (std::size_t j = 0; j < columns.size(); ++j)
         for (std::size_t t = 0; t < columns[j].length(); ++t)
-            fmpq_set(fmpq_mat_entry(A.m, rows.at(columns[j].term_exponents(t)), slong(j)), columns[j].term_coeff(t).get());
+            fmpq_set(fmpq_mat_entry(A.m, rows.at(columns[j].term_exponents(t)), slong(j)),
+                     columns[j].term_coeff(t).get());
     for (std::size_t t = 0; t < P.length(); ++t)
         fmpq_set(fmpq_mat_entry(b.m, rows.at(P.term_exponents(t)), 0), P.term_coeff(t).get());
     if (!fmpq_mat_can_solve(x.m, A.m, b.m)) return std::nullopt;

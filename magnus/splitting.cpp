@@ -36,12 +36,16 @@ struct NumberField {
 };
 
 // w = 1/(2 - 2^{1/3}) satisfies 2w^3 + (1 - 2w)^3 = 0, i.e. w^3 = 2w^2 - w + 1/6
-NumberField yoshida_field() { return {3, {Rational(1, 6), Rational(-1), Rational(2)}}; }
+NumberField yoshida_field() {
+    return {3, {Rational(1, 6), Rational(-1), Rational(2)}};
+}
 
 // A Lie algebra element over the field: one e-series per basis element.
 using Element = std::vector<Series>;
 
-Element zero_element(const NumberField& F, const RingPtr& ring, std::size_t N) { return Element(F.d, Series(ring, N)); }
+Element zero_element(const NumberField& F, const RingPtr& ring, std::size_t N) {
+    return Element(F.d, Series(ring, N));
+}
 
 // X(c e): the coefficient of e^m multiplied by c^m, c in the field
 Element rescaled(const NumberField& F, const Element& X, const std::vector<Rational>& c) {
@@ -140,9 +144,12 @@ SplittingMethod parse_splitting_method(const std::string& name) {
 
 std::string to_string(SplittingMethod method) {
     switch (method) {
-        case SplittingMethod::lie_trotter: return "lie-trotter";
-        case SplittingMethod::strang: return "strang";
-        case SplittingMethod::yoshida: return "yoshida";
+        case SplittingMethod::lie_trotter:
+            return "lie-trotter";
+        case SplittingMethod::strang:
+            return "strang";
+        case SplittingMethod::yoshida:
+            return "yoshida";
     }
     return "?";
 }
@@ -151,7 +158,9 @@ std::size_t method_order(SplittingMethod method) {
     return method == SplittingMethod::lie_trotter ? 1 : method == SplittingMethod::strang ? 2 : 4;
 }
 
-double yoshida_weight() { return 1.0 / (2.0 - std::cbrt(2.0)); }
+double yoshida_weight() {
+    return 1.0 / (2.0 - std::cbrt(2.0));
+}
 
 Series compose_flows(const PoissonStructure& pi, const Series& X, const Series& Y, std::size_t N) {
     return compose(pi, NumberField{}, Element{X}, Element{Y}, N).front();
@@ -172,7 +181,8 @@ SplittingModified splitting_modified_hamiltonian(const PoissonStructure& pi, con
         Z = strang();
     else {
         const Element S = strang();
-        const std::vector<Rational> w{Rational(0), Rational(1), Rational(0)}, w0{Rational(1), Rational(-2), Rational(0)};
+        const std::vector<Rational> w{Rational(0), Rational(1), Rational(0)},
+            w0{Rational(1), Rational(-2), Rational(0)};
         const Element outer = rescaled(F, S, w);
         Z = compose(pi, F, compose(pi, F, outer, rescaled(F, S, w0), N), outer, N);
     }

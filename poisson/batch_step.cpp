@@ -10,23 +10,34 @@ namespace {
 template <class Pack, class Variant>
 void emplace_lanes(Variant& lane, const NewtonStepper& prototype) {
     switch (prototype.lane_dimension()) {
-        case 2: lane.template emplace<LaneStep<2, Pack>>(prototype); break;
-        case 3: lane.template emplace<LaneStep<3, Pack>>(prototype); break;
-        case 4: lane.template emplace<LaneStep<4, Pack>>(prototype); break;
-        case 6: lane.template emplace<LaneStep<6, Pack>>(prototype); break;
-        default: break;
+        case 2:
+            lane.template emplace<LaneStep<2, Pack>>(prototype);
+            break;
+        case 3:
+            lane.template emplace<LaneStep<3, Pack>>(prototype);
+            break;
+        case 4:
+            lane.template emplace<LaneStep<4, Pack>>(prototype);
+            break;
+        case 6:
+            lane.template emplace<LaneStep<6, Pack>>(prototype);
+            break;
+        default:
+            break;
     }
 }
 
 }  // namespace
 
 BatchStepper::BatchStepper(const NewtonStepper& prototype, std::size_t lanes, LaneInstructions instructions)
-    : capacity_(lanes), iterations_(lanes, 0), residuals_(lanes, 0.0), x_(Eigen::Index(prototype.dim())), increment_(x_) {
+    : capacity_(lanes), iterations_(lanes, 0), residuals_(lanes, 0.0), x_(Eigen::Index(prototype.dim())),
+      increment_(x_) {
     if (lanes == 0) throw std::invalid_argument("BatchStepper: at least one lane");
     if (instructions == LaneInstructions::avx2 && !processor_has_avx2())
         throw std::invalid_argument("BatchStepper: AVX2 asked for, and this processor has none");
     if (prototype.lane_dimension() != 0) {
-        const bool avx2 = instructions == LaneInstructions::avx2 || (instructions == LaneInstructions::automatic && processor_has_avx2());
+        const bool avx2 = instructions == LaneInstructions::avx2 ||
+                          (instructions == LaneInstructions::automatic && processor_has_avx2());
         if (avx2)
             emplace_lanes<lanes::Pack4>(lane_, prototype);
         else
@@ -38,17 +49,20 @@ BatchStepper::BatchStepper(const NewtonStepper& prototype, std::size_t lanes, La
 
 void BatchStepper::step(const double* X, std::size_t m, double dt, double* increments, StepStatus* status) {
     if (m > capacity_) throw std::invalid_argument("BatchStepper::step: more states than lanes");
-    std::visit([&](auto& lane) {
-        if constexpr (std::is_same_v<std::decay_t<decltype(lane)>, std::monostate>)
-            step_predicted(X, m, dt, increments, status);
-        else
-            step_lanes(lane, X, m, dt, increments, status);
-    }, lane_);
+    std::visit(
+        [&](auto& lane) {
+            if constexpr (std::is_same_v<std::decay_t<decltype(lane)>, std::monostate>)
+                step_predicted(X, m, dt, increments, status);
+            else
+                step_lanes(lane, X, m, dt, increments, status);
+        },
+        lane_);
 }
 
 // lanes::width states at a time, the last pack padded with copies of its last state (their results dropped).
 template <int N, class Pack>
-void BatchStepper::step_lanes(LaneStep<N, Pack>& lane, const double* X, std::size_t m, double dt, double* increments, StepStatus* status) {
+void BatchStepper::step_lanes(LaneStep<N, Pack>& lane, const double* X, std::size_t m, double dt, double* increments,
+                              StepStatus* status) {
     constexpr std::size_t W = lanes::width;
     for (std::size_t j = 0; j < m; j += W) {
         const std::size_t count = std::min(W, m - j);

@@ -6,8 +6,8 @@
 
 namespace pgi {
 
-std::vector<Series> bisection_displacement(const PhaseSpace& M, const Realisation& r, Side side, const std::vector<Poly>& S,
-                                           std::size_t N) {
+std::vector<Series> bisection_displacement(const PhaseSpace& M, const Realisation& r, Side side,
+                                           const std::vector<Poly>& S, std::size_t N) {
     const std::size_t n = M.dim(), D = std::min(N - 1, r.degree);
     // p_l -> sum_j t^j d_l S_j
     std::vector<std::optional<Series>> images(M.ring()->size());
@@ -23,9 +23,11 @@ std::vector<Series> bisection_displacement(const PhaseSpace& M, const Realisatio
 }
 
 std::vector<std::vector<Poly>> base_point_series(const PhaseSpace& M, const Realisation& r, const std::vector<Poly>& S,
-                                                 std::size_t P, const std::function<bool(const std::vector<Series>&)>& enough) {
+                                                 std::size_t P,
+                                                 const std::function<bool(const std::vector<Series>&)>& enough) {
     const std::size_t n = M.dim();
-    auto v = inverse_near_identity(bisection_displacement(M, r, Side::alpha, S, P + 1), M.coordinate_vars(), P + 1, enough);
+    auto v =
+        inverse_near_identity(bisection_displacement(M, r, Side::alpha, S, P + 1), M.coordinate_vars(), P + 1, enough);
     const std::size_t orders = v.empty() ? 0 : v.front().order() - 1;
     std::vector<std::vector<Poly>> out(orders, std::vector<Poly>(n, Poly(M.ring())));
     for (std::size_t m = 1; m <= orders; ++m)

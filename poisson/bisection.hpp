@@ -11,8 +11,8 @@ enum class Side { alpha, beta };
 
 /// Set the result to side(x, grad S_t(x)) - x, one t-series O(t^N) per coordinate, S_t = sum_j t^j S[j-1].
 /// Reads the realisation through p-degree min(N - 1, r.degree) (grad S_t = O(t)).
-std::vector<Series> bisection_displacement(const PhaseSpace& M, const Realisation& r, Side side, const std::vector<Poly>& S,
-                                           std::size_t N);
+std::vector<Series> bisection_displacement(const PhaseSpace& M, const Realisation& r, Side side,
+                                           const std::vector<Poly>& S, std::size_t N);
 
 /// The base point of the step, xb = x + sum_{m=1..P} t^m u_m + O(t^{P+1}) with alpha(xb, grad S_t(xb)) = x:
 /// the inverse of the source map. Returns u_1..u_P (index m - 1), one polynomial per coordinate. If

@@ -15,22 +15,35 @@ using Vec = Eigen::Matrix<double, N, 1>;
 template <class F>
 void with_dimension(Eigen::Index n, F&& f) {
     switch (n) {
-        case 2: return f(std::integral_constant<int, 2>{});
-        case 3: return f(std::integral_constant<int, 3>{});
-        case 4: return f(std::integral_constant<int, 4>{});
-        case 6: return f(std::integral_constant<int, 6>{});
-        default: return f(std::integral_constant<int, Eigen::Dynamic>{});
+        case 2:
+            return f(std::integral_constant<int, 2>{});
+        case 3:
+            return f(std::integral_constant<int, 3>{});
+        case 4:
+            return f(std::integral_constant<int, 4>{});
+        case 6:
+            return f(std::integral_constant<int, 6>{});
+        default:
+            return f(std::integral_constant<int, Eigen::Dynamic>{});
     }
 }
 
 template <int N>
-Eigen::Map<const Mat<N>> view(const Eigen::MatrixXd& m) { return {m.data(), m.rows(), m.cols()}; }
+Eigen::Map<const Mat<N>> view(const Eigen::MatrixXd& m) {
+    return {m.data(), m.rows(), m.cols()};
+}
 template <int N>
-Eigen::Map<Mat<N>> view(Eigen::MatrixXd& m) { return {m.data(), m.rows(), m.cols()}; }
+Eigen::Map<Mat<N>> view(Eigen::MatrixXd& m) {
+    return {m.data(), m.rows(), m.cols()};
+}
 template <int N>
-Eigen::Map<const Vec<N>> view(const Eigen::VectorXd& v) { return {v.data(), v.rows()}; }
+Eigen::Map<const Vec<N>> view(const Eigen::VectorXd& v) {
+    return {v.data(), v.rows()};
+}
 template <int N>
-Eigen::Map<Vec<N>> view(Eigen::VectorXd& v) { return {v.data(), v.rows()}; }
+Eigen::Map<Vec<N>> view(Eigen::VectorXd& v) {
+    return {v.data(), v.rows()};
+}
 
 }  // namespace
 
@@ -43,7 +56,8 @@ DenseAlgebra::DenseAlgebra(std::size_t n) : n_(static_cast<Eigen::Index>(n)) {
     });
 }
 
-void DenseAlgebra::jacobian(const Eigen::MatrixXd& ax, const Eigen::MatrixXd& ap, const Eigen::MatrixXd& H, Eigen::MatrixXd& J) const {
+void DenseAlgebra::jacobian(const Eigen::MatrixXd& ax, const Eigen::MatrixXd& ap, const Eigen::MatrixXd& H,
+                            Eigen::MatrixXd& J) const {
     with_dimension(n_, [&](auto N) {
         auto j = view<N>(J);
         j = view<N>(ax);

@@ -13,7 +13,8 @@ class DenseAlgebra {
 public:
     explicit DenseAlgebra(std::size_t n = 0);
     /// J = ax + ap H.
-    void jacobian(const Eigen::MatrixXd& ax, const Eigen::MatrixXd& ap, const Eigen::MatrixXd& H, Eigen::MatrixXd& J) const;
+    void jacobian(const Eigen::MatrixXd& ax, const Eigen::MatrixXd& ap, const Eigen::MatrixXd& H,
+                  Eigen::MatrixXd& J) const;
     /// dx = J^{-1} r, J factored and kept.
     void solve(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, Eigen::VectorXd& dx);
     /// dx = J^{-1} r with the J of the last solve(J, r, dx) (simplified Newton: the factors reused).

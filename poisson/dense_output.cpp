@@ -9,11 +9,11 @@ std::vector<std::vector<Poly>> lie_derivatives(const PoissonStructure& pi, const
     const std::vector<Poly> f = pi.hamiltonian_vector_field(H);
     std::vector<std::vector<Poly>> out;
     if (m == 0) return out;
-    out.push_back(f);                     // L_f x = f
+    out.push_back(f);  // L_f x = f
     for (std::size_t j = 2; j <= m; ++j) {
         std::vector<Poly> next;
         for (const Poly& previous : out.back()) {
-            Poly d(M.ring());             // L_f g = grad g . f
+            Poly d(M.ring());  // L_f g = grad g . f
             for (std::size_t l = 0; l < M.dim(); ++l) d += derivative(previous, M.x(l)) * f[l];
             next.push_back(std::move(d));
         }
@@ -59,12 +59,14 @@ DenseOutput DenseOutput::build(const PoissonStructure& pi, const Poly& H, std::s
 }
 
 void DenseOutput::derivatives_at(const Eigen::VectorXd& x, Eigen::MatrixXd& d) const {
-    lie_.eval(x.data(), d.data());        // column-major n x m: output j-major, component-minor
+    lie_.eval(x.data(), d.data());  // column-major n x m: output j-major, component-minor
 }
 
 void DenseOutput::fit(const Eigen::VectorXd& x0, const Eigen::VectorXd& x1, double dt) {
-    if (cached_ && x0 == cached_x1_) d0_.swap(d1_);
-    else derivatives_at(x0, d0_);
+    if (cached_ && x0 == cached_x1_)
+        d0_.swap(d1_);
+    else
+        derivatives_at(x0, d0_);
     derivatives_at(x1, d1_);
     cached_x1_ = x1;
     cached_ = true;

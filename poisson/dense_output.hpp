@@ -36,17 +36,17 @@ public:
     void eval_derivative(double theta, double* out) const;
 
     std::size_t dim() const { return static_cast<std::size_t>(x0_.size()); }
-    std::size_t derivatives() const { return m_; }        // m
-    std::size_t degree() const { return 2 * m_ + 1; }      // of the interpolant in theta
+    std::size_t derivatives() const { return m_; }     // m
+    std::size_t degree() const { return 2 * m_ + 1; }  // of the interpolant in theta
 
 private:
     void derivatives_at(const Eigen::VectorXd& x, Eigen::MatrixXd& d) const;
 
     std::size_t m_ = 0;
-    CompiledMap lie_;                     // x -> L_f^j x, j = 1..m (n m outputs, j-major)
-    Eigen::MatrixXd high_;                // maps the end conditions to the coefficients of theta^(m+1..2m+1)
-    Eigen::MatrixXd d0_, d1_;             // n x m: column j - 1 = d^j x/dt^j at x0, at x1
-    Eigen::MatrixXd coeff_;               // n x (2m + 2): the interpolant's coefficients in theta, relative to x0
+    CompiledMap lie_;          // x -> L_f^j x, j = 1..m (n m outputs, j-major)
+    Eigen::MatrixXd high_;     // maps the end conditions to the coefficients of theta^(m+1..2m+1)
+    Eigen::MatrixXd d0_, d1_;  // n x m: column j - 1 = d^j x/dt^j at x0, at x1
+    Eigen::MatrixXd coeff_;    // n x (2m + 2): the interpolant's coefficients in theta, relative to x0
     Eigen::VectorXd x0_, cached_x1_, rhs_;
     bool cached_ = false;
 };

@@ -5,13 +5,15 @@
 
 namespace pgi {
 
-DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs, double planned_dt) {
+DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs,
+                               double planned_dt) {
     DtSeriesMap m;
     m.width_ = terms.empty() ? 0 : terms.front().size();
     std::vector<Poly> stacked;
     for (std::size_t j = 1; j <= terms.size(); ++j) {
         const auto& f = terms[j - 1];
-        if (f.size() != m.width_) throw std::invalid_argument("DtSeriesMap: every term must have the same number of polynomials");
+        if (f.size() != m.width_)
+            throw std::invalid_argument("DtSeriesMap: every term must have the same number of polynomials");
         if (std::all_of(f.begin(), f.end(), [](const Poly& p) { return p.is_zero(); })) continue;
         m.powers_.push_back(j);
         stacked.insert(stacked.end(), f.begin(), f.end());

@@ -22,7 +22,8 @@ public:
     /// terms[j - 1] = f_j, each a vector of the same number of polynomials (the width) in the ring
     /// variables inputs lists; the blocks that are identically zero are skipped (S_2 = S_4 = ... = 0).
     /// planned_dt: the dt at which eval uses the exact sum sum_j dt^j f_j compiled at once (0: none).
-    static DtSeriesMap build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs, double planned_dt = 0);
+    static DtSeriesMap build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs,
+                             double planned_dt = 0);
 
     std::size_t width() const { return width_; }
     /// Whether every f_j is zero (eval then writes zeros).
@@ -47,12 +48,12 @@ public:
 
 private:
     CompiledMap map_;
-    CompiledMap planned_;               // sum_j planned_dt_^j f_j, exact before its rounding
+    CompiledMap planned_;  // sum_j planned_dt_^j f_j, exact before its rounding
     double planned_dt_ = 0;
-    std::vector<std::size_t> powers_;   // the j of the non-zero blocks, ascending (block b of map_ is f_powers_[b])
+    std::vector<std::size_t> powers_;  // the j of the non-zero blocks, ascending (block b of map_ is f_powers_[b])
     std::size_t width_ = 0;
     mutable std::vector<double> stacked_;
-    mutable std::vector<double> factors_;   // dt^(powers_[b+1] - powers_[b]), then dt^(powers_[0]), for factors_dt_
+    mutable std::vector<double> factors_;  // dt^(powers_[b+1] - powers_[b]), then dt^(powers_[0]), for factors_dt_
     mutable double factors_dt_ = 0;
     void set_factors(double dt) const;
     void horner(const double* stacked, std::size_t stride, double* out) const;

@@ -49,7 +49,9 @@ EventDetector::EventDetector(EventSet events, DenseOutput dense, std::size_t sam
     all_ = Eigen::VectorXd::Zero(m);
 }
 
-void EventDetector::start(const Eigen::VectorXd& x0) { events_.values(x0.data(), g0_.data()); }
+void EventDetector::start(const Eigen::VectorXd& x0) {
+    events_.values(x0.data(), g0_.data());
+}
 
 double EventDetector::locate(std::size_t event, double a, double b, double ga, double gb) {
     const auto n = Eigen::Index(events_.dim());
@@ -77,7 +79,8 @@ const std::vector<Crossing>& EventDetector::advance(const Eigen::VectorXd& x0, c
     for (std::size_t s = 1; s <= samples_; ++s) {
         const double a = double(s - 1) / double(samples_), b = double(s) / double(samples_);
         ga_ = gb_;
-        if (s == samples_) gb_ = g1_;
+        if (s == samples_)
+            gb_ = g1_;
         else {
             fit();
             dense_.eval(b, y_.data());
@@ -98,7 +101,8 @@ const std::vector<Crossing>& EventDetector::advance(const Eigen::VectorXd& x0, c
         }
     }
     std::stable_sort(found_.begin(), found_.end(), [](const Crossing& p, const Crossing& q) { return p.t < q.t; });
-    auto terminal = std::find_if(found_.begin(), found_.end(), [&](const Crossing& c) { return events_.spec(c.event).terminal; });
+    auto terminal =
+        std::find_if(found_.begin(), found_.end(), [&](const Crossing& c) { return events_.spec(c.event).terminal; });
     if (terminal != found_.end()) found_.erase(terminal + 1, found_.end());
     g0_ = g1_;
     return found_;

@@ -10,9 +10,9 @@
 namespace pgi {
 
 struct EventSpec {
-    std::string polynomial;       // g, in the coordinates
-    int direction = 0;            // +1: g crosses upward (from < 0 to >= 0), -1: downward, 0: both
-    bool terminal = false;        // the integration stops at its first crossing
+    std::string polynomial;  // g, in the coordinates
+    int direction = 0;       // +1: g crosses upward (from < 0 to >= 0), -1: downward, 0: both
+    bool terminal = false;   // the integration stops at its first crossing
 };
 
 /// How errors name event i: prefix, i + first, suffix ("event 2" on the command line, "events[1]" in Python).
@@ -50,10 +50,10 @@ private:
 };
 
 struct Crossing {
-    std::size_t event = 0;        // index in the EventSet
-    std::size_t step = 0;         // the step n (from t_{n-1} to t_n) it lies in
+    std::size_t event = 0;  // index in the EventSet
+    std::size_t step = 0;   // the step n (from t_{n-1} to t_n) it lies in
     double t = 0;
-    Eigen::VectorXd x;            // the dense output at t: g_event(x) = 0 to round-off
+    Eigen::VectorXd x;  // the dense output at t: g_event(x) = 0 to round-off
 };
 
 /// Finds the crossings of each step on its dense output. Checks the sign of every g at the ends of

@@ -7,7 +7,9 @@
 namespace pgi {
 
 /// The p-degree of alpha that S_1..S_k need: S_{i+1} reads alpha only up to degree i.
-inline std::size_t realisation_degree_for_order(std::size_t k) { return k == 0 ? 0 : k - 1; }
+inline std::size_t realisation_degree_for_order(std::size_t k) {
+    return k == 0 ? 0 : k - 1;
+}
 
 /// How the even terms S_2, S_4, ... are found. from_symmetry: when the realisation is symmetric (is_symmetric)
 /// they are 0 (docs/math.md 5) and not composed, and the odd ones compose only the parts of G = H o alpha whose

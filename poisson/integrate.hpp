@@ -83,10 +83,10 @@ private:
     StepStatus status_ = StepStatus::ok;
 };
 
-/// Advances x by N steps (in place, through a TrajectoryState), calling observe(n, t, x) at n = 0 and after each step with
-/// t = n dt, and stop = observe(...) returning true ends the run early (still ok). The increments
-/// are added with Kahan compensation, so the round-off of long runs does not grow like N eps.
-/// Stops at the first step that fails; the summary says which (steps) and why (status).
+/// Advances x by N steps (in place, through a TrajectoryState), calling observe(n, t, x) at n = 0 and after each step
+/// with t = n dt, and stop = observe(...) returning true ends the run early (still ok). The increments are added with
+/// Kahan compensation, so the round-off of long runs does not grow like N eps. Stops at the first step that fails; the
+/// summary says which (steps) and why (status).
 template <class Observer>
 IntegrationSummary integrate_steps(NewtonStepper& stepper, Eigen::VectorXd& x, std::size_t N, Observer&& observe) {
     TrajectoryState state(x.size());

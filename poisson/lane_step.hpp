@@ -1,8 +1,8 @@
 #pragma once
 // LaneStep: NewtonStepper's dense step at a small fixed dimension N (2, 3, 4, 6), written once over lanes
 // (poisson/lanes.hpp). T = double steps one state: it is NewtonStepper::step there. T = lanes::Pack steps
-// lanes::width states together (BatchStepper): every evaluation, the Jacobian, its LU (its inverse for N <= 3) and the acceptance test
-// run on all lanes at once, and each lane keeps its own Newton control (its iteration, backtracking,
+// lanes::width states together (BatchStepper): every evaluation, the Jacobian, its LU (its inverse for N <= 3) and the
+// acceptance test run on all lanes at once, and each lane keeps its own Newton control (its iteration, backtracking,
 // simplified Newton, second attempt from xb = x) as masks. A lane's operations are the double instantiation's
 // in the same order, so its increment, status and statistics are the single step's bit for bit.
 // The algorithm is NewtonStepper::newton's (docs/math.md 6); the linear algebra is written out here
@@ -62,11 +62,11 @@ private:
 
     double dt_ = 0;
     T x_[N], xb_[N], good_[N], p_[N], r_[N], dx_[N], H_[N * N], pivot_inverse_[N];
-    T lu_[N * N];  // J's LU factors, or for N <= 3 J^{-1} (factor)
+    T lu_[N * N];                      // J's LU factors, or for N <= 3 J^{-1} (factor)
     Mask swaps_[N * (N - 1) / 2 + 1];  // the LU's row exchanges, as masks, in the order it made them
     LaneRealisation<N, T> values_;
     LaneCheck<N, T> check_;
-    std::vector<T> gh_, scratch_;      // grad and Hess S_dt on its pattern; grad S_dt or its sizes
+    std::vector<T> gh_, scratch_;  // grad and Hess S_dt on its pattern; grad S_dt or its sizes
     LaneMapScratch<T> maps_;
     BatchScratch dt_maps_;
     // each lane's Newton: its statistics, its control (NewtonStepper::newton's locals) and whether it runs

@@ -17,18 +17,21 @@ namespace {
 // The layouts the kernels read, as this file sees them (baseline_lane_layout, avx2_lane_layout).
 [[maybe_unused]] constexpr LaneLayout lane_layout() {
     return {sizeof(NewtonStepper), alignof(NewtonStepper), sizeof(RealisationEvaluator), alignof(RealisationEvaluator),
-            sizeof(DtSeriesMap), alignof(DtSeriesMap), sizeof(LaneStep<3, double>), alignof(LaneStep<3, double>)};
+            sizeof(DtSeriesMap),   alignof(DtSeriesMap),   sizeof(LaneStep<3, double>),  alignof(LaneStep<3, double>)};
 }
 
 using lanes::select;
 
 static_assert(lanes::width == CompiledMap::batch_lanes, "a pack's lanes are one block of CompiledMap::eval_batch");
 
-void eval_dt(const DtSeriesMap& map, const double* in, double dt, double* out, BatchScratch&) { map.eval(in, dt, out); }
+void eval_dt(const DtSeriesMap& map, const double* in, double dt, double* out, BatchScratch&) {
+    map.eval(in, dt, out);
+}
 // At the planned dt, the lane kernel compiled in this file (for AVX2 in lane_step_avx2.cpp): what map.eval_batch runs
 // there (one block of batch_lanes points), the same bits; elsewhere eval_batch itself.
 template <std::size_t P>
-void eval_dt(const DtSeriesMap& map, const lanes::PackOf<P>* in, double dt, lanes::PackOf<P>* out, BatchScratch& scratch) {
+void eval_dt(const DtSeriesMap& map, const lanes::PackOf<P>* in, double dt, lanes::PackOf<P>* out,
+             BatchScratch& scratch) {
     const auto* x = reinterpret_cast<const double*>(in);
     auto* y = reinterpret_cast<double*>(out);
     if (const CompiledMap* planned = map.planned_at(dt))
@@ -36,7 +39,9 @@ void eval_dt(const DtSeriesMap& map, const lanes::PackOf<P>* in, double dt, lane
     else
         map.eval_batch(x, dt, y, lanes::width, scratch);
 }
-void predict(const Predictor& p, const double* x, double dt, double* xb, BatchScratch&) { p.eval(x, dt, xb); }
+void predict(const Predictor& p, const double* x, double dt, double* xb, BatchScratch&) {
+    p.eval(x, dt, xb);
+}
 // Predictor::eval_batch's operations: the series, then x added.
 template <std::size_t P>
 void predict(const Predictor& p, const lanes::PackOf<P>* x, double dt, lanes::PackOf<P>* xb, BatchScratch& scratch) {
@@ -65,7 +70,9 @@ PGI_LANE_INLINE lanes::mask_t<T> all_finite(const T* v) {
 template <int N, class T>
 PGI_LANE_INLINE T tolerance_ratio(const T* r, const T* tol) {
     T ratio{};
-    for (int i = 0; i < N; ++i) ratio = lanes::max(ratio, lanes::abs(r[i]) / lanes::max(tol[i], lanes::splat<T>(std::numeric_limits<double>::min())));
+    for (int i = 0; i < N; ++i)
+        ratio = lanes::max(ratio,
+                           lanes::abs(r[i]) / lanes::max(tol[i], lanes::splat<T>(std::numeric_limits<double>::min())));
     return ratio;
 }
 template <int N, class T>
@@ -151,7 +158,8 @@ void LaneStep<N, T>::factor(Mask F, const T* J) {
     commit<N>(F, inverse, pivot_inverse_);
 }
 
-// d = J^{-1} b with the kept factors: the exchanges, then L (unit diagonal) and U; for N <= 3 the kept inverse's product.
+// d = J^{-1} b with the kept factors: the exchanges, then L (unit diagonal) and U; for N <= 3 the kept inverse's
+// product.
 template <int N, class T>
 void LaneStep<N, T>::solve_kept(const T* b, T* d) const {
     if constexpr (N <= 3) {
@@ -226,7 +234,8 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
         eval_dt(s.gradient_.gradient, xb_, dt_, scratch_.data(), dt_maps_);
         commit<N>(anew, scratch_.data(), p_);
     }
-    s.realisation_.check_lanes<N>(xb_, p_, check_, maps_, &values_);  // (values_: this step's last Newton system, nearby)
+    s.realisation_.check_lanes<N>(xb_, p_, check_, maps_,
+                                  &values_);  // (values_: this step's last Newton system, nearby)
     T r[N], tol[N];
     for (int i = 0; i < N; ++i) {
         r[i] = (xb_[i] - x_[i]) + check_.shift[i];  // alpha - x to below the ulps of x
@@ -250,7 +259,8 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
     residual_ = select(C, inf_norm<N>(r), residual_);
     ratio_ = select(C, ratio, ratio_);
     tolerance_ = select(C, inf_norm<N>(tol), tolerance_);
-    const T size = lanes::max(lanes::max(x_norm_, inf_norm<N>(xb_)), lanes::splat<T>(std::numeric_limits<double>::min()));
+    const T size =
+        lanes::max(lanes::max(x_norm_, inf_norm<N>(xb_)), lanes::splat<T>(std::numeric_limits<double>::min()));
     truncation_ = select(C, check_.neglected / size, truncation_);
     return lanes::both(C, ratio <= 1.0);
 }
@@ -280,7 +290,8 @@ void LaneStep<N, T>::polish(const NewtonStepper& s, Mask E) {
 // the increment delta (polished), non-finite, above the truncation bound, or ok.
 template <int N, class T>
 void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
-    const Mask ill = lanes::both(E, newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm_, inf_norm<N>(xb_))));
+    const Mask ill =
+        lanes::both(E, newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm_, inf_norm<N>(xb_))));
     end(ill, StepStatus::ill_conditioned);
     const Mask solved = lanes::both(E, lanes::negate(ill));
     polish(s, solved);
@@ -353,7 +364,8 @@ void LaneStep<N, T>::round(const NewtonStepper& s, T* increment) {
     lambda_ = select(back, lambda_ / 2, lambda_);
     for (int i = 0; i < N; ++i) xb_[i] = select(back, good_[i] - lambda_ * dx_[i], xb_[i]);
     const Mask forward = lanes::both(F, lanes::negate(back));
-    const Mask bad = lanes::both(forward, lanes::either(lanes::negate(lanes::is_finite(residual)), lanes::negate(all_finite<N>(values_.delta))));
+    const Mask bad = lanes::both(
+        forward, lanes::either(lanes::negate(lanes::is_finite(residual)), lanes::negate(all_finite<N>(values_.delta))));
     end(bad, StepStatus::non_finite);
     const Mask go = lanes::both(forward, lanes::negate(bad));
     if (!lanes::any(go)) return;
@@ -397,8 +409,9 @@ void LaneStep<N, T>::close_round(const NewtonStepper& s, StepStatus* status) {
     if (!lanes::any(ended_)) return;
     const Mask solved = lanes::either(ended_code_ == double(static_cast<int>(StepStatus::ok)),
                                       ended_code_ == double(static_cast<int>(StepStatus::truncation_above_bound)));
-    const Mask retry = s.info_.predictor_order == 0 ? lanes::none_mask<T>()
-                                                    : lanes::both(lanes::both(ended_, lanes::negate(solved)), lanes::negate(second_));
+    const Mask retry = s.info_.predictor_order == 0
+                           ? lanes::none_mask<T>()
+                           : lanes::both(lanes::both(ended_, lanes::negate(solved)), lanes::negate(second_));
     const Mask final = lanes::both(ended_, lanes::negate(retry));
     iterations_ = select(lanes::both(final, second_), iterations_ + spent_, iterations_);
     running_ = lanes::both(running_, lanes::negate(final));

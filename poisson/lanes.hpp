@@ -65,15 +65,19 @@ PGI_LANE_INLINE R by_parts(F&& f) {
 }
 
 // a OP b with a pack on either side (or both), a Pack's or a mask's result: one line per operator.
-#define PGI_LANES_OPERATOR(R, OP)                                                                                       \
-    template <std::size_t P>                                                                                            \
-    PGI_LANE_INLINE R operator OP(const PackOf<P>& a, const PackOf<P>& b) {                                             \
-        return by_parts<R>([&](std::size_t k) { return a.p[k] OP b.p[k]; });                                            \
-    }                                                                                                                   \
-    template <std::size_t P>                                                                                            \
-    PGI_LANE_INLINE R operator OP(const PackOf<P>& a, double b) { return by_parts<R>([&](std::size_t k) { return a.p[k] OP b; }); } \
-    template <std::size_t P>                                                                                            \
-    PGI_LANE_INLINE R operator OP(double a, const PackOf<P>& b) { return by_parts<R>([&](std::size_t k) { return a OP b.p[k]; }); }
+#define PGI_LANES_OPERATOR(R, OP)                                            \
+    template <std::size_t P>                                                 \
+    PGI_LANE_INLINE R operator OP(const PackOf<P>& a, const PackOf<P>& b) {  \
+        return by_parts<R>([&](std::size_t k) { return a.p[k] OP b.p[k]; }); \
+    }                                                                        \
+    template <std::size_t P>                                                 \
+    PGI_LANE_INLINE R operator OP(const PackOf<P>& a, double b) {            \
+        return by_parts<R>([&](std::size_t k) { return a.p[k] OP b; });      \
+    }                                                                        \
+    template <std::size_t P>                                                 \
+    PGI_LANE_INLINE R operator OP(double a, const PackOf<P>& b) {            \
+        return by_parts<R>([&](std::size_t k) { return a OP b.p[k]; });      \
+    }
 PGI_LANES_OPERATOR(PackOf<P>, +)
 PGI_LANES_OPERATOR(PackOf<P>, -)
 PGI_LANES_OPERATOR(PackOf<P>, *)
@@ -85,9 +89,13 @@ PGI_LANES_OPERATOR(MaskOf<P>, ==)
 PGI_LANES_OPERATOR(MaskOf<P>, !=)
 #undef PGI_LANES_OPERATOR
 template <std::size_t P>
-PGI_LANE_INLINE PackOf<P>& operator*=(PackOf<P>& a, const PackOf<P>& b) { return a = a * b; }
+PGI_LANE_INLINE PackOf<P>& operator*=(PackOf<P>& a, const PackOf<P>& b) {
+    return a = a * b;
+}
 template <std::size_t P>
-PGI_LANE_INLINE PackOf<P> operator-(const PackOf<P>& a) { return by_parts<PackOf<P>>([&](std::size_t k) { return -a.p[k]; }); }
+PGI_LANE_INLINE PackOf<P> operator-(const PackOf<P>& a) {
+    return by_parts<PackOf<P>>([&](std::size_t k) { return -a.p[k]; });
+}
 
 template <class T>
 struct traits;
@@ -120,8 +128,12 @@ PGI_LANE_INLINE T splat(double c) {
     }
 }
 
-PGI_LANE_INLINE double select(bool m, double a, double b) { return m ? a : b; }
-PGI_LANE_INLINE bool select(bool m, bool a, bool b) { return m ? a : b; }
+PGI_LANE_INLINE double select(bool m, double a, double b) {
+    return m ? a : b;
+}
+PGI_LANE_INLINE bool select(bool m, bool a, bool b) {
+    return m ? a : b;
+}
 template <std::size_t P>
 PGI_LANE_INLINE PackOf<P> select(const MaskOf<P>& m, const PackOf<P>& a, const PackOf<P>& b) {
     using M = typename Part<P>::mask;
@@ -133,9 +145,15 @@ PGI_LANE_INLINE MaskOf<P> select(const MaskOf<P>& m, const MaskOf<P>& a, const M
     return by_parts<MaskOf<P>>([&](std::size_t k) { return (a.p[k] & m.p[k]) | (b.p[k] & ~m.p[k]); });
 }
 
-PGI_LANE_INLINE bool both(bool a, bool b) { return a && b; }
-PGI_LANE_INLINE bool either(bool a, bool b) { return a || b; }
-PGI_LANE_INLINE bool negate(bool a) { return !a; }
+PGI_LANE_INLINE bool both(bool a, bool b) {
+    return a && b;
+}
+PGI_LANE_INLINE bool either(bool a, bool b) {
+    return a || b;
+}
+PGI_LANE_INLINE bool negate(bool a) {
+    return !a;
+}
 template <std::size_t P>
 PGI_LANE_INLINE MaskOf<P> both(const MaskOf<P>& a, const MaskOf<P>& b) {
     return by_parts<MaskOf<P>>([&](std::size_t k) { return a.p[k] & b.p[k]; });
@@ -145,9 +163,15 @@ PGI_LANE_INLINE MaskOf<P> either(const MaskOf<P>& a, const MaskOf<P>& b) {
     return by_parts<MaskOf<P>>([&](std::size_t k) { return a.p[k] | b.p[k]; });
 }
 template <std::size_t P>
-PGI_LANE_INLINE MaskOf<P> negate(const MaskOf<P>& a) { return by_parts<MaskOf<P>>([&](std::size_t k) { return ~a.p[k]; }); }
-PGI_LANE_INLINE bool any(bool m) { return m; }
-PGI_LANE_INLINE bool all(bool m) { return m; }
+PGI_LANE_INLINE MaskOf<P> negate(const MaskOf<P>& a) {
+    return by_parts<MaskOf<P>>([&](std::size_t k) { return ~a.p[k]; });
+}
+PGI_LANE_INLINE bool any(bool m) {
+    return m;
+}
+PGI_LANE_INLINE bool all(bool m) {
+    return m;
+}
 template <std::size_t P>
 PGI_LANE_INLINE bool any(const MaskOf<P>& m) {
     typename Part<P>::mask o = m.p[0];
@@ -157,7 +181,9 @@ PGI_LANE_INLINE bool any(const MaskOf<P>& m) {
     return e != 0;
 }
 template <std::size_t P>
-PGI_LANE_INLINE bool all(const MaskOf<P>& m) { return !any(negate(m)); }
+PGI_LANE_INLINE bool all(const MaskOf<P>& m) {
+    return !any(negate(m));
+}
 template <class T>
 PGI_LANE_INLINE mask_t<T> none_mask() {
     if constexpr (std::is_same_v<T, double>)
@@ -166,10 +192,14 @@ PGI_LANE_INLINE mask_t<T> none_mask() {
         return mask_t<T>{};
 }
 template <class T>
-PGI_LANE_INLINE mask_t<T> all_mask() { return negate(none_mask<T>()); }
+PGI_LANE_INLINE mask_t<T> all_mask() {
+    return negate(none_mask<T>());
+}
 
 // |a|: the sign bit cleared (std::fabs's bits, -0 included).
-PGI_LANE_INLINE double abs(double a) { return std::fabs(a); }
+PGI_LANE_INLINE double abs(double a) {
+    return std::fabs(a);
+}
 template <std::size_t P>
 PGI_LANE_INLINE PackOf<P> abs(const PackOf<P>& a) {
     using M = typename Part<P>::mask;
@@ -179,25 +209,47 @@ PGI_LANE_INLINE PackOf<P> abs(const PackOf<P>& a) {
 
 // std::max(a, b)'s rule lane by lane: b if a < b, else a (so a NaN in b is ignored).
 template <class T>
-PGI_LANE_INLINE T max(T a, T b) { return select(a < b, b, a); }
+PGI_LANE_INLINE T max(T a, T b) {
+    return select(a < b, b, a);
+}
 // The larger, or a NaN of either: for norms whose finiteness is tested.
 template <class T>
-PGI_LANE_INLINE T max_nan(T a, T b) { return select(either(a < b, b != b), b, a); }
+PGI_LANE_INLINE T max_nan(T a, T b) {
+    return select(either(a < b, b != b), b, a);
+}
 // Finite (neither infinite nor NaN): a - a is 0 exactly then.
 template <class T>
-PGI_LANE_INLINE mask_t<T> is_finite(T a) { return a - a == T{}; }
+PGI_LANE_INLINE mask_t<T> is_finite(T a) {
+    return a - a == T{};
+}
 
-PGI_LANE_INLINE double lane(double a, std::size_t) { return a; }
-PGI_LANE_INLINE bool lane(bool m, std::size_t) { return m; }
-PGI_LANE_INLINE void set_lane(double& a, std::size_t, double v) { a = v; }
-PGI_LANE_INLINE void set_lane(bool& m, std::size_t, bool v) { m = v; }
+PGI_LANE_INLINE double lane(double a, std::size_t) {
+    return a;
+}
+PGI_LANE_INLINE bool lane(bool m, std::size_t) {
+    return m;
+}
+PGI_LANE_INLINE void set_lane(double& a, std::size_t, double v) {
+    a = v;
+}
+PGI_LANE_INLINE void set_lane(bool& m, std::size_t, bool v) {
+    m = v;
+}
 template <std::size_t P>
-PGI_LANE_INLINE double lane(const PackOf<P>& a, std::size_t w) { return a.p[w / P][w % P]; }
+PGI_LANE_INLINE double lane(const PackOf<P>& a, std::size_t w) {
+    return a.p[w / P][w % P];
+}
 template <std::size_t P>
-PGI_LANE_INLINE bool lane(const MaskOf<P>& m, std::size_t w) { return m.p[w / P][w % P] != 0; }
+PGI_LANE_INLINE bool lane(const MaskOf<P>& m, std::size_t w) {
+    return m.p[w / P][w % P] != 0;
+}
 template <std::size_t P>
-PGI_LANE_INLINE void set_lane(PackOf<P>& a, std::size_t w, double v) { a.p[w / P][w % P] = v; }
+PGI_LANE_INLINE void set_lane(PackOf<P>& a, std::size_t w, double v) {
+    a.p[w / P][w % P] = v;
+}
 template <std::size_t P>
-PGI_LANE_INLINE void set_lane(MaskOf<P>& m, std::size_t w, bool v) { m.p[w / P][w % P] = v ? -1 : 0; }
+PGI_LANE_INLINE void set_lane(MaskOf<P>& m, std::size_t w, bool v) {
+    m.p[w / P][w % P] = v ? -1 : 0;
+}
 
 }  // namespace pgi::lanes

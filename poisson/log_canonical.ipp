@@ -14,7 +14,9 @@ namespace pgi {
 namespace {
 
 // e^v - 1 lane by lane: the same libm call whatever T.
-[[gnu::noinline]] [[maybe_unused]] double expm1_lane(double v) { return std::expm1(v); }
+[[gnu::noinline]] [[maybe_unused]] double expm1_lane(double v) {
+    return std::expm1(v);
+}
 template <class T>
 PGI_LANE_INLINE T expm1_lanes(const T& v) {
     if constexpr (std::is_same_v<T, double>) {
@@ -46,7 +48,8 @@ PGI_LANE_INLINE T expm1_near(const T& u, const T& u0, const T& em1_0) {
 // entry k of a_pattern_ (column j), put.diagonal(j, ...) the terms of d/dx_j of alpha_j and delta_j; exponent and em1,
 // if given, u_j and e^{u_j/2} - 1 (for log_canonical_check near this point).
 template <class T, class Put>
-void RealisationEvaluator::log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put, T* exponent, T* em1_at) const {
+void RealisationEvaluator::log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put, T* exponent,
+                                                     T* em1_at) const {
     for (std::size_t j = 0; j < n_; ++j) {
         T u{};
         for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
@@ -71,25 +74,28 @@ void RealisationEvaluator::log_canonical_derivatives(const T* x, const T* p, T* 
 
 // delta alone, as log_canonical_check writes it.
 template <class T>
-void RealisationEvaluator::log_canonical_delta(const T* x, const T* p, T* delta, const T* exponent_near, const T* em1_near) const {
+void RealisationEvaluator::log_canonical_delta(const T* x, const T* p, T* delta, const T* exponent_near,
+                                               const T* em1_near) const {
     for (std::size_t j = 0; j < n_; ++j) {
         T u{};
         for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
             const int l = a_pattern_.inner[std::size_t(k)];
             u = u + a_values_[std::size_t(k)] * x[l] * p[l];
         }
-        const T em1 = exponent_near ? expm1_near(u, exponent_near[j], em1_near[j]) : expm1_lanes(0.5 * u), e = 1.0 + em1;
+        const T em1 = exponent_near ? expm1_near(u, exponent_near[j], em1_near[j]) : expm1_lanes(0.5 * u),
+                e = 1.0 + em1;
         delta[j] = x[j] * -(em1 + em1 / e);
     }
 }
 
 // alpha and delta as above, and the size of each alpha_j's terms: the rounding of u_j (relative to the sum w_j of
-// its terms' sizes) enters alpha_j multiplied by |alpha_j|; shift_j = alpha_j - x_j = x_j (e^{u_j/2} - 1). With exponent_near and em1_near (a derivatives evaluation's,
-// the Newton iterate this one corrects by a small step), e^{u_j/2} - 1 is taken from them (expm1_near): the acceptance
-// test after a converged Newton correction then calls no exponential.
+// its terms' sizes) enters alpha_j multiplied by |alpha_j|; shift_j = alpha_j - x_j = x_j (e^{u_j/2} - 1). With
+// exponent_near and em1_near (a derivatives evaluation's, the Newton iterate this one corrects by a small step),
+// e^{u_j/2} - 1 is taken from them (expm1_near): the acceptance test after a converged Newton correction then calls no
+// exponential.
 template <class T>
-void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift, const T* exponent_near,
-                                               const T* em1_near) const {
+void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift,
+                                               const T* exponent_near, const T* em1_near) const {
     for (std::size_t j = 0; j < n_; ++j) {
         T u{}, w{};
         for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
@@ -97,7 +103,8 @@ void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha,
             const T term = a_values_[std::size_t(k)] * x[l] * p[l];
             u = u + term, w = w + lanes::abs(term);
         }
-        const T em1 = exponent_near ? expm1_near(u, exponent_near[j], em1_near[j]) : expm1_lanes(0.5 * u), e = 1.0 + em1;
+        const T em1 = exponent_near ? expm1_near(u, exponent_near[j], em1_near[j]) : expm1_lanes(0.5 * u),
+                e = 1.0 + em1;
         alpha[j] = x[j] * e;
         shift[j] = x[j] * em1;
         delta[j] = x[j] * -(em1 + em1 / e);

@@ -6,15 +6,19 @@ namespace pgi {
 
 NewtonSolver NewtonMatrix::choose(NewtonSolverChoice choice, std::size_t n, std::size_t nonzeros) {
     switch (choice) {
-        case NewtonSolverChoice::dense: return NewtonSolver::dense;
-        case NewtonSolverChoice::sparse: return NewtonSolver::sparse;
-        case NewtonSolverChoice::automatic: break;
+        case NewtonSolverChoice::dense:
+            return NewtonSolver::dense;
+        case NewtonSolverChoice::sparse:
+            return NewtonSolver::sparse;
+        case NewtonSolverChoice::automatic:
+            break;
     }
     const double fill = n ? double(nonzeros) / (double(n) * double(n)) : 1.0;
     return n >= sparse_from_dimension && fill <= sparse_max_fill ? NewtonSolver::sparse : NewtonSolver::dense;
 }
 
-NewtonMatrix::NewtonMatrix(const SparsePattern& ax, const SparsePattern& ap, const SparsePattern& h, NewtonSolverChoice choice) {
+NewtonMatrix::NewtonMatrix(const SparsePattern& ax, const SparsePattern& ap, const SparsePattern& h,
+                           NewtonSolverChoice choice) {
     const std::size_t n = ax.rows;
     // J's pattern: alpha_x's entries, and (i, c) for every alpha_p(i, l) Hess(l, c)
     std::vector<std::vector<int>> columns(n);
@@ -27,7 +31,8 @@ NewtonMatrix::NewtonMatrix(const SparsePattern& ax, const SparsePattern& ap, con
     }
     pattern_ = SparsePattern::from_columns(n, std::move(columns));
     for (std::size_t c = 0; c < n; ++c) {
-        for (int k = ax.outer[c]; k < ax.outer[c + 1]; ++k) from_alpha_x_.push_back(int(pattern_.find(ax.inner[std::size_t(k)], int(c))));
+        for (int k = ax.outer[c]; k < ax.outer[c + 1]; ++k)
+            from_alpha_x_.push_back(int(pattern_.find(ax.inner[std::size_t(k)], int(c))));
         for (int kh = h.outer[c]; kh < h.outer[c + 1]; ++kh) {
             const auto l = static_cast<std::size_t>(h.inner[std::size_t(kh)]);
             for (int ka = ap.outer[l]; ka < ap.outer[l + 1]; ++ka)
@@ -50,7 +55,8 @@ void NewtonMatrix::prepare_solver() {
     // is the pattern's (both sorted by row within each column), so values_ maps onto valuePtr() one to one
     std::vector<Eigen::Triplet<double>> entries;
     for (std::size_t c = 0; c < pattern_.cols; ++c)
-        for (int k = pattern_.outer[c]; k < pattern_.outer[c + 1]; ++k) entries.emplace_back(pattern_.inner[std::size_t(k)], int(c), 1.0);
+        for (int k = pattern_.outer[c]; k < pattern_.outer[c + 1]; ++k)
+            entries.emplace_back(pattern_.inner[std::size_t(k)], int(c), 1.0);
     sparse_.resize(n, n);
     sparse_.setFromTriplets(entries.begin(), entries.end());
     sparse_.makeCompressed();
@@ -59,7 +65,8 @@ void NewtonMatrix::prepare_solver() {
 }
 
 NewtonMatrix::NewtonMatrix(const NewtonMatrix& o)
-    : solver_(o.solver_), pattern_(o.pattern_), from_alpha_x_(o.from_alpha_x_), products_(o.products_), values_(o.values_) {
+    : solver_(o.solver_), pattern_(o.pattern_), from_alpha_x_(o.from_alpha_x_), products_(o.products_),
+      values_(o.values_) {
     if (!pattern_.outer.empty()) prepare_solver();
 }
 
@@ -105,7 +112,8 @@ Eigen::MatrixXd NewtonMatrix::dense() const {
 
 double NewtonMatrix::solve_cost() const {
     const double n = double(pattern_.rows);
-    return solver_ == NewtonSolver::dense ? 2 * n * n : 4 * double(pattern_.nonzeros());  // triangular solves on the factors' fill
+    return solver_ == NewtonSolver::dense ? 2 * n * n
+                                          : 4 * double(pattern_.nonzeros());  // triangular solves on the factors' fill
 }
 
 double NewtonMatrix::factor_cost() const {

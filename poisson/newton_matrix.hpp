@@ -29,7 +29,8 @@ public:
 
     NewtonMatrix() = default;
     /// The patterns of alpha_x, alpha_p and Hess S_dt (n x n each); J's pattern is their sum and product's.
-    NewtonMatrix(const SparsePattern& alpha_x, const SparsePattern& alpha_p, const SparsePattern& hessian, NewtonSolverChoice choice);
+    NewtonMatrix(const SparsePattern& alpha_x, const SparsePattern& alpha_p, const SparsePattern& hessian,
+                 NewtonSolverChoice choice);
     NewtonMatrix(const NewtonMatrix& other);
     NewtonMatrix& operator=(const NewtonMatrix& other);
     NewtonMatrix(NewtonMatrix&&) noexcept = default;

@@ -47,7 +47,8 @@ PGI_LANE_INLINE lanes::mask_t<T> small(T correction, double newton_tol, T scale)
 /// Small, or neither the correction nor the residual halving any more: Newton has reached its evaluation's
 /// round-off, and the acceptance test decides.
 template <class T>
-PGI_LANE_INLINE lanes::mask_t<T> settled(lanes::mask_t<T> small, T correction, T previous, T residual, T previous_residual) {
+PGI_LANE_INLINE lanes::mask_t<T> settled(lanes::mask_t<T> small, T correction, T previous, T residual,
+                                         T previous_residual) {
     return lanes::either(small, lanes::both(correction > previous / 2, residual > previous_residual / 2));
 }
 

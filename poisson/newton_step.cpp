@@ -13,31 +13,41 @@ namespace pgi {
 
 std::string to_string(StepStatus s) {
     switch (s) {
-        case StepStatus::ok: return "ok";
-        case StepStatus::newton_not_converged: return "Newton did not converge";
-        case StepStatus::non_finite: return "non-finite state";
-        case StepStatus::truncation_above_bound: return "realisation truncated above its bound";
-        case StepStatus::ill_conditioned: return "ill-conditioned step (terms far larger than the state)";
+        case StepStatus::ok:
+            return "ok";
+        case StepStatus::newton_not_converged:
+            return "Newton did not converge";
+        case StepStatus::non_finite:
+            return "non-finite state";
+        case StepStatus::truncation_above_bound:
+            return "realisation truncated above its bound";
+        case StepStatus::ill_conditioned:
+            return "ill-conditioned step (terms far larger than the state)";
     }
     return "?";
 }
 
 namespace {
 
-void check_build_arguments(const PhaseSpace& M, const std::vector<Poly>* S, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
+void check_build_arguments(const PhaseSpace& M, const std::vector<Poly>* S, const StepOptions& opt,
+                           const Eigen::VectorXd& x_typical) {
     const std::size_t n = M.dim();
     if (opt.k < 1) throw std::invalid_argument("NewtonStepper: the order k must be at least 1");
     if (S && S->size() != opt.k)
-        throw std::invalid_argument("NewtonStepper: " + std::to_string(opt.k) + " Hamilton-Jacobi terms expected, " + std::to_string(S->size()) + " given");
-    if (!(opt.dt > 0) || !std::isfinite(opt.dt)) throw std::invalid_argument("NewtonStepper: dt must be positive and finite");
+        throw std::invalid_argument("NewtonStepper: " + std::to_string(opt.k) + " Hamilton-Jacobi terms expected, " +
+                                    std::to_string(S->size()) + " given");
+    if (!(opt.dt > 0) || !std::isfinite(opt.dt))
+        throw std::invalid_argument("NewtonStepper: dt must be positive and finite");
     if (static_cast<std::size_t>(x_typical.size()) != n || !x_typical.allFinite())
-        throw std::invalid_argument("NewtonStepper: the typical state must have " + std::to_string(n) + " finite values");
+        throw std::invalid_argument("NewtonStepper: the typical state must have " + std::to_string(n) +
+                                    " finite values");
 }
 
 // What the Newton matrix's Hessian may neglect (compile_gradient): J moved by at most u / newton_tol at x_typical,
 // alpha_p's size there estimated by |pi(x_typical)|_inf (alpha = x + pi(x) p / 2 + O(p^2): a factor 2 for the O(p)).
 // Only small dense problems truncate: pi is not evaluated on the others.
-HessianTruncation newton_matrix_truncation(const PoissonStructure& pi, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
+HessianTruncation newton_matrix_truncation(const PoissonStructure& pi, const StepOptions& opt,
+                                           const Eigen::VectorXd& x_typical) {
     const PhaseSpace& M = pi.phase_space();
     const std::size_t n = M.dim();
     if (n > hessian_truncation_dim || !(opt.newton_tol > 0)) return HessianTruncation{};
@@ -53,8 +63,9 @@ HessianTruncation newton_matrix_truncation(const PoissonStructure& pi, const Ste
 
 }  // namespace
 
-NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector<Poly>& S, const RealisationSource& realisation,
-                                   const StepOptions& opt, const Eigen::VectorXd& x_typical) {
+NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector<Poly>& S,
+                                   const RealisationSource& realisation, const StepOptions& opt,
+                                   const Eigen::VectorXd& x_typical) {
     const PhaseSpace& M = pi.phase_space();
     const std::size_t n = M.dim();
     check_build_arguments(M, &S, opt, x_typical);
@@ -80,8 +91,8 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     // the predictor, xb = x + sum_m dt^m u_m, its order chosen by cost at opt.dt
     // (the acceptance test's evaluation of alpha costs about a third of eval's, which adds the derivatives)
     const NewtonCost cost = newton_cost(s.gradient_.with_hessian.planned_cost() + s.realisation_.cost(s.sparse_),
-                                        s.gradient_.gradient.planned_cost() + s.realisation_.cost(s.sparse_) / 3, s.matrix_.factor_cost(),
-                                        s.matrix_.solve_cost(), s.simplified_newton_);
+                                        s.gradient_.gradient.planned_cost() + s.realisation_.cost(s.sparse_) / 3,
+                                        s.matrix_.factor_cost(), s.matrix_.solve_cost(), s.simplified_newton_);
     // a closed form is deepened for the predictor only if its choice goes past the first orders (the radial
     // recursion is not: its cost is the point of its probe)
     const bool closed = realisation_form(pi.structure_class(), opt.realisation) != RealisationForm::radial;
@@ -92,28 +103,41 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.size_scratch(n);
     if (!s.sparse_ && s.realisation_.has_lane_form()) {
         switch (n) {
-            case 2: s.lane_.emplace<LaneStep<2, double>>(s); break;
-            case 3: s.lane_.emplace<LaneStep<3, double>>(s); break;
-            case 4: s.lane_.emplace<LaneStep<4, double>>(s); break;
-            case 6: s.lane_.emplace<LaneStep<6, double>>(s); break;
-            default: break;
+            case 2:
+                s.lane_.emplace<LaneStep<2, double>>(s);
+                break;
+            case 3:
+                s.lane_.emplace<LaneStep<3, double>>(s);
+                break;
+            case 4:
+                s.lane_.emplace<LaneStep<4, double>>(s);
+                break;
+            case 6:
+                s.lane_.emplace<LaneStep<6, double>>(s);
+                break;
+            default:
+                break;
         }
     }
     return s;
 }
 
-NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt, const Eigen::VectorXd& x_typical) {
+NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
+                                   const Eigen::VectorXd& x_typical) {
     check_build_arguments(pi.phase_space(), nullptr, opt, x_typical);
     DeepestRealisation realisation(opt.realisation);
     const RealisationSource source = [&](std::size_t D) { return realisation.through(pi, D); };
-    const auto S = hamilton_jacobi_terms(pi.phase_space(), *source(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, pi.dim())), H, opt.k);
+    const auto S = hamilton_jacobi_terms(
+        pi.phase_space(), *source(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, pi.dim())),
+        H, opt.k);
     return build(pi, S, source, opt, x_typical);
 }
 
 // Those a step at the build's dt runs first (the Newton system's, the predictor's, the realisation's), then those of
 // other steps and the acceptance test's rarer ones: native code takes them in this order while they fit.
 std::vector<CompiledMap*> NewtonStepper::compiled_maps() {
-    const std::vector<DtSeriesMap*> series = {&gradient_.with_hessian, &predictor_.series(), &gradient_.gradient, &gradient_.gradient_size};
+    const std::vector<DtSeriesMap*> series = {&gradient_.with_hessian, &predictor_.series(), &gradient_.gradient,
+                                              &gradient_.gradient_size};
     std::vector<CompiledMap*> maps, later;
     for (DtSeriesMap* m : series) {
         const std::vector<CompiledMap*> c = m->compiled_maps();
@@ -130,7 +154,8 @@ void NewtonStepper::size_lane_maps(BatchScratch& scratch) const {
     std::size_t monomials = 0;
     for (const DtSeriesMap* m : {&gradient_.with_hessian, &gradient_.gradient, &predictor_.series()})
         if (const CompiledMap* planned = m->planned()) monomials = std::max(monomials, planned->num_monomials());
-    if (scratch.map.size() < monomials * CompiledMap::batch_lanes) scratch.map.resize(monomials * CompiledMap::batch_lanes);
+    if (scratch.map.size() < monomials * CompiledMap::batch_lanes)
+        scratch.map.resize(monomials * CompiledMap::batch_lanes);
 }
 
 void NewtonStepper::set_dt(double dt) {
@@ -221,7 +246,8 @@ bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction
         within_tolerance();
     }
     tolerance_ = tol_.lpNorm<Eigen::Infinity>();
-    const double size = std::max({x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min()});
+    const double size =
+        std::max({x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min()});
     truncation_ = check_.neglected / size;
     return ratio_ <= 1;
 }
@@ -234,7 +260,8 @@ void NewtonStepper::add_propagated_sizes() {
         const SparsePattern& P = realisation_.pattern_p();
         for (std::size_t l = 0; l < P.cols; ++l)
             for (int k = P.outer[l]; k < P.outer[l + 1]; ++k)
-                tol_[P.inner[std::size_t(k)]] += c * std::abs(sparse_values_.alpha_p[std::size_t(k)]) * gsize_[Eigen::Index(l)];
+                tol_[P.inner[std::size_t(k)]] +=
+                    c * std::abs(sparse_values_.alpha_p[std::size_t(k)]) * gsize_[Eigen::Index(l)];
         return;
     }
     const auto n = tol_.size();
@@ -245,14 +272,16 @@ void NewtonStepper::add_propagated_sizes() {
 // ratio_ = max_i |r_i| / tol_i; whether it is at most 1.
 bool NewtonStepper::within_tolerance() {
     ratio_ = 0;
-    for (Eigen::Index i = 0; i < r_.size(); ++i) ratio_ = std::max(ratio_, std::abs(r_[i]) / std::max(tol_[i], std::numeric_limits<double>::min()));
+    for (Eigen::Index i = 0; i < r_.size(); ++i)
+        ratio_ = std::max(ratio_, std::abs(r_[i]) / std::max(tol_[i], std::numeric_limits<double>::min()));
     return ratio_ <= 1;
 }
 
 // The accepted step's status: ill-conditioned when the tolerance itself exceeds sqrt(u) |x|, else the
 // increment (delta at the accepted base point, polished) and the truncation's verdict.
 StepStatus NewtonStepper::finish(double x_norm, Eigen::VectorXd& increment) {
-    if (newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm, xb_.lpNorm<Eigen::Infinity>()))) return StepStatus::ill_conditioned;
+    if (newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm, xb_.lpNorm<Eigen::Infinity>())))
+        return StepStatus::ill_conditioned;
     polish(x_norm);
     increment = check_.delta;
     if (!increment.allFinite()) return StepStatus::non_finite;
@@ -293,7 +322,8 @@ bool NewtonStepper::solve(bool again) {
 // contracts like Newton there (the error e0 e1 after e1: the Jacobian is off by O(e0)); a correction that
 // does not halve brings the full Newton iteration back. The increment is delta at the accepted base point.
 StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated) {
-    double previous = std::numeric_limits<double>::infinity(), previous_residual = previous, good_residual = previous, lambda = 1;
+    double previous = std::numeric_limits<double>::infinity(), previous_residual = previous, good_residual = previous,
+           lambda = 1;
     const double x_norm = x.lpNorm<Eigen::Infinity>();
     bool simplified = false;
     for (int it = 1; it <= opt_.newton_max_iter; ++it) {
@@ -352,8 +382,8 @@ StepStatus NewtonStepper::step(const Eigen::VectorXd& x, double dt, Eigen::Vecto
     return solve_from_prediction(x, increment, false);
 }
 
-StepStatus NewtonStepper::step_predicted(const Eigen::VectorXd& x, double dt, const double* xb, const double* gh, std::size_t stride,
-                                         Eigen::VectorXd& increment) {
+StepStatus NewtonStepper::step_predicted(const Eigen::VectorXd& x, double dt, const double* xb, const double* gh,
+                                         std::size_t stride, Eigen::VectorXd& increment) {
     if (!begin_step(x, dt)) return StepStatus::non_finite;
     for (Eigen::Index i = 0; i < xb_.size(); ++i) xb_[i] = xb[std::size_t(i) * stride];
     for (Eigen::Index i = 0; i < gh_.size(); ++i) gh_[i] = gh[std::size_t(i) * stride];
@@ -364,16 +394,18 @@ StepStatus NewtonStepper::step_predicted(const Eigen::VectorXd& x, double dt, co
 StepStatus NewtonStepper::lane_step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment) {
     StepStatus status = StepStatus::non_finite;
     if (increment.size() != x.size()) increment.resize(x.size());
-    std::visit([&](auto& lane) {
-        if constexpr (!std::is_same_v<std::decay_t<decltype(lane)>, std::monostate>) {
-            lane.step(*this, x.data(), dt, increment.data(), &status);
-            iterations_ = lane.iterations(0);
-            residual_ = lane.residual(0), tolerance_ = lane.tolerance(0), ratio_ = lane.ratio(0);
-            truncation_ = lane.truncation(0), correction_ = lane.correction(0);
-            for (Eigen::Index i = 0; i < xb_.size(); ++i) xb_[i] = lane.base_point(std::size_t(i), 0);
-            if (std::isfinite(dt)) step_dt_ = dt;
-        }
-    }, lane_);
+    std::visit(
+        [&](auto& lane) {
+            if constexpr (!std::is_same_v<std::decay_t<decltype(lane)>, std::monostate>) {
+                lane.step(*this, x.data(), dt, increment.data(), &status);
+                iterations_ = lane.iterations(0);
+                residual_ = lane.residual(0), tolerance_ = lane.tolerance(0), ratio_ = lane.ratio(0);
+                truncation_ = lane.truncation(0), correction_ = lane.correction(0);
+                for (Eigen::Index i = 0; i < xb_.size(); ++i) xb_[i] = lane.base_point(std::size_t(i), 0);
+                if (std::isfinite(dt)) step_dt_ = dt;
+            }
+        },
+        lane_);
     return status;
 }
 
@@ -389,7 +421,8 @@ bool NewtonStepper::begin_step(const Eigen::VectorXd& x, double dt) {
 // if that fails.
 StepStatus NewtonStepper::solve_from_prediction(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated) {
     const StepStatus first = newton(x, increment, evaluated);
-    if (first == StepStatus::ok || first == StepStatus::truncation_above_bound || info_.predictor_order == 0) return first;
+    if (first == StepStatus::ok || first == StepStatus::truncation_above_bound || info_.predictor_order == 0)
+        return first;
     // NOTE: far outside the predictor's range (stiff steps), Newton may still converge from xb = x.
     const int spent = iterations_;
     xb_ = x;

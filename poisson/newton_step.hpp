@@ -39,9 +39,11 @@ public:
     /// the largest dt the caller plans: the degree and the predictor's order are chosen for it (a larger dt
     /// at run time is guarded by the acceptance test). Requires pi to satisfy Jacobi. Throws
     /// std::invalid_argument on k < 1, S of another length, dt <= 0 or a bad x_typical. opt.jit: the compiled maps
-    /// then run native code (series/native.hpp; info().native_maps says how many), NativeCodeError if it cannot be built.
-    static NewtonStepper build(const PoissonStructure& pi, const std::vector<Poly>& S, const RealisationSource& realisation,
-                               const StepOptions& opt, const Eigen::VectorXd& x_typical);
+    /// then run native code (series/native.hpp; info().native_maps says how many), NativeCodeError if it cannot be
+    /// built.
+    static NewtonStepper build(const PoissonStructure& pi, const std::vector<Poly>& S,
+                               const RealisationSource& realisation, const StepOptions& opt,
+                               const Eigen::VectorXd& x_typical);
     /// The same from H: the realisation and S_1..S_k computed here (poisson-level callers and tests).
     static NewtonStepper build(const PoissonStructure& pi, const Poly& H, const StepOptions& opt,
                                const Eigen::VectorXd& x_typical);
@@ -51,13 +53,16 @@ public:
     /// non-finite one returns non_finite); the realisation degree and predictor were chosen for built_dt().
     [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment);
     /// The same at dt().
-    [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, Eigen::VectorXd& increment) { return step(x, dt_, increment); }
+    [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
+        return step(x, dt_, increment);
+    }
     /// step(x, dt, increment) with its first two evaluations given, as the batch step (poisson/batch_step) makes
     /// them for many states at once: xb[i stride] the predictor's xb at (x, dt), gh[i stride] with_hessian()'s
     /// output i at (xb, dt). The same status, increment and statistics as step(), bit for bit.
-    [[nodiscard]] StepStatus step_predicted(const Eigen::VectorXd& x, double dt, const double* xb, const double* gh, std::size_t stride,
-                                            Eigen::VectorXd& increment);
-    /// What step_predicted is given: the predictor, and grad S_dt with Hess S_dt on its upper triangle (width() outputs; CompiledGradient).
+    [[nodiscard]] StepStatus step_predicted(const Eigen::VectorXd& x, double dt, const double* xb, const double* gh,
+                                            std::size_t stride, Eigen::VectorXd& increment);
+    /// What step_predicted is given: the predictor, and grad S_dt with Hess S_dt on its upper triangle (width()
+    /// outputs; CompiledGradient).
     const Predictor& predictor() const { return predictor_; }
     const DtSeriesMap& with_hessian() const { return gradient_.with_hessian; }
     /// Dphi_dt(x) by implicit differentiation: I + (delta_x + delta_p Hess S) J^{-1} at the solution.
@@ -120,31 +125,33 @@ private:
     bool solve(bool again);
     void size_scratch(std::size_t n);
     std::vector<CompiledMap*> compiled_maps();  // every map the step evaluates, for native code (StepOptions::jit)
-    void assemble();  // J at the point evaluate_at saw
+    void assemble();                            // J at the point evaluate_at saw
     const Eigen::VectorXd& evaluated_alpha() const { return sparse_ ? sparse_values_.alpha : v_.alpha; }
     const Eigen::VectorXd& evaluated_delta() const { return sparse_ ? sparse_values_.delta : v_.delta; }
 
     std::size_t k_ = 1;
-    double dt_ = 0;                       // the default step
-    double step_dt_ = 0;                  // the step being taken
+    double dt_ = 0;       // the default step
+    double step_dt_ = 0;  // the step being taken
     StepOptions opt_;
     StepInfo info_;
     RealisationEvaluator realisation_;
-    bool simplified_newton_ = true;       // StepRealisation::simplified_newton
-    CompiledGradient gradient_;           // (x, dt) -> grad S_dt (n), Hess S_dt on its pattern; grad S_dt alone; its terms' sizes
-    Predictor predictor_;                 // (x, dt) -> xb, the base point's series in dt
-    NewtonMatrix matrix_;                 // the sparse path's J (its pattern and SparseLU, kept for simplified Newton)
+    bool simplified_newton_ = true;  // StepRealisation::simplified_newton
+    CompiledGradient
+        gradient_;         // (x, dt) -> grad S_dt (n), Hess S_dt on its pattern; grad S_dt alone; its terms' sizes
+    Predictor predictor_;  // (x, dt) -> xb, the base point's series in dt
+    NewtonMatrix matrix_;  // the sparse path's J (its pattern and SparseLU, kept for simplified Newton)
     bool sparse_ = false;
     SparseRealisationValues sparse_values_;
     RealisationCheck check_;
     Eigen::VectorXd gsize_, tol_;
     RealisationValues v_;
     Eigen::VectorXd xb_, xb_good_, p_, r_, dx_, gh_;  // gh_: with_hessian's outputs (the Hessian's upper triangle)
-    Eigen::VectorXd hessian_;                          // Hess S_dt on its whole pattern (expand_hessian)
+    Eigen::VectorXd hessian_;                         // Hess S_dt on its whole pattern (expand_hessian)
     Eigen::MatrixXd hess_, J_, D_;
-    DenseAlgebra algebra_;                // the dense path's J, LU and products
+    DenseAlgebra algebra_;  // the dense path's J, LU and products
     // the same step over lanes, where it exists (then step() is its one-lane instantiation)
-    std::variant<std::monostate, LaneStep<2, double>, LaneStep<3, double>, LaneStep<4, double>, LaneStep<6, double>> lane_;
+    std::variant<std::monostate, LaneStep<2, double>, LaneStep<3, double>, LaneStep<4, double>, LaneStep<6, double>>
+        lane_;
     int iterations_ = 0;
     double residual_ = 0, correction_ = 0, tolerance_ = 0, ratio_ = 0, truncation_ = 0;
 };

@@ -63,7 +63,8 @@ Series PhaseSpace::parse_in_time(std::string_view text) const {
         // the coefficient of t^m: (d/dt)^m of the part homogeneous of degree m in t, over m!
         Poly c = homogeneous_part(f, t_only, static_cast<unsigned long>(m));
         for (long d = 0; d < m; ++d) c = derivative(c, names.size() - 1);
-        s[static_cast<std::size_t>(m)] = rename_variables(inverse_factorial(static_cast<unsigned long>(m)) * c, ring_, map);
+        s[static_cast<std::size_t>(m)] =
+            rename_variables(inverse_factorial(static_cast<unsigned long>(m)) * c, ring_, map);
     }
     return s;
 }

@@ -22,8 +22,8 @@ public:
     static constexpr double cheap_order_terms = 500;
     /// cap_stops: whether an order above cheap_order_terms stops the choice (not in the first pass, whose
     /// orders are computed anyway).
-    PredictorChoice(const StepOptions& opt, const NewtonCost& cost, std::vector<double> point, double scale, std::size_t limit,
-                    bool cap_stops = true)
+    PredictorChoice(const StepOptions& opt, const NewtonCost& cost, std::vector<double> point, double scale,
+                    std::size_t limit, bool cap_stops = true)
         : opt_(opt), cost_(cost), point_(std::move(point)), scale_(scale), limit_(limit), cap_stops_(cap_stops) {}
     bool operator()(const std::vector<Series>& v) {
         const std::size_t s = v.front().order() - 1;  // exact through dt^s: scores the order P = s - 1
@@ -77,9 +77,10 @@ std::size_t predictor_first_pass(const StepOptions& opt) {
     return opt.predictor_order ? predictor_limit(opt) : std::min<std::size_t>(predictor_limit(opt), 3);
 }
 
-NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, double factor_cost, double solve_cost, bool simplified) {
-    return {static_cast<double>(system_cost) + factor_cost + solve_cost + 150, static_cast<double>(residual_cost), solve_cost + 150,
-            simplified};
+NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, double factor_cost, double solve_cost,
+                       bool simplified) {
+    return {static_cast<double>(system_cost) + factor_cost + solve_cost + 150, static_cast<double>(residual_cost),
+            solve_cost + 150, simplified};
 }
 
 // Newton from a start off by e, as NewtonStepper::newton runs it: a full iteration corrects by about the error and
@@ -118,12 +119,14 @@ Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Po
     return p;
 }
 
-Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
-                            const NewtonCost& cost, const Eigen::VectorXd& x_typical,
+Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S,
+                            const StepOptions& opt, const NewtonCost& cost, const Eigen::VectorXd& x_typical,
                             const RealisationSource& deeper) {
-    if (opt.predictor_order) return build(M, base_point_series(M, probe, S, std::min(predictor_limit(opt), probe.degree)), opt.dt);
+    if (opt.predictor_order)
+        return build(M, base_point_series(M, probe, S, std::min(predictor_limit(opt), probe.degree)), opt.dt);
     const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
-    const std::vector<double> point = M.point(std::span<const double>(x_typical.data(), std::size_t(x_typical.size())));  // (the series read no p)
+    const std::vector<double> point =
+        M.point(std::span<const double>(x_typical.data(), std::size_t(x_typical.size())));  // (the series read no p)
     // The series is computed to the limit's order before the choice sees it, and at large n (the lattices) every
     // order holds O(n) terms: a first pass scores the orders through predictor_first_pass (all of them, whatever
     // their size), and the full limit is computed only when that limit alone stopped the choice within the cap

@@ -29,7 +29,8 @@ struct NewtonCost {
     /// Newton's expected cost from a start of relative error e (docs/math.md 6).
     double from(double e, double newton_tol) const;
 };
-NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, double factor_cost, double solve_cost, bool simplified);
+NewtonCost newton_cost(std::size_t system_cost, std::size_t residual_cost, double factor_cost, double solve_cost,
+                       bool simplified);
 
 class Predictor {
 public:
@@ -42,8 +43,8 @@ public:
     /// the predictor's terms plus the Newton iterations it leaves at (x_typical, opt.dt) at their cost.
     /// deeper (closed forms): the realisation through a degree beyond probe's, asked only if the choice goes past
     /// predictor_first_pass; without it the orders stop at probe.degree - 1.
-    static Predictor choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S, const StepOptions& opt,
-                            const NewtonCost& cost, const Eigen::VectorXd& x_typical,
+    static Predictor choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S,
+                            const StepOptions& opt, const NewtonCost& cost, const Eigen::VectorXd& x_typical,
                             const RealisationSource& deeper = {});
 
     std::size_t order() const { return order_; }

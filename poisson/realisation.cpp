@@ -11,26 +11,36 @@ RealisationChoice parse_realisation_choice(std::string_view text) {
     if (text == "auto") return RealisationChoice::automatic;
     if (text == "closed-form") return RealisationChoice::closed_form;
     if (text == "radial") return RealisationChoice::radial;
-    throw std::invalid_argument("realisation must be \"auto\", \"closed-form\" or \"radial\", not \"" + std::string(text) + "\"");
+    throw std::invalid_argument("realisation must be \"auto\", \"closed-form\" or \"radial\", not \"" +
+                                std::string(text) + "\"");
 }
 
 std::string to_string(RealisationChoice c) {
     switch (c) {
-        case RealisationChoice::automatic: return "auto";
-        case RealisationChoice::closed_form: return "closed-form";
-        case RealisationChoice::radial: return "radial";
+        case RealisationChoice::automatic:
+            return "auto";
+        case RealisationChoice::closed_form:
+            return "closed-form";
+        case RealisationChoice::radial:
+            return "radial";
     }
     return "?";
 }
 
-bool has_closed_form(StructureClass c) { return c != StructureClass::general; }
+bool has_closed_form(StructureClass c) {
+    return c != StructureClass::general;
+}
 
 std::string to_string(RealisationForm f) {
     switch (f) {
-        case RealisationForm::constant: return "constant";
-        case RealisationForm::lie_poisson: return "lie-poisson";
-        case RealisationForm::log_canonical: return "log-canonical";
-        case RealisationForm::radial: return "radial";
+        case RealisationForm::constant:
+            return "constant";
+        case RealisationForm::lie_poisson:
+            return "lie-poisson";
+        case RealisationForm::log_canonical:
+            return "log-canonical";
+        case RealisationForm::radial:
+            return "radial";
     }
     return "?";
 }
@@ -39,10 +49,14 @@ RealisationForm realisation_form(StructureClass c, RealisationChoice choice) {
     if (choice == RealisationChoice::radial || (choice == RealisationChoice::automatic && !has_closed_form(c)))
         return RealisationForm::radial;
     switch (c) {
-        case StructureClass::constant: return RealisationForm::constant;
-        case StructureClass::linear: return RealisationForm::lie_poisson;
-        case StructureClass::log_canonical: return RealisationForm::log_canonical;
-        case StructureClass::general: break;
+        case StructureClass::constant:
+            return RealisationForm::constant;
+        case StructureClass::linear:
+            return RealisationForm::lie_poisson;
+        case StructureClass::log_canonical:
+            return RealisationForm::log_canonical;
+        case StructureClass::general:
+            break;
     }
     throw std::invalid_argument("\"closed-form\" is not available for a general structure; use \"radial\" or \"auto\"");
 }
@@ -69,14 +83,16 @@ std::vector<Series> identity_map(const PhaseSpace& M, std::size_t D) {
     return a;
 }
 
-// The linear forms l_ik(p) = sum_j c_ij^k p_j of a linear pi (pi_ij = sum_k c_ij^k x_k): L(p) y = (sum_k l_ik(p) y_k)_i.
+// The linear forms l_ik(p) = sum_j c_ij^k p_j of a linear pi (pi_ij = sum_k c_ij^k x_k): L(p) y = (sum_k l_ik(p)
+// y_k)_i.
 std::vector<std::vector<Poly>> structure_forms(const PoissonStructure& pi) {
     const PhaseSpace& M = pi.phase_space();
     std::vector<std::vector<Poly>> l(M.dim(), std::vector<Poly>(M.dim(), Poly(M.ring())));
     for (std::size_t i = 0; i < M.dim(); ++i)
         for (std::size_t j = 0; j < M.dim(); ++j)
             if (!pi(i, j).is_zero())
-                for (std::size_t k = 0; k < M.dim(); ++k) l[i][k] += derivative(pi(i, j), M.x(k)) * M.p_gen(j);  // c_ij^k p_j
+                for (std::size_t k = 0; k < M.dim(); ++k)
+                    l[i][k] += derivative(pi(i, j), M.x(k)) * M.p_gen(j);  // c_ij^k p_j
     return l;
 }
 
@@ -182,13 +198,15 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
     for (std::size_t i = 0; i < n; ++i) images[M.x(i)] = alpha[i];
     ComposeByOrder pi_of_alpha(entries, std::move(images), D + 1);  // all entries share the image products
     for (std::size_t m = 0; m < D; ++m) {
-        BudgetStage stage(M.ring()->budget(), "radial realisation, terms of degree " + std::to_string(m + 1) + " in p", m + 1, D);
+        BudgetStage stage(M.ring()->budget(), "radial realisation, terms of degree " + std::to_string(m + 1) + " in p",
+                          m + 1, D);
         std::vector<std::vector<Poly>> next(n);  // the terms of (m+2) A_{m+1,j}, summed once (poly.hpp's sum)
         for (std::size_t i = 0, entry = 0; i < n; ++i) {
             for (std::size_t j = i + 1; j < n; ++j, ++entry) {
                 // R_ij = [pi_ij(A_0 + ... + A_m)]_deg m - sum_{a+b=m+1, 1<=a,b<=m} {A_a,i, A_b,j}_can
                 std::vector<Poly> terms{pi_of_alpha.coefficient(entry, m)};
-                for (std::size_t a = 1; a <= m; ++a) append_canonical_bracket(grad[i][a - 1], grad[j][m - a], Rational(-1), terms);
+                for (std::size_t a = 1; a <= m; ++a)
+                    append_canonical_bracket(grad[i][a - 1], grad[j][m - a], Rational(-1), terms);
                 const Poly R = sum(std::move(terms), M.ring());
                 if (R.is_zero()) continue;
                 next[j].push_back(M.p_gen(i) * R);
@@ -209,16 +227,22 @@ Realisation radial_realisation(const PoissonStructure& pi, std::size_t D) {
 Realisation build_realisation(const PoissonStructure& pi, RealisationChoice choice, std::size_t D) {
     BudgetStage stage(pi.phase_space().ring()->budget(), "realisation through p-degree " + std::to_string(D), 0, 0);
     switch (realisation_form(pi.structure_class(), choice)) {
-        case RealisationForm::constant: return constant_realisation(pi, D);
-        case RealisationForm::lie_poisson: return lie_poisson_realisation(pi, D);
-        case RealisationForm::log_canonical: return log_canonical_realisation(pi, D);
-        case RealisationForm::radial: break;
+        case RealisationForm::constant:
+            return constant_realisation(pi, D);
+        case RealisationForm::lie_poisson:
+            return lie_poisson_realisation(pi, D);
+        case RealisationForm::log_canonical:
+            return log_canonical_realisation(pi, D);
+        case RealisationForm::radial:
+            break;
     }
     return radial_realisation(pi, D);
 }
 
 Realisation truncated(const Realisation& r, std::size_t D) {
-    if (D > r.degree) throw std::invalid_argument("truncated: degree " + std::to_string(D) + " above the realisation's " + std::to_string(r.degree));
+    if (D > r.degree)
+        throw std::invalid_argument("truncated: degree " + std::to_string(D) + " above the realisation's " +
+                                    std::to_string(r.degree));
     Realisation t{r.method, D, {}, {}};
     for (const auto& a : r.alpha) t.alpha.push_back(a.truncated(D + 1));
     for (const auto& b : r.beta) t.beta.push_back(b.truncated(D + 1));
@@ -246,7 +270,8 @@ bool is_symmetric(const Realisation& r) {
 
 Series canonical_bracket(const PhaseSpace& M, const Series& F, const Series& G) {
     const std::size_t N = F.order();
-    if (G.order() != N || N == 0) throw std::invalid_argument("pgi::canonical_bracket: series orders differ or are zero");
+    if (G.order() != N || N == 0)
+        throw std::invalid_argument("pgi::canonical_bracket: series orders differ or are zero");
     Series r(M.ring(), N - 1);
     // d_x keeps the p-degree, d_p lowers it by one: [F,G]_m = sum_{a+b=m+1} {F_a, G_b}_can
     for (std::size_t m = 0; m + 1 < N; ++m)
@@ -279,7 +304,8 @@ Series pi_at(const PoissonStructure& pi, std::size_t i, std::size_t j, const std
 namespace {
 
 // The coordinates l whose x_l (resp. p_l) a series holds, over all its degrees.
-void used_coordinates(const PhaseSpace& M, const Series& s, std::size_t i, std::vector<std::vector<std::size_t>>& x_holders,
+void used_coordinates(const PhaseSpace& M, const Series& s, std::size_t i,
+                      std::vector<std::vector<std::size_t>>& x_holders,
                       std::vector<std::vector<std::size_t>>& p_holders) {
     std::vector<bool> any(M.ring()->size(), false);
     for (std::size_t m = 0; m < s.order(); ++m)
@@ -324,19 +350,19 @@ std::optional<RealisationDefect> realisation_defect(const PoissonStructure& pi, 
             if (!pi(i, j).is_zero()) pairs.insert({i, j});
     for (const auto& [i, j] : pairs) {
         BudgetStage stage(M.ring()->budget(), "realisation identities, row " + M.coordinates()[i], i + 1, n);
-            if (i < j) {
-                if (auto d = first_defect("{alpha_i, alpha_j} = pi_ij(alpha)", i, j,
-                                          canonical_bracket(M, r.alpha[i], r.alpha[j]), pi_at(pi, i, j, r.alpha, N)))
-                    return d;
-                if (auto d = first_defect("{beta_i, beta_j} = -pi_ij(beta)", i, j,
-                                          canonical_bracket(M, r.beta[i], r.beta[j]),
-                                          Rational(-1) * pi_at(pi, i, j, r.beta, N)))
-                    return d;
-            }
-            if (auto d = first_defect("{alpha_i, beta_j} = 0", i, j, canonical_bracket(M, r.alpha[i], r.beta[j]),
-                                      M.zero_series(N)))
+        if (i < j) {
+            if (auto d = first_defect("{alpha_i, alpha_j} = pi_ij(alpha)", i, j,
+                                      canonical_bracket(M, r.alpha[i], r.alpha[j]), pi_at(pi, i, j, r.alpha, N)))
+                return d;
+            if (auto d =
+                    first_defect("{beta_i, beta_j} = -pi_ij(beta)", i, j, canonical_bracket(M, r.beta[i], r.beta[j]),
+                                 Rational(-1) * pi_at(pi, i, j, r.beta, N)))
                 return d;
         }
+        if (auto d = first_defect("{alpha_i, beta_j} = 0", i, j, canonical_bracket(M, r.alpha[i], r.beta[j]),
+                                  M.zero_series(N)))
+            return d;
+    }
     return std::nullopt;
 }
 

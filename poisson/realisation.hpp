@@ -18,9 +18,9 @@ std::string to_string(RealisationChoice c);
 
 /// alpha_i and beta_i as series graded by p-degree, truncated after degree D (order D + 1).
 struct Realisation {
-    std::string method;            // "constant", "lie-poisson", "log-canonical" or "radial"
-    std::size_t degree;            // D
-    std::vector<Series> alpha;     // alpha[i][m]: the part of alpha_i of degree m in p
+    std::string method;         // "constant", "lie-poisson", "log-canonical" or "radial"
+    std::size_t degree;         // D
+    std::vector<Series> alpha;  // alpha[i][m]: the part of alpha_i of degree m in p
     std::vector<Series> beta;
 };
 
@@ -84,7 +84,7 @@ Series canonical_bracket(const PhaseSpace& M, const Series& F, const Series& G);
 struct RealisationDefect {
     std::string identity;  // "{alpha_i, alpha_j} = pi_ij(alpha)", ...
     std::size_t i, j;
-    std::size_t degree;    // p-degree of the first non-zero part of the defect
+    std::size_t degree;  // p-degree of the first non-zero part of the defect
     Poly defect;
 };
 /// Checks {alpha_i, alpha_j} = pi_ij(alpha), {beta_i, beta_j} = -pi_ij(beta), {alpha_i, beta_j} = 0

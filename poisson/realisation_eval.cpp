@@ -14,8 +14,8 @@ namespace pgi {
 RealisationValues::RealisationValues(std::size_t n)
     : alpha(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n))),
       delta(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n))),
-      alpha_x(Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n))),
-      alpha_p(alpha_x), delta_x(alpha_x), delta_p(alpha_x) {}
+      alpha_x(Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n))), alpha_p(alpha_x),
+      delta_x(alpha_x), delta_p(alpha_x) {}
 
 RealisationCheck::RealisationCheck(std::size_t n)
     : alpha(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n))), delta(alpha), size(alpha), shift(alpha) {}
@@ -23,20 +23,23 @@ RealisationCheck::RealisationCheck(std::size_t n)
 Poly absolute_coefficients(const Poly& f) {
     Poly a = f;
     fmpq_abs(a.get_mut()->content, a.get_mut()->content);
-    for (std::size_t i = 0; i < a.length(); ++i) fmpz_abs(a.get_mut()->zpoly->coeffs + i, a.get_mut()->zpoly->coeffs + i);
+    for (std::size_t i = 0; i < a.length(); ++i)
+        fmpz_abs(a.get_mut()->zpoly->coeffs + i, a.get_mut()->zpoly->coeffs + i);
     return a;
 }
 
 namespace {
 
 // The pattern of d f_i / d v_l over the variables v_l = vars[l]: the variables each f_i holds.
-SparsePattern derivative_pattern(const std::vector<std::vector<std::size_t>>& used, const std::vector<std::size_t>& vars) {
+SparsePattern derivative_pattern(const std::vector<std::vector<std::size_t>>& used,
+                                 const std::vector<std::size_t>& vars) {
     std::vector<int> column_of(vars.empty() ? 0 : *std::max_element(vars.begin(), vars.end()) + 1, -1);
     for (std::size_t l = 0; l < vars.size(); ++l) column_of[vars[l]] = static_cast<int>(l);
     std::vector<std::vector<int>> columns(vars.size());
     for (std::size_t i = 0; i < used.size(); ++i)
         for (std::size_t v : used[i])
-            if (v < column_of.size() && column_of[v] >= 0) columns[std::size_t(column_of[v])].push_back(static_cast<int>(i));
+            if (v < column_of.size() && column_of[v] >= 0)
+                columns[std::size_t(column_of[v])].push_back(static_cast<int>(i));
     return SparsePattern::from_columns(used.size(), std::move(columns));
 }
 
@@ -44,7 +47,8 @@ SparsePattern derivative_pattern(const std::vector<std::vector<std::size_t>>& us
 void push_derivatives(const std::vector<Poly>& f, const SparsePattern& pattern, const std::vector<std::size_t>& vars,
                       std::vector<Poly>& out) {
     for (std::size_t l = 0; l < pattern.cols; ++l)
-        for (int k = pattern.outer[l]; k < pattern.outer[l + 1]; ++k) out.push_back(derivative(f[std::size_t(pattern.inner[std::size_t(k)])], vars[l]));
+        for (int k = pattern.outer[l]; k < pattern.outer[l + 1]; ++k)
+            out.push_back(derivative(f[std::size_t(pattern.inner[std::size_t(k)])], vars[l]));
 }
 
 }  // namespace
@@ -132,7 +136,8 @@ std::vector<Eigen::MatrixXd> structure_matrices(const PoissonStructure& pi) {
         Eigen::MatrixXd C = Eigen::MatrixXd::Zero(n, n);
         for (Eigen::Index i = 0; i < n; ++i)
             for (Eigen::Index k = 0; k < n; ++k) {
-                Poly c = derivative(pi(static_cast<std::size_t>(i), static_cast<std::size_t>(j)), M.x(static_cast<std::size_t>(k)));
+                Poly c = derivative(pi(static_cast<std::size_t>(i), static_cast<std::size_t>(j)),
+                                    M.x(static_cast<std::size_t>(k)));
                 if (!c.is_zero()) C(i, k) = c.term_coeff(0).to_double();
             }
         Cs.push_back(std::move(C));
@@ -178,11 +183,13 @@ RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& p
     e.form_ = Form::lie_poisson;
     e.C_ = structure_matrices(pi);
     for (std::size_t m = 0; m <= D; ++m) e.b_.push_back((bernoulli(m) * inverse_factorial(m)).to_double());
-    for (std::size_t j = 0; j < coth_terms; ++j) e.q_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
+    for (std::size_t j = 0; j < coth_terms; ++j)
+        e.q_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
     e.radius_ = series_radius_for(D);
     e.v_prev_.resize(n);
     e.v_next_.resize(n);
-    for (auto* M : {&e.L_, &e.W_prev_, &e.W_next_, &e.power_, &e.tmp_, &e.Z_, &e.Y_, &e.Q_, &e.Qn_, &e.A2_, &e.M_, &e.G_})
+    for (auto* M :
+         {&e.L_, &e.W_prev_, &e.W_next_, &e.power_, &e.tmp_, &e.Z_, &e.Y_, &e.Q_, &e.Qn_, &e.A2_, &e.M_, &e.G_})
         M->resize(n, n);
     e.dQ_.assign(static_cast<std::size_t>(2 * n), Eigen::MatrixXd(n, n));  // dQ/dp_j, then d(Z^2)/dp_j
     e.lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(n);
@@ -230,10 +237,14 @@ RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) 
 std::size_t RealisationEvaluator::cost(bool sparse) const {
     const std::size_t n = n_;
     switch (form_) {
-        case Form::log_canonical: return sparse ? 12 * a_pattern_.nonzeros() + 20 * n : 6 * n * n + 20 * n;
-        case Form::lie_poisson: return b_.size() * (2 * n * n * n + 3 * n * n);
-        case Form::rotation: return 150;
-        case Form::polynomial: break;
+        case Form::log_canonical:
+            return sparse ? 12 * a_pattern_.nonzeros() + 20 * n : 6 * n * n + 20 * n;
+        case Form::lie_poisson:
+            return b_.size() * (2 * n * n * n + 3 * n * n);
+        case Form::rotation:
+            return 150;
+        case Form::polynomial:
+            break;
     }
     return map_.num_terms() + map_.num_monomials();
 }
@@ -243,8 +254,8 @@ std::vector<CompiledMap*> RealisationEvaluator::compiled_maps() {
     return {&map_, &values_map_, &size_map_, &delta_map_};
 }
 
-const double* RealisationEvaluator::eval_polynomial(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha,
-                                                   Eigen::VectorXd& delta) const {
+const double* RealisationEvaluator::eval_polynomial(const Eigen::VectorXd& x, const Eigen::VectorXd& p,
+                                                    Eigen::VectorXd& alpha, Eigen::VectorXd& delta) const {
     const auto n = static_cast<Eigen::Index>(n_);
     in_.head(n) = x;
     in_.tail(n) = p;
@@ -276,10 +287,17 @@ template LaneMapScratch<lanes::Pack4> RealisationEvaluator::lane_scratch<lanes::
 
 void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
     switch (form_) {
-        case Form::log_canonical: eval_log_canonical(x, p, v); return;
-        case Form::lie_poisson: eval_lie_poisson(x, p, v); return;
-        case Form::rotation: eval_rotation(x, p, v); return;
-        case Form::polynomial: break;
+        case Form::log_canonical:
+            eval_log_canonical(x, p, v);
+            return;
+        case Form::lie_poisson:
+            eval_lie_poisson(x, p, v);
+            return;
+        case Form::rotation:
+            eval_rotation(x, p, v);
+            return;
+        case Form::polynomial:
+            break;
     }
     const double* d = eval_polynomial(x, p, v.alpha, v.delta);
     const std::size_t nx = pattern_x_.nonzeros(), np = pattern_p_.nonzeros();
@@ -312,8 +330,8 @@ struct LieScratch {
 // alpha = sum_m b_m L^m x with alpha_x = sum_m b_m L^m and alpha_p (column j) = sum_m b_m d(L^m x)/dp_j.
 // v_m = L^m x; W_m = d v_m / dp, column j = C_j v_{m-1} + L (column j of W_{m-1}).
 template <int N>
-void lie_poisson_series(const std::vector<double>& b, const std::vector<Eigen::MatrixXd>& C, const double* L, const double* x,
-                        Eigen::Index n_runtime, LieScratch s, double* alpha, double* ax, double* ap) {
+void lie_poisson_series(const std::vector<double>& b, const std::vector<Eigen::MatrixXd>& C, const double* L,
+                        const double* x, Eigen::Index n_runtime, LieScratch s, double* alpha, double* ax, double* ap) {
     const Eigen::Index n = N > 0 ? N : n_runtime;
     for (Eigen::Index i = 0; i < n; ++i) {
         s.vp[i] = x[i];
@@ -401,16 +419,25 @@ void RealisationEvaluator::coth_form(bool derivatives) const {
     }
 }
 
-void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
+void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p,
+                                            RealisationValues& v) const {
     const auto n = static_cast<Eigen::Index>(n_);
     form_L(p);
     if (operator_norm(L_) <= radius_) {
         const LieScratch s{v_prev_.data(), v_next_.data(), W_prev_.data(), W_next_.data(), power_.data(), tmp_.data()};
         // NOTE: so(3)* and e(3)* (n = 3, 6) get loops of fixed length, which the compiler unrolls: ~2x.
         switch (n) {
-            case 3: lie_poisson_series<3>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data()); break;
-            case 6: lie_poisson_series<6>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data()); break;
-            default: lie_poisson_series<0>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(), v.alpha_p.data());
+            case 3:
+                lie_poisson_series<3>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(),
+                                      v.alpha_p.data());
+                break;
+            case 6:
+                lie_poisson_series<6>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(),
+                                      v.alpha_p.data());
+                break;
+            default:
+                lie_poisson_series<0>(b_, C_, L_.data(), x.data(), n, s, v.alpha.data(), v.alpha_x.data(),
+                                      v.alpha_p.data());
         }
     } else {
         // g(L) = -L/2 + Q(L); d g(L) x / dp_j = -C_j x / 2 + dQ_j x
@@ -426,12 +453,14 @@ void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eige
     // delta = beta - alpha = -2 sum_{m odd} B_m/m! L^m x = L(p) x: B_1 = -1/2 and B_3 = B_5 = ... = 0
     matvec<0>(L_.data(), x.data(), v.delta.data(), n);
     v.delta_x = L_;
-    for (Eigen::Index j = 0; j < n; ++j) matvec<0>(C_[static_cast<std::size_t>(j)].data(), x.data(), v.delta_p.col(j).data(), n);
+    for (Eigen::Index j = 0; j < n; ++j)
+        matvec<0>(C_[static_cast<std::size_t>(j)].data(), x.data(), v.delta_p.col(j).data(), n);
 }
 
 // The so(3) closed form (poisson/realisation_lanes.cpp, one lane) and delta's derivatives: delta = L(p) x, so
 // delta_x = L(p) and delta_p e_j = C_j x.
-void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
+void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p,
+                                         RealisationValues& v) const {
     LaneRealisation<3, double> r;
     LaneMapScratch<double> unused;
     eval_lanes<3>(x.data(), p.data(), r, unused);
@@ -454,7 +483,8 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             c.shift = out_.segment(0, n);
             c.alpha = x + c.shift;
             c.delta = out_.segment(n, n);
-            for (std::size_t o = 2 * n_; o < values_map_.num_outputs(); ++o) c.neglected = std::max(c.neglected, std::abs(out_[Eigen::Index(o)]));
+            for (std::size_t o = 2 * n_; o < values_map_.num_outputs(); ++o)
+                c.neglected = std::max(c.neglected, std::abs(out_[Eigen::Index(o)]));
             in_ = in_.cwiseAbs();
             size_map_.eval(in_.data(), c.size.data());
             c.size += x.cwiseAbs();

@@ -29,7 +29,7 @@ struct SparseRealisationValues {
 /// (x_b - x) + shift then resolves what alpha, rounded to the ulps of x, cannot (docs/math.md 6, Casimirs).
 struct RealisationCheck {
     Eigen::VectorXd alpha, delta, size, shift;
-    double neglected = 0;                                // max_i |A_{D+1,i}| + |A_{D+2,i}| at (x, p)
+    double neglected = 0;  // max_i |A_{D+1,i}| + |A_{D+2,i}| at (x, p)
     explicit RealisationCheck(std::size_t n = 0);
 };
 
@@ -102,7 +102,9 @@ public:
     void delta(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& delta) const;
     /// Whether eval_lanes and check_lanes serve this form: the so(3) and log-canonical closed forms and the compiled
     /// polynomial one (the Lie-Poisson series has none yet).
-    bool has_lane_form() const { return form_ == Form::rotation || form_ == Form::log_canonical || form_ == Form::polynomial; }
+    bool has_lane_form() const {
+        return form_ == Form::rotation || form_ == Form::log_canonical || form_ == Form::polynomial;
+    }
     /// eval's alpha, delta, alpha_x and alpha_p (and check's values) at N = dim() states at once or one
     /// (poisson/realisation_lanes.cpp): each lane's numbers are those of the double instantiation on it, bit for bit.
     /// Allocates nothing with s from lane_scratch<T>(). Requires has_lane_form().
@@ -111,10 +113,12 @@ public:
     template <int N, class T>
     void eval_lanes(const T* x, const T* p, LaneRealisation<N, T>& v, LaneMapScratch<T>& s) const;
     template <int N, class T>
-    void check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s, const LaneRealisation<N, T>* near = nullptr) const;
+    void check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s,
+                     const LaneRealisation<N, T>* near = nullptr) const;
     /// check_lanes' delta alone.
     template <int N, class T>
-    void delta_lanes(const T* x, const T* p, T* delta, LaneMapScratch<T>& s, const LaneRealisation<N, T>* near = nullptr) const;
+    void delta_lanes(const T* x, const T* p, T* delta, LaneMapScratch<T>& s,
+                     const LaneRealisation<N, T>* near = nullptr) const;
     /// Lie-Poisson: the largest |L(p)|_inf at which the truncated series is used (beyond: scaling and squaring).
     double series_radius() const { return radius_; }
     /// Lie-Poisson: |L(p)|_inf, and the smallest D in [D_min, D_max] whose series is used at that norm (D_max if none).
@@ -125,17 +129,20 @@ private:
     enum class Form { polynomial, log_canonical, lie_poisson, rotation };
     void eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     template <class T, class Put>  // (poisson/log_canonical.ipp)
-    void log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put, T* exponent = nullptr, T* em1 = nullptr) const;
+    void log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put, T* exponent = nullptr,
+                                   T* em1 = nullptr) const;
     template <class T>
-    void log_canonical_delta(const T* x, const T* p, T* delta, const T* exponent_near = nullptr, const T* em1_near = nullptr) const;
-    template <class T>
-    void log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift, const T* exponent_near = nullptr,
+    void log_canonical_delta(const T* x, const T* p, T* delta, const T* exponent_near = nullptr,
                              const T* em1_near = nullptr) const;
+    template <class T>
+    void log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift,
+                             const T* exponent_near = nullptr, const T* em1_near = nullptr) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     /// The compiled polynomial form at (x, p): alpha and delta written, the derivatives' values returned
     /// (alpha_x, delta_x on pattern_x_, then alpha_p, delta_p on pattern_p_, in pattern order).
-    const double* eval_polynomial(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha, Eigen::VectorXd& delta) const;
+    const double* eval_polynomial(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha,
+                                  Eigen::VectorXd& delta) const;
     void form_L(const Eigen::VectorXd& p) const;
     void coth_form(bool derivatives) const;
     void alpha_sizes(const Eigen::VectorXd& x, const Eigen::MatrixXd& ax, RealisationCheck& c) const;
@@ -147,16 +154,16 @@ private:
     std::vector<int> a_to_x_, a_to_p_;  // ... and where entry (j, l) of the derivatives sits in pattern_x_, pattern_p_
     std::vector<int> diagonal_x_;       // log-canonical: where (j, j) sits in pattern_x_
     SparsePattern pattern_x_, pattern_p_;
-    mutable RealisationValues dense_;   // Lie-Poisson forms: evaluated dense, then gathered on the (full) patterns
-    std::vector<Eigen::MatrixXd> C_;    // Lie-Poisson: C_[j](i, k) = c_ij^k = dL(p)/dp_j
-    std::vector<double> b_;             // Lie-Poisson: B_m / m!, m = 0..D; rotation: B_2j / (2j)!, j = 1..20
-    double axial_[3][3] = {};           // rotation: the axial vector c_j of each C_j (C_j v = c_j x v), read at every step
-    std::vector<double> q_;             // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
-    double radius_ = 0;                 // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off
-    CompiledMap map_;                   // polynomial: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
-    CompiledMap values_map_;            // polynomial: alpha, delta, then the neglected parts
-    CompiledMap size_map_;              // polynomial: alpha with every coefficient replaced by its absolute value
-    CompiledMap delta_map_;             // polynomial: delta alone
+    mutable RealisationValues dense_;  // Lie-Poisson forms: evaluated dense, then gathered on the (full) patterns
+    std::vector<Eigen::MatrixXd> C_;   // Lie-Poisson: C_[j](i, k) = c_ij^k = dL(p)/dp_j
+    std::vector<double> b_;            // Lie-Poisson: B_m / m!, m = 0..D; rotation: B_2j / (2j)!, j = 1..20
+    double axial_[3][3] = {};  // rotation: the axial vector c_j of each C_j (C_j v = c_j x v), read at every step
+    std::vector<double> q_;    // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
+    double radius_ = 0;        // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off
+    CompiledMap map_;          // polynomial: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
+    CompiledMap values_map_;   // polynomial: alpha, delta, then the neglected parts
+    CompiledMap size_map_;     // polynomial: alpha with every coefficient replaced by its absolute value
+    CompiledMap delta_map_;    // polynomial: delta alone
     mutable Eigen::VectorXd in_, out_, u_, v_prev_, v_next_;
     mutable Eigen::MatrixXd L_, W_prev_, W_next_, power_, tmp_;
     // Lie-Poisson, scaling and squaring: Z, its square, Q and its next, a^2, and dQ/dp_j for each j

@@ -22,7 +22,8 @@ struct DensePut {
 
 }  // namespace
 
-void RealisationEvaluator::eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const {
+void RealisationEvaluator::eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p,
+                                              RealisationValues& v) const {
     for (auto* m : {&v.alpha_x, &v.alpha_p, &v.delta_x, &v.delta_p}) m->setZero();
     log_canonical_derivatives(x.data(), p.data(), v.alpha.data(), v.delta.data(), DensePut{v});
 }
@@ -56,14 +57,17 @@ struct SparsePut {
 };
 
 // The values of a dense block on a full pattern (column-major, as the dense block is stored).
-void gather(const Eigen::MatrixXd& m, std::vector<double>& out) { std::copy(m.data(), m.data() + m.size(), out.begin()); }
+void gather(const Eigen::MatrixXd& m, std::vector<double>& out) {
+    std::copy(m.data(), m.data() + m.size(), out.begin());
+}
 
 }  // namespace
 
 void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, SparseRealisationValues& v) const {
     switch (form_) {
         case Form::log_canonical:
-            log_canonical_derivatives(x.data(), p.data(), v.alpha.data(), v.delta.data(), SparsePut{v, a_to_x_, a_to_p_, diagonal_x_});
+            log_canonical_derivatives(x.data(), p.data(), v.alpha.data(), v.delta.data(),
+                                      SparsePut{v, a_to_x_, a_to_p_, diagonal_x_});
             return;
         case Form::lie_poisson:
         case Form::rotation:
@@ -72,7 +76,8 @@ void RealisationEvaluator::eval(const Eigen::VectorXd& x, const Eigen::VectorXd&
             gather(dense_.alpha_x, v.alpha_x), gather(dense_.delta_x, v.delta_x);
             gather(dense_.alpha_p, v.alpha_p), gather(dense_.delta_p, v.delta_p);
             return;
-        case Form::polynomial: break;
+        case Form::polynomial:
+            break;
     }
     const double* d = eval_polynomial(x, p, v.alpha, v.delta);
     const std::size_t nx = pattern_x_.nonzeros(), np = pattern_p_.nonzeros();

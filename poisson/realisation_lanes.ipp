@@ -18,11 +18,13 @@ namespace {
 // The compiled map at one state (eval) or at lanes::width (structure of arrays: a Pack array is input v of lane w
 // at v width + w) by the lane kernel compiled in this file, what eval_batch runs on one block: each lane eval's
 // bits. scratch is sized by RealisationEvaluator::lane_scratch (in the baseline library).
-void eval_map(const CompiledMap& map, const double* in, double* out, std::vector<double>&) { map.eval(in, out); }
+void eval_map(const CompiledMap& map, const double* in, double* out, std::vector<double>&) {
+    map.eval(in, out);
+}
 template <std::size_t P>
 void eval_map(const CompiledMap& map, const lanes::PackOf<P>* in, lanes::PackOf<P>* out, std::vector<double>& scratch) {
-    eval_tape_lanes<lanes::width>(map.tape(), reinterpret_cast<const double*>(in), lanes::width, reinterpret_cast<double*>(out),
-                                  lanes::width, scratch.data());
+    eval_tape_lanes<lanes::width>(map.tape(), reinterpret_cast<const double*>(in), lanes::width,
+                                  reinterpret_cast<double*>(out), lanes::width, scratch.data());
 }
 
 // h(s) = (1 - (t/2) cot(t/2)) / s, s = t^2, and dh/ds in closed form: for s > 4, where the series below is slow.
@@ -102,10 +104,13 @@ void rotation_coefficient(T s, const std::vector<double>& b, T& h, T& dh) {
 template <int N, class T>
 struct LanePut {
     LaneRealisation<N, T>& v;
-    PGI_LANE_INLINE void operator()(std::size_t, std::size_t j, std::size_t l, const T& ax, const T& ap, const T&, const T&) const {
+    PGI_LANE_INLINE void operator()(std::size_t, std::size_t j, std::size_t l, const T& ax, const T& ap, const T&,
+                                    const T&) const {
         v.alpha_x[j + N * l] = ax, v.alpha_p[j + N * l] = ap;
     }
-    PGI_LANE_INLINE void diagonal(std::size_t j, const T& e, const T&) const { v.alpha_x[j + N * j] = v.alpha_x[j + N * j] + e; }
+    PGI_LANE_INLINE void diagonal(std::size_t j, const T& e, const T&) const {
+        v.alpha_x[j + N * j] = v.alpha_x[j + N * j] + e;
+    }
 };
 
 template <class T>
@@ -162,7 +167,8 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
                 const double* c = axial_[j];
                 const Vec3<T> Cx = cross(c, r.X), a = cross(c, r.Lx), b = cross(r.w, Cx);
                 const T slope = dh * (2.0 * ((r.w.v[0] * c[0] + r.w.v[1] * c[1]) + r.w.v[2] * c[2]));
-                for (int i = 0; i < 3; ++i) v.alpha_p[i + 3 * j] = (-0.5 * Cx.v[i] + h * (a.v[i] + b.v[i])) + slope * r.L2x.v[i];
+                for (int i = 0; i < 3; ++i)
+                    v.alpha_p[i + 3 * j] = (-0.5 * Cx.v[i] + h * (a.v[i] + b.v[i])) + slope * r.L2x.v[i];
             }
             return;
         }
@@ -184,8 +190,10 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
     const T* ax = o + 2 * N;
     const T* ap = ax + 2 * nx;
     for (std::size_t col = 0; col < std::size_t(N); ++col) {
-        for (int k = pattern_x_.outer[col]; k < pattern_x_.outer[col + 1]; ++k) v.alpha_x[std::size_t(pattern_x_.inner[std::size_t(k)]) + N * col] = ax[k];
-        for (int k = pattern_p_.outer[col]; k < pattern_p_.outer[col + 1]; ++k) v.alpha_p[std::size_t(pattern_p_.inner[std::size_t(k)]) + N * col] = ap[k];
+        for (int k = pattern_x_.outer[col]; k < pattern_x_.outer[col + 1]; ++k)
+            v.alpha_x[std::size_t(pattern_x_.inner[std::size_t(k)]) + N * col] = ax[k];
+        for (int k = pattern_p_.outer[col]; k < pattern_p_.outer[col + 1]; ++k)
+            v.alpha_p[std::size_t(pattern_p_.inner[std::size_t(k)]) + N * col] = ap[k];
     }
 }
 
@@ -193,7 +201,8 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
 // delta, the neglected parts: their largest |value| in `neglected`) and the sizes (every coefficient made
 // positive, at (|x|, |p|)) plus |x|.
 template <int N, class T>
-void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s, const LaneRealisation<N, T>* near) const {
+void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s,
+                                       const LaneRealisation<N, T>* near) const {
     c.neglected = T{};
     if constexpr (N == 3) {
         if (form_ == Form::rotation) {
@@ -204,26 +213,31 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
                 c.alpha[i] = (r.X.v[i] - 0.5 * r.Lx.v[i]) + h * r.L2x.v[i];
                 c.shift[i] = h * r.L2x.v[i] - 0.5 * r.Lx.v[i];
                 c.delta[i] = r.Lx.v[i];
-                c.size[i] = (lanes::abs(r.X.v[i]) + 0.5 * lanes::abs(r.Lx.v[i])) + lanes::abs(h) * lanes::abs(r.L2x.v[i]);
+                c.size[i] =
+                    (lanes::abs(r.X.v[i]) + 0.5 * lanes::abs(r.Lx.v[i])) + lanes::abs(h) * lanes::abs(r.L2x.v[i]);
             }
             return;
         }
     }
     if (form_ == Form::log_canonical) {
-        log_canonical_check(x, p, c.alpha, c.delta, c.size, c.shift, near ? near->exponent : nullptr, near ? near->em1 : nullptr);
+        log_canonical_check(x, p, c.alpha, c.delta, c.size, c.shift, near ? near->exponent : nullptr,
+                            near ? near->em1 : nullptr);
         return;
     }
     for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
     eval_map(values_map_, s.in.data(), s.out.data(), s.map);
-    for (int i = 0; i < N; ++i) c.shift[i] = s.out[std::size_t(i)], c.alpha[i] = x[i] + c.shift[i], c.delta[i] = s.out[std::size_t(N + i)];
-    for (std::size_t o = 2 * N; o < values_map_.num_outputs(); ++o) c.neglected = lanes::max(c.neglected, lanes::abs(s.out[o]));
+    for (int i = 0; i < N; ++i)
+        c.shift[i] = s.out[std::size_t(i)], c.alpha[i] = x[i] + c.shift[i], c.delta[i] = s.out[std::size_t(N + i)];
+    for (std::size_t o = 2 * N; o < values_map_.num_outputs(); ++o)
+        c.neglected = lanes::max(c.neglected, lanes::abs(s.out[o]));
     for (auto& e : s.in) e = lanes::abs(e);
     eval_map(size_map_, s.in.data(), c.size, s.map);
     for (int i = 0; i < N; ++i) c.size[i] = c.size[i] + lanes::abs(x[i]);
 }
 
 template <int N, class T>
-void RealisationEvaluator::delta_lanes(const T* x, const T* p, T* delta, LaneMapScratch<T>& s, const LaneRealisation<N, T>* near) const {
+void RealisationEvaluator::delta_lanes(const T* x, const T* p, T* delta, LaneMapScratch<T>& s,
+                                       const LaneRealisation<N, T>* near) const {
     if constexpr (N == 3) {
         if (form_ == Form::rotation) {  // delta = L x = w x x (RotationAt's Lx)
             Vec3<T> w;
@@ -241,15 +255,17 @@ void RealisationEvaluator::delta_lanes(const T* x, const T* p, T* delta, LaneMap
     eval_map(delta_map_, s.in.data(), delta, s.map);
 }
 
-#define PGI_REALISATION_LANES(T)                                                                                          \
-    PGI_LANE_FORMS(2, T)                                                                                                   \
-    PGI_LANE_FORMS(3, T)                                                                                                   \
-    PGI_LANE_FORMS(4, T)                                                                                                   \
+#define PGI_REALISATION_LANES(T) \
+    PGI_LANE_FORMS(2, T)         \
+    PGI_LANE_FORMS(3, T)         \
+    PGI_LANE_FORMS(4, T)         \
     PGI_LANE_FORMS(6, T)
-#define PGI_LANE_FORMS(N, T)                                                                                                       \
-    template void RealisationEvaluator::eval_lanes<N, T>(const T*, const T*, LaneRealisation<N, T>&, LaneMapScratch<T>&) const; \
-    template void RealisationEvaluator::check_lanes<N, T>(const T*, const T*, LaneCheck<N, T>&, LaneMapScratch<T>&,              \
-                                                         const LaneRealisation<N, T>*) const;                                   \
-    template void RealisationEvaluator::delta_lanes<N, T>(const T*, const T*, T*, LaneMapScratch<T>&, const LaneRealisation<N, T>*) const;
+#define PGI_LANE_FORMS(N, T)                                                                                        \
+    template void RealisationEvaluator::eval_lanes<N, T>(const T*, const T*, LaneRealisation<N, T>&,                \
+                                                         LaneMapScratch<T>&) const;                                 \
+    template void RealisationEvaluator::check_lanes<N, T>(const T*, const T*, LaneCheck<N, T>&, LaneMapScratch<T>&, \
+                                                          const LaneRealisation<N, T>*) const;                      \
+    template void RealisationEvaluator::delta_lanes<N, T>(const T*, const T*, T*, LaneMapScratch<T>&,               \
+                                                          const LaneRealisation<N, T>*) const;
 
 }  // namespace pgi

@@ -12,8 +12,9 @@ namespace {
 
 // The fewest m whose Hessian terms past S_m are negligible at the typical state (compile_gradient); hessians[j] holds
 // Hess S_{j+1}'s entries r <= c, numbered as g.hessian_value numbers the pattern's.
-std::size_t hessian_terms_needed(const PhaseSpace& M, const CompiledGradient& g, const std::vector<std::vector<Poly>>& hessians,
-                                 double dt, const HessianTruncation& t) {
+std::size_t hessian_terms_needed(const PhaseSpace& M, const CompiledGradient& g,
+                                 const std::vector<std::vector<Poly>>& hessians, double dt,
+                                 const HessianTruncation& t) {
     const std::vector<double> x = M.point(t.x_typical);
     // what S_j's Hessian terms move J by: alpha_p_size times their inf norm (a column sum: the matrix is symmetric)
     const SparsePattern& P = g.hessian;
@@ -36,7 +37,8 @@ std::size_t hessian_terms_needed(const PhaseSpace& M, const CompiledGradient& g,
 
 }  // namespace
 
-CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt, const HessianTruncation& truncation) {
+CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt,
+                                  const HessianTruncation& truncation) {
     const std::size_t n = M.dim();
     std::vector<std::vector<Poly>> grad(S.size()), sizes(S.size()), with_hessian(S.size());
     std::vector<std::vector<int>> columns(n);
@@ -68,7 +70,8 @@ CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& 
     for (std::size_t j = 0; j < S.size(); ++j)
         for (std::size_t c = 0; c < n; ++c)
             for (int k = P.outer[c]; k < P.outer[c + 1]; ++k)
-                if (const auto r = std::size_t(P.inner[std::size_t(k)]); r <= c) hessians[j].push_back(derivative(grad[j][c], M.x(r)));
+                if (const auto r = std::size_t(P.inner[std::size_t(k)]); r <= c)
+                    hessians[j].push_back(derivative(grad[j][c], M.x(r)));
     g.hessian_terms = S.size();
     if (!truncation.x_typical.empty() && n <= hessian_truncation_dim && planned_dt > 0 && truncation.bound > 0)
         g.hessian_terms = hessian_terms_needed(M, g, hessians, planned_dt, truncation);

@@ -15,13 +15,13 @@
 namespace pgi {
 
 struct CompiledGradient {
-    SparsePattern hessian;       // (r, c) where some d_c S_j holds x_r (a symmetric pattern)
+    SparsePattern hessian;  // (r, c) where some d_c S_j holds x_r (a symmetric pattern)
     /// Pattern entry k's value is with_hessian's output n + hessian_value[k] (the entries r <= c numbered in
     /// pattern order; (c, r) shares the number of (r, c)).
     std::vector<std::uint32_t> hessian_value;
-    DtSeriesMap with_hessian;    // (x, dt) -> grad S_dt (n values), then Hess S_dt's entries r <= c (pattern order)
-    DtSeriesMap gradient;        // (x, dt) -> grad S_dt
-    DtSeriesMap gradient_size;   // (|x|, dt) -> the sizes of grad S_dt's terms (every coefficient made positive)
+    DtSeriesMap with_hessian;   // (x, dt) -> grad S_dt (n values), then Hess S_dt's entries r <= c (pattern order)
+    DtSeriesMap gradient;       // (x, dt) -> grad S_dt
+    DtSeriesMap gradient_size;  // (|x|, dt) -> the sizes of grad S_dt's terms (every coefficient made positive)
     /// How many of S_1..S_k with_hessian's Hessian reads (k unless truncated, see compile_gradient), and, when fewer,
     /// the whole Hess S_dt's entries r <= c (what the tangent map needs; empty otherwise).
     std::size_t hessian_terms = 0;

@@ -9,29 +9,34 @@
 namespace pgi {
 
 struct StepOptions {
-    std::size_t k = 2;                    // Hamilton-Jacobi order
-    double dt = 0.1;                      // the largest dt the caller plans: the degree and predictor are chosen for it
+    std::size_t k = 2;  // Hamilton-Jacobi order
+    double dt = 0.1;    // the largest dt the caller plans: the degree and predictor are chosen for it
     RealisationChoice realisation = RealisationChoice::automatic;
-    std::size_t max_degree = 24;          // cap on the p-degree D of a truncated realisation
-    int newton_max_iter = 100;            // evaluations, backtracking included (large steps may need 30-70)
-    double newton_tol = 1e-9;             // try the acceptance test once |dx| <= tol max(|x|, |xb|): the next correction is ~|dx|^2
-    double truncation_bound = 1e-12;      // a truncated realisation's neglected terms at the solution, relative to |x|
-    std::size_t predictor_order = 0;      // P of the base point's series; 0 chooses it by cost, up to max(k + 1, 8)
-    NewtonSolverChoice solver = NewtonSolverChoice::automatic;  // the Newton matrix dense or sparse (NewtonMatrix::choose)
-    bool jit = false;                     // the step's compiled maps as native code (series/native.hpp): the same bits, faster
+    std::size_t max_degree = 24;  // cap on the p-degree D of a truncated realisation
+    int newton_max_iter = 100;    // evaluations, backtracking included (large steps may need 30-70)
+    double newton_tol =
+        1e-9;  // try the acceptance test once |dx| <= tol max(|x|, |xb|): the next correction is ~|dx|^2
+    double truncation_bound = 1e-12;  // a truncated realisation's neglected terms at the solution, relative to |x|
+    std::size_t predictor_order = 0;  // P of the base point's series; 0 chooses it by cost, up to max(k + 1, 8)
+    NewtonSolverChoice solver =
+        NewtonSolverChoice::automatic;  // the Newton matrix dense or sparse (NewtonMatrix::choose)
+    bool jit = false;  // the step's compiled maps as native code (series/native.hpp): the same bits, faster
 };
 
 /// How the step was built: the realisation's method and degree, and the size of the neglected
 /// terms at the typical state (zero for exact closed forms).
 struct StepInfo {
     std::string method;
-    std::size_t degree = 0;               // D (0 for the log-canonical closed form, which has no truncation)
+    std::size_t degree = 0;  // D (0 for the log-canonical closed form, which has no truncation)
     bool exact_realisation = false;
-    double truncation_estimate = 0;       // max_{m > D} |A_m(x, grad S_dt(x))|_inf / |x|_inf at the typical state (probed degrees)
-    std::size_t predictor_order = 0;      // the base point is predicted by its exact series in dt to this order
-    NewtonSolver solver = NewtonSolver::dense;  // sparse: J, Hess S_dt and the realisation's derivatives on their patterns
-    std::size_t native_maps = 0;          // the compiled maps that run native code (StepOptions::jit)
-    std::size_t hessian_terms = 0;        // the S_j the Newton matrix's Hess S_dt reads (k unless truncated: compile_gradient)
+    double truncation_estimate =
+        0;  // max_{m > D} |A_m(x, grad S_dt(x))|_inf / |x|_inf at the typical state (probed degrees)
+    std::size_t predictor_order = 0;  // the base point is predicted by its exact series in dt to this order
+    NewtonSolver solver =
+        NewtonSolver::dense;      // sparse: J, Hess S_dt and the realisation's derivatives on their patterns
+    std::size_t native_maps = 0;  // the compiled maps that run native code (StepOptions::jit)
+    std::size_t hessian_terms =
+        0;  // the S_j the Newton matrix's Hess S_dt reads (k unless truncated: compile_gradient)
 };
 
 }  // namespace pgi

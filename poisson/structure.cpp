@@ -10,10 +10,14 @@ namespace pgi {
 
 std::string to_string(StructureClass c) {
     switch (c) {
-        case StructureClass::constant: return "constant";
-        case StructureClass::linear: return "linear";
-        case StructureClass::log_canonical: return "log-canonical";
-        case StructureClass::general: return "general";
+        case StructureClass::constant:
+            return "constant";
+        case StructureClass::linear:
+            return "linear";
+        case StructureClass::log_canonical:
+            return "log-canonical";
+        case StructureClass::general:
+            return "general";
     }
     return "?";
 }
@@ -39,7 +43,8 @@ bool is_log_canonical_entry(std::size_t i, std::size_t j, const Poly& f) {
 
 StructureClass classify(const PhaseSpace& M, const Entries& pi) {
     const VarMask all(M.ring()->size(), true);
-    if (all_entries(pi, [](auto, auto, const Poly& f) { return f.total_degree() == 0; })) return StructureClass::constant;
+    if (all_entries(pi, [](auto, auto, const Poly& f) { return f.total_degree() == 0; }))
+        return StructureClass::constant;
     if (all_entries(pi, [&](auto, auto, const Poly& f) { return homogeneous_part(f, all, 1) == f; }))
         return StructureClass::linear;
     if (all_entries(pi, is_log_canonical_entry)) return StructureClass::log_canonical;
@@ -53,9 +58,11 @@ namespace {
 // The non-zero entries of an n x n matrix (which must be n x n).
 Entries nonzero_entries(const PhaseSpace& M, std::vector<std::vector<Poly>> matrix) {
     const std::size_t n = M.dim();
-    if (matrix.size() != n) throw std::invalid_argument("pi must be a " + std::to_string(n) + " x " + std::to_string(n) + " matrix");
+    if (matrix.size() != n)
+        throw std::invalid_argument("pi must be a " + std::to_string(n) + " x " + std::to_string(n) + " matrix");
     for (const auto& row : matrix)
-        if (row.size() != n) throw std::invalid_argument("pi must be a " + std::to_string(n) + " x " + std::to_string(n) + " matrix");
+        if (row.size() != n)
+            throw std::invalid_argument("pi must be a " + std::to_string(n) + " x " + std::to_string(n) + " matrix");
     Entries entries;
     for (std::size_t i = 0; i < n; ++i)
         for (std::size_t j = 0; j < n; ++j)
@@ -79,15 +86,17 @@ PoissonStructure::PoissonStructure(PhaseSpace M, std::map<std::pair<std::size_t,
     // the first pair i <= j (in that order) where pi_ij + pi_ji != 0
     std::optional<std::pair<std::size_t, std::size_t>> bad;
     for (const auto& [ij, f] : entries) {
-        if (ij.first >= n || ij.second >= n) throw std::invalid_argument("pi: an entry outside the " + std::to_string(n) + " coordinates");
+        if (ij.first >= n || ij.second >= n)
+            throw std::invalid_argument("pi: an entry outside the " + std::to_string(n) + " coordinates");
         const std::pair<std::size_t, std::size_t> pair{std::min(ij.first, ij.second), std::max(ij.first, ij.second)};
         if (!(f + at(ij.second, ij.first)).is_zero() && (!bad || pair < *bad)) bad = pair;
     }
     if (bad) {
         const auto [i, j] = *bad;
-        throw std::invalid_argument("pi is not skew-symmetric at (" + M_.coordinates()[i] + ", " + M_.coordinates()[j] + "): {" +
-                                    M_.coordinates()[i] + "," + M_.coordinates()[j] + "} = " + at(i, j).to_string() + " but {" +
-                                    M_.coordinates()[j] + "," + M_.coordinates()[i] + "} = " + at(j, i).to_string());
+        throw std::invalid_argument("pi is not skew-symmetric at (" + M_.coordinates()[i] + ", " + M_.coordinates()[j] +
+                                    "): {" + M_.coordinates()[i] + "," + M_.coordinates()[j] +
+                                    "} = " + at(i, j).to_string() + " but {" + M_.coordinates()[j] + "," +
+                                    M_.coordinates()[i] + "} = " + at(j, i).to_string());
     }
     class_ = classify(M_, entries);
     rows_.resize(n);
@@ -103,13 +112,15 @@ PoissonStructure::PoissonStructure(PhaseSpace M, std::map<std::pair<std::size_t,
 }
 
 const Poly& PoissonStructure::operator()(std::size_t i, std::size_t j) const {
-    auto it = std::lower_bound(rows_[i].begin(), rows_[i].end(), j, [](const Entry& e, std::size_t v) { return e.j < v; });
+    auto it =
+        std::lower_bound(rows_[i].begin(), rows_[i].end(), j, [](const Entry& e, std::size_t v) { return e.j < v; });
     return it != rows_[i].end() && it->j == j ? it->value : zero_;
 }
 
 const std::vector<std::size_t>& PoissonStructure::entry_vars(std::size_t i, std::size_t j) const {
     static const std::vector<std::size_t> none;
-    auto it = std::lower_bound(rows_[i].begin(), rows_[i].end(), j, [](const Entry& e, std::size_t v) { return e.j < v; });
+    auto it =
+        std::lower_bound(rows_[i].begin(), rows_[i].end(), j, [](const Entry& e, std::size_t v) { return e.j < v; });
     return it != rows_[i].end() && it->j == j ? it->vars : none;
 }
 
@@ -121,7 +132,8 @@ std::vector<std::size_t> PoissonStructure::row_support(std::size_t i) const {
 
 Rational PoissonStructure::log_canonical_coefficient(std::size_t i, std::size_t j) const {
     if (class_ != StructureClass::log_canonical)
-        throw std::logic_error("pgi::PoissonStructure: log_canonical_coefficient on a " + to_string(class_) + " structure");
+        throw std::logic_error("pgi::PoissonStructure: log_canonical_coefficient on a " + to_string(class_) +
+                               " structure");
     const Poly& a = (*this)(i, j);
     return a.is_zero() ? Rational(0) : a.term_coeff(0);
 }

@@ -68,15 +68,17 @@ bool has_parity_gaps(const std::vector<double>& a) {
 // (one degree at least past D, two where parity gaps appear) and the fitted decay's next two beyond the probe.
 // Deepens the probe to where the fitted decay says D lies, one degree past it, until found or the cap.
 // Sets truncation to the largest neglected size (measured or extrapolated): at the cap it may be large.
-std::size_t choose_degree(const StepOptions& opt, std::size_t D_min, RealisationPtr& probe, const RealisationSource& source,
-                          const std::vector<double>& point, double scale, double& truncation) {
+std::size_t choose_degree(const StepOptions& opt, std::size_t D_min, RealisationPtr& probe,
+                          const RealisationSource& source, const std::vector<double>& point, double scale,
+                          double& truncation) {
     const double target = unit_roundoff / 4;
     for (;;) {
         const auto a = component_sizes(*probe, point, scale);
         const Decay decay(a);
         const std::size_t top = probe->degree, need = has_parity_gaps(a) ? 2 : 1;
         const auto tail = [&](std::size_t d) {
-            return std::max({*std::max_element(a.begin() + std::ptrdiff_t(d) + 1, a.end()), decay.at(top + 1), decay.at(top + 2)});
+            return std::max(
+                {*std::max_element(a.begin() + std::ptrdiff_t(d) + 1, a.end()), decay.at(top + 1), decay.at(top + 2)});
         };
         for (std::size_t d = D_min; d + need <= top; ++d)
             if (tail(d) <= target || d == opt.max_degree) {
@@ -99,11 +101,14 @@ std::vector<Poly> neglected_parts(const Realisation& probe, std::size_t D) {
 
 }  // namespace
 
-std::size_t step_degree_min(std::size_t k) { return std::max<std::size_t>(realisation_degree_for_order(k), 1); }
+std::size_t step_degree_min(std::size_t k) {
+    return std::max<std::size_t>(realisation_degree_for_order(k), 1);
+}
 
 std::size_t probe_degree(RealisationForm form, const StepOptions& opt, std::size_t n) {
     const std::size_t D_min = step_degree_min(opt.k);
-    if (form == RealisationForm::radial) return std::max(D_min + 2, opt.predictor_order);  // two measured degrees to fit
+    if (form == RealisationForm::radial)
+        return std::max(D_min + 2, opt.predictor_order);  // two measured degrees to fit
     // the constant form's degree is chosen by choose_degree too (two measured degrees past D); the others
     // are evaluated in closed form and the probe serves the predictor only (its first pass on a lattice)
     const std::size_t predictor = n < shallow_probe_from ? predictor_limit(opt) : predictor_first_pass(opt);
@@ -111,7 +116,8 @@ std::size_t probe_degree(RealisationForm form, const StepOptions& opt, std::size
 }
 
 StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, RealisationPtr& probe,
-                                 const RealisationSource& source, const Eigen::VectorXd& x_typical, const Eigen::VectorXd& p0) {
+                                 const RealisationSource& source, const Eigen::VectorXd& x_typical,
+                                 const Eigen::VectorXd& p0) {
     const RealisationForm form = realisation_form(pi.structure_class(), opt.realisation);
     const std::size_t D_min = step_degree_min(opt.k);
     if (form == RealisationForm::log_canonical)
@@ -121,8 +127,14 @@ StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& 
     if (form == RealisationForm::lie_poisson) {
         // |L| may grow along the orbit and during Newton: a margin of 1.5 before scaling and squaring takes over
         const double norm = RealisationEvaluator::lie_poisson(pi, 0).operator_norm_at(p0);
-        const std::size_t D = RealisationEvaluator::series_degree_for(1.5 * norm, std::max<std::size_t>(D_min, 2), opt.max_degree);
-        return {RealisationEvaluator::lie_poisson(pi, D), probe->method + " (series, scaling and squaring beyond)", D, true, 0.0, false};
+        const std::size_t D =
+            RealisationEvaluator::series_degree_for(1.5 * norm, std::max<std::size_t>(D_min, 2), opt.max_degree);
+        return {RealisationEvaluator::lie_poisson(pi, D),
+                probe->method + " (series, scaling and squaring beyond)",
+                D,
+                true,
+                0.0,
+                false};
     }
     StepRealisation r;
     const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());

@@ -23,9 +23,9 @@ inline constexpr std::size_t shallow_probe_from = 40;
 struct StepRealisation {
     RealisationEvaluator evaluator;
     std::string method;
-    std::size_t degree = 0;               // D (0 for the log-canonical closed form)
-    bool exact = false;                   // a closed form: no truncation
-    double truncation_estimate = 0;       // the largest neglected |A_m| / |x| at the typical state
+    std::size_t degree = 0;          // D (0 for the log-canonical closed form)
+    bool exact = false;              // a closed form: no truncation
+    double truncation_estimate = 0;  // the largest neglected |A_m| / |x| at the typical state
     /// Whether the acceptance test's alpha (RealisationEvaluator::check) is computed by the same formula as
     /// Newton's (eval), so that simplified Newton on it converges to Newton's root: every form but the
     /// general Lie-Poisson one, whose check sums g(L) x otherwise than eval does (differing by ~1e-13 |x|
@@ -39,6 +39,7 @@ struct StepRealisation {
 /// (capped at opt.max_degree). probe: the realisation at probe_degree, deepened in place from source when D
 /// needs it. p0 = grad S_dt(x_typical) at the build's dt.
 StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, RealisationPtr& probe,
-                                 const RealisationSource& source, const Eigen::VectorXd& x_typical, const Eigen::VectorXd& p0);
+                                 const RealisationSource& source, const Eigen::VectorXd& x_typical,
+                                 const Eigen::VectorXd& p0);
 
 }  // namespace pgi

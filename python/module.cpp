@@ -93,13 +93,14 @@ struct PyScheme {
     std::optional<double> dt, t_end;
     std::optional<Eigen::VectorXd> x0;
     std::string name;
-    std::map<double, pgi::NewtonStepper> steppers;   // step(): built at x0, or at the first x stepped with that dt
+    std::map<double, pgi::NewtonStepper> steppers;  // step(): built at x0, or at the first x stepped with that dt
 
     const pgi::PhaseSpace& M() const { return scheme->phase_space(); }
 
     Eigen::VectorXd state(const Eigen::VectorXd& x, const char* what) const {
         if (static_cast<std::size_t>(x.size()) != M().dim())
-            throw pgi::InputError(what, "must have " + std::to_string(M().dim()) + " values, got " + std::to_string(x.size()));
+            throw pgi::InputError(
+                what, "must have " + std::to_string(M().dim()) + " values, got " + std::to_string(x.size()));
         if (!x.allFinite()) throw pgi::InputError(what, "must be finite");
         return x;
     }
@@ -119,7 +120,8 @@ std::vector<std::string> texts(const std::vector<pgi::Poly>& v, bool latex) {
 
 PyScheme from_values(std::vector<std::string> coordinates, const py::dict& brackets, std::string hamiltonian,
                      std::vector<std::string> casimirs, long order, std::string realisation, std::optional<double> dt,
-                     std::optional<Eigen::VectorXd> x0, std::optional<double> t_end, std::size_t max_terms, bool trust_jacobi, bool jit) {
+                     std::optional<Eigen::VectorXd> x0, std::optional<double> t_end, std::size_t max_terms,
+                     bool trust_jacobi, bool jit) {
     pgi::SchemeValues v;
     v.trust_jacobi = trust_jacobi;
     v.jit = jit;
@@ -143,7 +145,8 @@ PyScheme from_values(std::vector<std::string> coordinates, const py::dict& brack
     s.t_end = t_end;
     if (x0) s.x0 = s.state(*x0, "x0");
     if (dt) s.step_size(dt);
-    if (t_end && (!(*t_end >= 0) || !std::isfinite(*t_end))) throw pgi::InputError("t_end", "must be finite and not negative");
+    if (t_end && (!(*t_end >= 0) || !std::isfinite(*t_end)))
+        throw pgi::InputError("t_end", "must be finite and not negative");
     return s;
 }
 
@@ -185,7 +188,8 @@ py::dict check(const PyScheme& s) {
     py::dict jacobi("holds"_a = !c.jacobi);
     if (!c.jacobi_checked) jacobi = py::dict("holds"_a = py::none(), "skipped"_a = "trust_jacobi");
     if (c.jacobi)
-        jacobi = py::dict("holds"_a = false, "triple"_a = py::make_tuple(names[c.jacobi->i], names[c.jacobi->j], names[c.jacobi->k]),
+        jacobi = py::dict("holds"_a = false,
+                          "triple"_a = py::make_tuple(names[c.jacobi->i], names[c.jacobi->j], names[c.jacobi->k]),
                           "jacobiator"_a = c.jacobi->jacobiator.to_string());
     py::list casimirs;
     for (std::size_t i = 0; i < c.casimirs.size(); ++i) {
@@ -247,7 +251,8 @@ double run_length(const PyScheme& s, std::optional<double> t_end_in) {
 
 // The events as pgi/__init__.py normalises them: (g, direction, terminal). A bad one is an InputError
 // naming it as Python does ("events[1]: malformed polynomial 'q + w': unknown variable 'w' at position 4").
-pgi::TrajectoryEvents trajectory_events(const std::vector<std::tuple<std::string, int, bool>>& events, std::size_t samples) {
+pgi::TrajectoryEvents trajectory_events(const std::vector<std::tuple<std::string, int, bool>>& events,
+                                        std::size_t samples) {
     if (samples < 1) throw pgi::InputError("event_samples", "must be at least 1");
     pgi::TrajectoryEvents e;
     for (const auto& [g, direction, terminal] : events) e.specs.push_back({g, direction, terminal});
@@ -304,15 +309,15 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
     py::array_t<double> x({rows, n}), cas({rows, C});
     std::copy(tr.x.begin(), tr.x.end(), x.mutable_data());
     std::copy(tr.casimir_error.begin(), tr.casimir_error.end(), cas.mutable_data());
-    py::dict r("t"_a = py::array_t<double>(rows, tr.t.data()), "x"_a = x,
-               "energy_error"_a = py::array_t<double>(rows, tr.energy_error.data()), "casimir_error"_a = cas,
-               "energy_error_max"_a = tr.energy_error_max, "casimir_error_max"_a = tr.casimir_error_max,
-               "casimir_drift_per_step"_a = tr.casimir_drift_per_step,
-               "energy_warning"_a = tr.energy_warning,
-               "steps"_a = tr.steps, "dt"_a = dt, "newton_iterations_mean"_a = tr.newton_iterations_mean,
-               "newton_iterations_max"_a = tr.newton_iterations_max,
-               // the ensemble's vocabulary (status_of), so a member's status is its single run's, word for word
-               "status"_a = tr.terminal_event ? std::string("terminal_event") : pgi::to_string(pgi::status_of(tr.status)));
+    py::dict r(
+        "t"_a = py::array_t<double>(rows, tr.t.data()), "x"_a = x,
+        "energy_error"_a = py::array_t<double>(rows, tr.energy_error.data()), "casimir_error"_a = cas,
+        "energy_error_max"_a = tr.energy_error_max, "casimir_error_max"_a = tr.casimir_error_max,
+        "casimir_drift_per_step"_a = tr.casimir_drift_per_step, "energy_warning"_a = tr.energy_warning,
+        "steps"_a = tr.steps, "dt"_a = dt, "newton_iterations_mean"_a = tr.newton_iterations_mean,
+        "newton_iterations_max"_a = tr.newton_iterations_max,
+        // the ensemble's vocabulary (status_of), so a member's status is its single run's, word for word
+        "status"_a = tr.terminal_event ? std::string("terminal_event") : pgi::to_string(pgi::status_of(tr.status)));
     r.attr("update")(crossings(tr));  // empty without events
     if (tr.status != pgi::StepStatus::ok) {
         r["failed_step"] = tr.failed_step;
@@ -339,7 +344,8 @@ py::array ensemble_states(const PyScheme& s, const py::object& X0, const std::st
     if (!py::array_t<double>::check_(a))  // dtype equivalent to float64 (native byte order)
         throw pgi::InputError(name, "must have dtype float64, got " + py::str(a.dtype()).cast<std::string>());
     if (a.ndim() != 2 || std::size_t(a.shape(1)) != n)
-        throw pgi::InputError(name, "must have shape (m, " + std::to_string(n) + "), one column per coordinate, got " + shape_of(a));
+        throw pgi::InputError(
+            name, "must have shape (m, " + std::to_string(n) + "), one column per coordinate, got " + shape_of(a));
     return a;
 }
 
@@ -349,8 +355,9 @@ py::array_t<double, py::array::c_style> contiguous(const py::array& a, const std
     auto c = py::array_t<double, py::array::c_style>::ensure(a);
     if (!c) {
         const double mb = double(a.size()) * 8.0 / double(1 << 20);
-        PyErr_SetString(PyExc_MemoryError, (name + ": out of memory for a C-contiguous copy of shape " + shape_of(a) + " (about " +
-                                            std::to_string(long(mb)) + " MB); pass fewer rows at a time").c_str());
+        PyErr_SetString(PyExc_MemoryError, (name + ": out of memory for a C-contiguous copy of shape " + shape_of(a) +
+                                            " (about " + std::to_string(long(mb)) + " MB); pass fewer rows at a time")
+                                               .c_str());
         throw py::error_already_set();
     }
     return c;
@@ -405,10 +412,11 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
     }
     py::object x_typ = r.x_typical.size() ? py::cast(r.x_typical) : py::none();
     return py::dict("x"_a = py::cast(std::move(r.x)), "energy_error"_a = py::cast(std::move(r.energy_error)),
-                    "casimir_error"_a = py::cast(std::move(r.casimir_error)),
-                    "status"_a = status, "steps"_a = steps, "failed_step"_a = failed_step, "failed_t"_a = failed_t,
-                    "residual"_a = residual, "newton_iterations_mean"_a = newton_mean, "newton_iterations_max"_a = newton_max,
-                    "energy_warning"_a = energy_warning, "x_typical"_a = x_typ, "threads"_a = r.threads, "dt"_a = dt, "t_end"_a = t_end);
+                    "casimir_error"_a = py::cast(std::move(r.casimir_error)), "status"_a = status, "steps"_a = steps,
+                    "failed_step"_a = failed_step, "failed_t"_a = failed_t, "residual"_a = residual,
+                    "newton_iterations_mean"_a = newton_mean, "newton_iterations_max"_a = newton_max,
+                    "energy_warning"_a = energy_warning, "x_typical"_a = x_typ, "threads"_a = r.threads, "dt"_a = dt,
+                    "t_end"_a = t_end);
 }
 
 // f(scheme, X) at the rows X of x (an (m, n) float64 array; InputError naming x), returned as numpy, with the GIL
@@ -453,8 +461,9 @@ PYBIND11_MODULE(_pgi, m) {
         try {
             if (p) std::rethrow_exception(p);
         } catch (const std::bad_alloc&) {
-            PyErr_SetString(PyExc_MemoryError, "out of memory (std::bad_alloc): what this call keeps did not fit; record less "
-                                               "(a larger every=), pass fewer rows at a time or lower max_output_mb");
+            PyErr_SetString(PyExc_MemoryError,
+                            "out of memory (std::bad_alloc): what this call keeps did not fit; record less "
+                            "(a larger every=), pass fewer rows at a time or lower max_output_mb");
         } catch (const pgi::RunInterrupted&) {
             PyErr_SetString(PyExc_KeyboardInterrupt, "the run was interrupted");
         }
@@ -466,9 +475,10 @@ PYBIND11_MODULE(_pgi, m) {
 
     // The checked entry points: pgi/__init__.py checks types and ranges first and documents them.
     py::class_<PyScheme>(m, "Scheme")
-        .def(py::init(&from_values), "coordinates"_a, "brackets"_a, "hamiltonian"_a, "casimirs"_a = std::vector<std::string>{},
-             "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(), "x0"_a = py::none(), "t_end"_a = py::none(),
-             "max_terms"_a = pgi::Ring::default_max_terms, "trust_jacobi"_a = false, "jit"_a = false)
+        .def(py::init(&from_values), "coordinates"_a, "brackets"_a, "hamiltonian"_a,
+             "casimirs"_a = std::vector<std::string>{}, "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(),
+             "x0"_a = py::none(), "t_end"_a = py::none(), "max_terms"_a = pgi::Ring::default_max_terms,
+             "trust_jacobi"_a = false, "jit"_a = false)
         .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false, "jit"_a = false)
         .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a, "trust_jacobi"_a = false, "jit"_a = false)
         .def_property_readonly("jacobi_trusted", [](const PyScheme& s) { return s.scheme->jacobi_trusted(); })
@@ -477,58 +487,83 @@ PYBIND11_MODULE(_pgi, m) {
         .def_property_readonly("coordinates", [](const PyScheme& s) { return s.M().coordinates(); })
         .def_property_readonly("order", [](const PyScheme& s) { return s.scheme->order(); })
         .def_property_readonly("method_order", [](const PyScheme& s) { return s.scheme->method_order(); })
-        .def_property_readonly("realisation", [](const PyScheme& s) { return pgi::to_string(s.scheme->realisation_form()); })
-        .def_property_readonly("structure_class", [](const PyScheme& s) { return pgi::to_string(s.scheme->structure().structure_class()); })
+        .def_property_readonly("realisation",
+                               [](const PyScheme& s) { return pgi::to_string(s.scheme->realisation_form()); })
+        .def_property_readonly(
+            "structure_class",
+            [](const PyScheme& s) { return pgi::to_string(s.scheme->structure().structure_class()); })
         .def_property_readonly("hamiltonian", [](const PyScheme& s) { return s.scheme->hamiltonian().to_string(); })
         .def_property_readonly("casimirs", [](const PyScheme& s) { return texts(s.scheme->casimirs(), false); })
         .def_property_readonly("dt", [](const PyScheme& s) { return s.dt; })
         .def_property_readonly("x0", [](const PyScheme& s) { return s.x0; })
         .def_property_readonly("t_end", [](const PyScheme& s) { return s.t_end; })
         .def("check", &check)
-        .def("require_valid", [](const PyScheme& s) {
+        .def("require_valid",
+             [](const PyScheme& s) {
                  const auto& scheme = *s.scheme;
                  interruptible([&](const pgi::RunCancel&) { scheme.require_valid(); });
              })
-        .def("terms", [](const PyScheme& s, bool latex) {
-                 const auto& scheme = *s.scheme;
-                 return interruptible([&](const pgi::RunCancel&) { return texts(scheme.terms(), latex); });
-             }, "latex"_a = false)
-        .def("modified_hamiltonian", [](const PyScheme& s, std::size_t upto, bool latex) {
-                 const auto& scheme = *s.scheme;
-                 return interruptible([&](const pgi::RunCancel&) { return texts(scheme.modified_hamiltonian(upto), latex); });
-             }, "upto"_a = 4, "latex"_a = false)
-        .def("realisation_terms", [](const PyScheme& s, std::size_t degree) {
-                 const auto& scheme = *s.scheme;
-                 pgi::Realisation r = interruptible([&](const pgi::RunCancel&) { return scheme.realisation(degree); });
-                 std::vector<std::string> alpha, beta;
-                 for (const auto& a : r.alpha) alpha.push_back(a.sum().to_string());
-                 for (const auto& b : r.beta) beta.push_back(b.sum().to_string());
-                 return py::dict("method"_a = r.method, "degree"_a = r.degree, "alpha"_a = alpha, "beta"_a = beta);
-             }, "degree"_a)
+        .def(
+            "terms",
+            [](const PyScheme& s, bool latex) {
+                const auto& scheme = *s.scheme;
+                return interruptible([&](const pgi::RunCancel&) { return texts(scheme.terms(), latex); });
+            },
+            "latex"_a = false)
+        .def(
+            "modified_hamiltonian",
+            [](const PyScheme& s, std::size_t upto, bool latex) {
+                const auto& scheme = *s.scheme;
+                return interruptible(
+                    [&](const pgi::RunCancel&) { return texts(scheme.modified_hamiltonian(upto), latex); });
+            },
+            "upto"_a = 4, "latex"_a = false)
+        .def(
+            "realisation_terms",
+            [](const PyScheme& s, std::size_t degree) {
+                const auto& scheme = *s.scheme;
+                pgi::Realisation r = interruptible([&](const pgi::RunCancel&) { return scheme.realisation(degree); });
+                std::vector<std::string> alpha, beta;
+                for (const auto& a : r.alpha) alpha.push_back(a.sum().to_string());
+                for (const auto& b : r.beta) beta.push_back(b.sum().to_string());
+                return py::dict("method"_a = r.method, "degree"_a = r.degree, "alpha"_a = alpha, "beta"_a = beta);
+            },
+            "degree"_a)
         .def("_step", &step, "x"_a, "dt"_a = py::none())
         .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
-             "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{}, "event_samples"_a = 1,
-             "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
+             "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{},
+             "event_samples"_a = 1, "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
         .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),
              "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none(), "batch"_a = 0, "max_steps"_a = py::none(),
              "max_output_mb"_a = py::none())
-        .def("_check_ensemble", [](const PyScheme& s, std::size_t m, std::optional<double> dt, std::optional<double> t_end,
-                                   std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
-                 pgi::plan_ensemble(*s.scheme, m, s.step_size(dt), run_length(s, t_end), limits(max_steps, max_output_mb));
-             }, "m"_a, "dt"_a = py::none(), "t_end"_a = py::none(), "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
+        .def(
+            "_check_ensemble",
+            [](const PyScheme& s, std::size_t m, std::optional<double> dt, std::optional<double> t_end,
+               std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
+                pgi::plan_ensemble(*s.scheme, m, s.step_size(dt), run_length(s, t_end),
+                                   limits(max_steps, max_output_mb));
+            },
+            "m"_a, "dt"_a = py::none(), "t_end"_a = py::none(), "max_steps"_a = py::none(),
+            "max_output_mb"_a = py::none())
         .def("stats", &stats)
         .def("_vector_field", at_rows(&pgi::vector_field), "x"_a)
         .def("_poisson_matrices", at_rows(&pgi::poisson_matrices), "x"_a)
         .def("_hamiltonian_values", at_rows(&pgi::hamiltonian_values), "x"_a)
         .def("_casimir_values", at_rows(&pgi::casimir_values), "x"_a)
-        .def("_modified_hamiltonian_values", [](const PyScheme& s, const py::object& x, std::optional<double> dt, std::size_t upto) {
-                 const double h = s.step_size(dt);
-                 return evaluate(s, x, true, [&](const pgi::Scheme& scheme, const auto& X) {
-                     return pgi::modified_hamiltonian_values(scheme, X, h, upto);
-                 });
-             }, "x"_a, "dt"_a = py::none(), "upto"_a = 4)
-        .def("_typical_state", [](const PyScheme& s, const py::object& X0) {
-                 const auto a = contiguous(ensemble_states(s, X0));
-                 return pgi::typical_state(as_matrix(a));
-             }, "X0"_a);
+        .def(
+            "_modified_hamiltonian_values",
+            [](const PyScheme& s, const py::object& x, std::optional<double> dt, std::size_t upto) {
+                const double h = s.step_size(dt);
+                return evaluate(s, x, true, [&](const pgi::Scheme& scheme, const auto& X) {
+                    return pgi::modified_hamiltonian_values(scheme, X, h, upto);
+                });
+            },
+            "x"_a, "dt"_a = py::none(), "upto"_a = 4)
+        .def(
+            "_typical_state",
+            [](const PyScheme& s, const py::object& X0) {
+                const auto a = contiguous(ensemble_states(s, X0));
+                return pgi::typical_state(as_matrix(a));
+            },
+            "X0"_a);
 }

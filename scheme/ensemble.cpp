@@ -20,23 +20,34 @@ namespace pgi {
 
 TrajectoryStatus status_of(StepStatus s) {
     switch (s) {  // every StepStatus (no default: a new one is a compiler warning here)
-        case StepStatus::ok: return TrajectoryStatus::ok;
-        case StepStatus::newton_not_converged: return TrajectoryStatus::newton_not_converged;
-        case StepStatus::non_finite: return TrajectoryStatus::non_finite;
-        case StepStatus::truncation_above_bound: return TrajectoryStatus::truncation_above_bound;
-        case StepStatus::ill_conditioned: return TrajectoryStatus::ill_conditioned;
+        case StepStatus::ok:
+            return TrajectoryStatus::ok;
+        case StepStatus::newton_not_converged:
+            return TrajectoryStatus::newton_not_converged;
+        case StepStatus::non_finite:
+            return TrajectoryStatus::non_finite;
+        case StepStatus::truncation_above_bound:
+            return TrajectoryStatus::truncation_above_bound;
+        case StepStatus::ill_conditioned:
+            return TrajectoryStatus::ill_conditioned;
     }
     throw std::logic_error("status_of: unknown StepStatus");
 }
 
 std::string to_string(TrajectoryStatus s) {
     switch (s) {
-        case TrajectoryStatus::ok: return "ok";
-        case TrajectoryStatus::newton_not_converged: return "newton_not_converged";
-        case TrajectoryStatus::non_finite: return "non_finite";
-        case TrajectoryStatus::truncation_above_bound: return "truncation_above_bound";
-        case TrajectoryStatus::ill_conditioned: return "ill_conditioned";
-        case TrajectoryStatus::non_finite_start: return "non_finite_start";
+        case TrajectoryStatus::ok:
+            return "ok";
+        case TrajectoryStatus::newton_not_converged:
+            return "newton_not_converged";
+        case TrajectoryStatus::non_finite:
+            return "non_finite";
+        case TrajectoryStatus::truncation_above_bound:
+            return "truncation_above_bound";
+        case TrajectoryStatus::ill_conditioned:
+            return "ill_conditioned";
+        case TrajectoryStatus::non_finite_start:
+            return "non_finite_start";
     }
     return "?";
 }
@@ -77,7 +88,7 @@ struct Worker {
     Eigen::VectorXd x;
     std::optional<BatchStepper> batch;
     std::vector<LaneRun> lanes;
-    std::vector<double> X, increments;  // the batch's states and increments, structure of arrays
+    std::vector<double> X, increments;        // the batch's states and increments, structure of arrays
     std::vector<double> values, map_scratch;  // the invariants at the lanes' new states (structure of arrays)
     std::vector<StepStatus> status;
 
@@ -94,8 +105,8 @@ void end_non_finite_start(const Eigen::Ref<const RowMatrix>& X0, Eigen::Index i,
 }
 
 // Row i's results: the final (last observed) state x, how the run ended, the invariants' largest errors.
-void record(const Eigen::VectorXd& x, const RunEnd& end, const RunLoop& loop, double residual, double dt, Eigen::Index i,
-            EnsembleResult& r) {
+void record(const Eigen::VectorXd& x, const RunEnd& end, const RunLoop& loop, double residual, double dt,
+            Eigen::Index i, EnsembleResult& r) {
     EnsembleMember& m = r.members[std::size_t(i)];
     r.x.row(i) = x.transpose();
     m.status = status_of(end.status);
@@ -104,7 +115,8 @@ void record(const Eigen::VectorXd& x, const RunEnd& end, const RunLoop& loop, do
     m.newton_iterations_max = end.max_iterations;
     r.energy_error(i) = loop.error_max()[0];
     m.energy_warning = energy_drifted(r.energy_error(i));
-    for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c) r.casimir_error(i, c) = loop.error_max()[std::size_t(1 + c)];
+    for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c)
+        r.casimir_error(i, c) = loop.error_max()[std::size_t(1 + c)];
     if (!end.ok()) {
         m.failed_step = end.started ? end.steps + 1 : 0;
         m.failed_t = double(end.steps) * dt;
@@ -114,7 +126,8 @@ void record(const Eigen::VectorXd& x, const RunEnd& end, const RunLoop& loop, do
 
 // One trajectory: the run loop of pgi::integrate (scheme/run_loop.hpp) with an observer that keeps nothing
 // (the loop leaves x at the last state observed).
-void run_one(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, double dt, Eigen::Index i, EnsembleResult& r) {
+void run_one(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, double dt, Eigen::Index i,
+             EnsembleResult& r) {
     if (!X0.row(i).allFinite()) return end_non_finite_start(X0, i, r);
     w.stepper = *w.prototype;
     w.x = X0.row(i).transpose();
@@ -129,9 +142,9 @@ struct LaneRun {
     Eigen::Index row = -1;
     RunLoop loop;
     TrajectoryState state;
-    Eigen::VectorXd last;    // the last state observed
+    Eigen::VectorXd last;  // the last state observed
     RunEnd end;
-    double residual = 0;     // the last step's Newton residual
+    double residual = 0;  // the last step's Newton residual
 
     LaneRun(const RunLoop& l, Eigen::Index n) : loop(l), state(n), last(n) {}
 
@@ -172,7 +185,8 @@ struct LaneRun {
     const Eigen::VectorXd& x() const { return state.x(); }
 };
 
-Worker::Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes) : prototype(&p), stepper(p), loop(l), x(Eigen::Index(p.dim())) {
+Worker::Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes)
+    : prototype(&p), stepper(p), loop(l), x(Eigen::Index(p.dim())) {
     if (batch_lanes <= 1) return;
     batch.emplace(p, batch_lanes);
     lanes.assign(batch_lanes, LaneRun(l, Eigen::Index(p.dim())));
@@ -184,8 +198,8 @@ Worker::Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes
 
 // The trajectories begin..end-1 in a batch: each free lane takes the next row, the batch steps every busy
 // lane at once (packed: X holds the busy lanes only), a lane whose run ends is recorded and freed.
-void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, double dt, std::size_t begin, std::size_t end,
-                 EnsembleResult& r) {
+void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, double dt, std::size_t begin,
+                 std::size_t end, EnsembleResult& r) {
     const std::size_t n = w.prototype->dim();
     std::vector<LaneRun*> busy;  // (at most lanes() pointers: reserved once per chunk)
     busy.reserve(w.lanes.size());
@@ -228,7 +242,8 @@ void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N
             free.push_back(lane);
         };
         for (std::size_t j = 0; j < m; ++j)
-            keep(busy[j], busy[j]->stepped(w.status[j], w.batch->last_iterations(j), w.batch->last_residual(j), w.increments.data() + j, m));
+            keep(busy[j], busy[j]->stepped(w.status[j], w.batch->last_iterations(j), w.batch->last_residual(j),
+                                           w.increments.data() + j, m));
         const std::size_t stepped = kept;
         for (std::size_t j = 0; j < stepped; ++j)
             for (std::size_t v = 0; v < n; ++v) w.X[v * stepped + j] = busy[j]->x()[Eigen::Index(v)];
@@ -250,7 +265,9 @@ void run_chunk(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, 
 // Lanes per batch when the options leave it open: 16 (two of CompiledMap's 8-lane blocks, measured best on
 // the rigid body, tools/bench/bench_ensemble.py), and none from 40 coordinates on (a lattice's step is its
 // sparse Newton, not the compiled polynomials, and each lane holds a copy of the step).
-std::size_t default_batch(std::size_t n) { return n < 40 ? 16 : 1; }
+std::size_t default_batch(std::size_t n) {
+    return n < 40 ? 16 : 1;
+}
 // Each lane holds a copy of the step: bounded.
 constexpr std::size_t max_batch = 1024;
 
@@ -259,15 +276,20 @@ RunPlan check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>&
                         const EnsembleOptions& options) {
     const auto n = Eigen::Index(scheme.phase_space().dim());
     if (X0.cols() != n)
-        throw InputError("X0", "must have " + std::to_string(n) + " columns (one per coordinate), got " + std::to_string(X0.cols()));
+        throw InputError(
+            "X0", "must have " + std::to_string(n) + " columns (one per coordinate), got " + std::to_string(X0.cols()));
     const RunPlan plan = plan_ensemble(scheme, std::size_t(X0.rows()), dt, t_end, options.control.limits);
     const std::size_t most = std::max<std::size_t>(256, 4 * std::size_t(tbb::info::default_concurrency()));
     if (options.threads > most)
-        throw InputError("threads", std::to_string(options.threads) + " is above the limit of " + std::to_string(most) + " (4 per core, at least 256)");
+        throw InputError("threads", std::to_string(options.threads) + " is above the limit of " + std::to_string(most) +
+                                        " (4 per core, at least 256)");
     if (options.batch > max_batch)
-        throw InputError("batch", std::to_string(options.batch) + " is above the limit of " + std::to_string(max_batch) + " trajectories stepped together");
+        throw InputError("batch", std::to_string(options.batch) + " is above the limit of " +
+                                      std::to_string(max_batch) + " trajectories stepped together");
     if (const auto& xt = options.x_typical) {
-        if (xt->size() != n) throw InputError("x_typical", "must have " + std::to_string(n) + " values, got " + std::to_string(xt->size()));
+        if (xt->size() != n)
+            throw InputError("x_typical",
+                             "must have " + std::to_string(n) + " values, got " + std::to_string(xt->size()));
         if (!xt->allFinite()) throw InputError("x_typical", "must be finite");
     }
     return plan;
@@ -304,11 +326,12 @@ EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const R
         allow.emplace(tbb::global_control::max_allowed_parallelism, r.threads);
     tbb::task_arena arena(int(r.threads));
     arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(m), chunk),
-                          [&](const tbb::blocked_range<std::size_t>& range) {
-                              run_chunk(workers.local(), X0, N, dt, range.begin(), range.end(), r);
-                          },
-                          tbb::simple_partitioner());
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, std::size_t(m), chunk),
+            [&](const tbb::blocked_range<std::size_t>& range) {
+                run_chunk(workers.local(), X0, N, dt, range.begin(), range.end(), r);
+            },
+            tbb::simple_partitioner());
     });
     return r;
 }

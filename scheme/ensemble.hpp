@@ -39,34 +39,35 @@ TrajectoryStatus status_of(StepStatus s);
 std::string to_string(TrajectoryStatus s);
 
 struct EnsembleOptions {
-    std::size_t threads = 0;   // workers; 0: every core (TBB's default concurrency); at most max(256, 4 per core)
-    std::size_t chunk = 0;     // trajectories per task; 0: about 8 tasks per worker, at least one batch each
-    std::size_t batch = 0;     // trajectories stepped together (lanes, at most 1024); 1: one at a time; 0: 16 below 40 coordinates, else 1
+    std::size_t threads = 0;  // workers; 0: every core (TBB's default concurrency); at most max(256, 4 per core)
+    std::size_t chunk = 0;    // trajectories per task; 0: about 8 tasks per worker, at least one batch each
+    std::size_t batch =
+        0;  // trajectories stepped together (lanes, at most 1024); 1: one at a time; 0: 16 below 40 coordinates, else 1
     /// The state the compiled step is built for (its realisation degree and predictor are chosen there).
     /// Default: typical_state(X0), the finite row of largest norm.
     std::optional<Eigen::VectorXd> x_typical;
-    RunControl control;   // the budgets, checked before any work, and the flag that stops the run (RunInterrupted)
+    RunControl control;  // the budgets, checked before any work, and the flag that stops the run (RunInterrupted)
 };
 
 /// Per trajectory: how it ended and its Newton statistics.
 struct EnsembleMember {
     TrajectoryStatus status = TrajectoryStatus::ok;
-    std::size_t steps = 0;                 // steps completed
-    std::size_t failed_step = 0;           // 1-based, 0 when none failed
-    double failed_t = 0, residual = 0;     // where the failed step started, its Newton residual
+    std::size_t steps = 0;              // steps completed
+    std::size_t failed_step = 0;        // 1-based, 0 when none failed
+    double failed_t = 0, residual = 0;  // where the failed step started, its Newton residual
     double newton_iterations_mean = 0;
     int newton_iterations_max = 0;
-    bool energy_warning = false;           // energy_drifted(its energy error); never for a non-finite start
+    bool energy_warning = false;  // energy_drifted(its energy error); never for a non-finite start
 };
 
 struct EnsembleResult {
-    Eigen::VectorXd x_typical;   // the state the step was built for (empty when no row was finite)
-    std::size_t threads = 0;     // workers used
+    Eigen::VectorXd x_typical;  // the state the step was built for (empty when no row was finite)
+    std::size_t threads = 0;    // workers used
     /// m x n: the final state; for a failed trajectory the last state reached (the row itself if it was
     /// not finite).
     RowMatrix x;
-    Eigen::VectorXd energy_error;   // m: the largest relative error of H over every step (NaN: non-finite start)
-    RowMatrix casimir_error;        // m x c: the same for each Casimir
+    Eigen::VectorXd energy_error;  // m: the largest relative error of H over every step (NaN: non-finite start)
+    RowMatrix casimir_error;       // m x c: the same for each Casimir
     std::vector<EnsembleMember> members;
 };
 

@@ -16,7 +16,8 @@ constexpr std::size_t block_rows = 256;
 void check_states(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X) {
     const std::size_t n = scheme.phase_space().dim();
     if (std::size_t(X.cols()) != n)
-        throw InputError("x", "must have " + std::to_string(n) + " columns (one per coordinate), got " + std::to_string(X.cols()));
+        throw InputError(
+            "x", "must have " + std::to_string(n) + " columns (one per coordinate), got " + std::to_string(X.cols()));
     for (Eigen::Index j = 0; j < X.rows(); ++j)
         if (!X.row(j).allFinite()) throw InputError("x", "row " + std::to_string(j) + " is not finite");
 }

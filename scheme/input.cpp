@@ -52,22 +52,25 @@ Poly parse_polynomial(const PhaseSpace& M, const std::string& key, const std::st
     }
 }
 
-PoissonStructure structure_from_brackets(const PhaseSpace& M, const std::vector<std::pair<std::string, std::string>>& brackets) {
+PoissonStructure structure_from_brackets(const PhaseSpace& M,
+                                         const std::vector<std::pair<std::string, std::string>>& brackets) {
     std::map<std::pair<std::size_t, std::size_t>, Poly> given;  // only the pairs given: no n x n
     for (const auto& [k, v] : brackets) {
         const std::string key = "brackets.\"" + k + "\"";
         auto [i, j] = bracket_pair(key, k, M);
         Poly f = parse_polynomial(M, key, v);
         if (i == j) {
-            if (!f.is_zero()) throw InputError(key, "not skew: {" + M.coordinates()[i] + "," + M.coordinates()[i] + "} must be 0");
+            if (!f.is_zero())
+                throw InputError(key, "not skew: {" + M.coordinates()[i] + "," + M.coordinates()[i] + "} must be 0");
             continue;
         }
         // {a,b} given as f means pi_ab = f and pi_ba = -f
         for (auto [a, b, value] : {std::tuple{i, j, f}, std::tuple{j, i, -f}}) {
             const auto it = given.find({a, b});
             if (it != given.end() && !(it->second == value))
-                throw InputError(key, "contradicts an earlier bracket: {" + M.coordinates()[a] + "," + M.coordinates()[b] +
-                                          "} was " + it->second.to_string() + ", now " + value.to_string());
+                throw InputError(key, "contradicts an earlier bracket: {" + M.coordinates()[a] + "," +
+                                          M.coordinates()[b] + "} was " + it->second.to_string() + ", now " +
+                                          value.to_string());
             given.insert_or_assign({a, b}, value);
         }
     }

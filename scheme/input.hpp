@@ -16,7 +16,8 @@ namespace pgi {
 class InputError : public std::invalid_argument {
 public:
     InputError(std::string key, std::string problem)
-        : std::invalid_argument(key.empty() ? problem : key + ": " + problem), key_(std::move(key)), problem_(std::move(problem)) {}
+        : std::invalid_argument(key.empty() ? problem : key + ": " + problem), key_(std::move(key)),
+          problem_(std::move(problem)) {}
     const std::string& key() const { return key_; }
     const std::string& problem() const { return problem_; }
 
@@ -30,7 +31,8 @@ void check_coordinates(const std::vector<std::string>& names);
 Poly parse_polynomial(const PhaseSpace& M, const std::string& key, const std::string& text);
 /// pi from brackets {"a,b": "f"} (pi_ab = f, pi_ba = -f, every other entry 0). Throws InputError on a key
 /// that is not two known coordinates, a non-zero {a,a}, or two entries that contradict each other.
-PoissonStructure structure_from_brackets(const PhaseSpace& M, const std::vector<std::pair<std::string, std::string>>& brackets);
+PoissonStructure structure_from_brackets(const PhaseSpace& M,
+                                         const std::vector<std::pair<std::string, std::string>>& brackets);
 /// The order k: 1 <= k <= 64.
 std::size_t check_order(const std::string& key, long k);
 

@@ -21,7 +21,9 @@ struct Descriptor {
     }
 };
 
-std::string cannot_read() { return std::string("cannot read the file (") + std::strerror(errno) + ")"; }
+std::string cannot_read() {
+    return std::string("cannot read the file (") + std::strerror(errno) + ")";
+}
 
 }  // namespace
 
@@ -34,8 +36,8 @@ std::string read_input_file(const std::filesystem::path& path, std::size_t max_b
     if (S_ISDIR(st.st_mode)) throw InputError(name, "is a directory, not a " + what + " file");
     if (!S_ISREG(st.st_mode)) throw InputError(name, "is not a regular file (a FIFO or device?)");
     if (std::size_t(st.st_size) > max_bytes)
-        throw InputError(name, "the file has " + std::to_string(st.st_size) + " bytes, above the limit of " + std::to_string(max_bytes) +
-                                   " for a " + what + " file");
+        throw InputError(name, "the file has " + std::to_string(st.st_size) + " bytes, above the limit of " +
+                                   std::to_string(max_bytes) + " for a " + what + " file");
     std::string text(std::size_t(st.st_size), '\0');
     std::size_t got = 0;
     while (got < text.size()) {

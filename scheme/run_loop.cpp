@@ -13,15 +13,19 @@ std::string numbered(char letter, std::size_t i) {
     return name;
 }
 
-std::vector<std::string> invariant_names(const Scheme& scheme, std::size_t extra, std::vector<std::string> extra_names) {
+std::vector<std::string> invariant_names(const Scheme& scheme, std::size_t extra,
+                                         std::vector<std::string> extra_names) {
     std::vector<std::string> names{"H"};
     for (std::size_t c = 1; c <= scheme.casimirs().size(); ++c) names.push_back(numbered('C', c));
-    for (std::size_t e = 0; e < extra; ++e) names.push_back(e < extra_names.size() ? std::move(extra_names[e]) : numbered('I', e + 1));
+    for (std::size_t e = 0; e < extra; ++e)
+        names.push_back(e < extra_names.size() ? std::move(extra_names[e]) : numbered('I', e + 1));
     return names;
 }
 
 // How fmt prints a double that is not finite: "inf", "-inf", "nan", "-nan".
-std::string non_finite_text(double v) { return std::string(std::signbit(v) ? "-" : "") + (std::isnan(v) ? "nan" : "inf"); }
+std::string non_finite_text(double v) {
+    return std::string(std::signbit(v) ? "-" : "") + (std::isnan(v) ? "nan" : "inf");
+}
 
 }  // namespace
 
@@ -78,7 +82,8 @@ std::string RunLoop::failure_message(const NewtonStepper& stepper, const RunEnd&
     if (end.non_finite.empty()) return step_failure_message(stepper, end.steps + 1, end.status);
     if (!end.started) return "the invariant " + end.non_finite + " at x0 is not finite: nothing to integrate";
     char buffer[512];
-    std::snprintf(buffer, sizeof buffer, "step %zu (from t = %.17g) failed: non-finite invariant %s after the step; a smaller dt may help",
+    std::snprintf(buffer, sizeof buffer,
+                  "step %zu (from t = %.17g) failed: non-finite invariant %s after the step; a smaller dt may help",
                   end.steps + 1, double(end.steps) * stepper.dt(), end.non_finite.c_str());
     return buffer;
 }

@@ -32,16 +32,17 @@ struct RunPoint {
 
 /// How a run ended.
 struct RunEnd {
-    std::size_t steps = 0;               // the last step whose state was observed
-    double t = 0;                        // the time of that state (a terminal crossing's t when one stopped the run)
-    StepStatus status = StepStatus::ok;  // ok, or why the run ended early: a failed step, a non-finite state or invariant
-    bool started = false;                // the start was observed (its invariants finite)
-    bool stopped = false;                // the observer or an event ended the run (not a failure)
-    bool terminal_event = false;         // ... and it was a crossing (of a terminal event, or on_crossing asked)
-    std::string non_finite;              // the invariant that was not finite ("H = inf"), when that ended the run
-    std::size_t crossings = 0;           // reported to on_crossing
-    double mean_iterations = 0;          // Newton iterations per step, the failed step included
-    int max_iterations = 0;              // over the steps observed
+    std::size_t steps = 0;  // the last step whose state was observed
+    double t = 0;           // the time of that state (a terminal crossing's t when one stopped the run)
+    StepStatus status =
+        StepStatus::ok;           // ok, or why the run ended early: a failed step, a non-finite state or invariant
+    bool started = false;         // the start was observed (its invariants finite)
+    bool stopped = false;         // the observer or an event ended the run (not a failure)
+    bool terminal_event = false;  // ... and it was a crossing (of a terminal event, or on_crossing asked)
+    std::string non_finite;       // the invariant that was not finite ("H = inf"), when that ended the run
+    std::size_t crossings = 0;    // reported to on_crossing
+    double mean_iterations = 0;   // Newton iterations per step, the failed step included
+    int max_iterations = 0;       // over the steps observed
     bool ok() const { return status == StepStatus::ok; }
 };
 
@@ -62,8 +63,8 @@ public:
     /// crossing's t). The run stops at a failed step, a non-finite state, or a non-finite invariant (then
     /// that state is not observed). At the end x is the last state observed.
     template <class OnState, class OnCrossing = IgnoreCrossings>
-    RunEnd run(NewtonStepper& stepper, Eigen::VectorXd& x, std::size_t N, OnState&& on_state, EventDetector* events = nullptr,
-               OnCrossing&& on_crossing = {});
+    RunEnd run(NewtonStepper& stepper, Eigen::VectorXd& x, std::size_t N, OnState&& on_state,
+               EventDetector* events = nullptr, OnCrossing&& on_crossing = {});
 
     /// run()'s bookkeeping for a driver that steps by itself (the batch ensemble, one RunLoop per trajectory):
     /// begin(x0), then observe(x, first) at the start (first) and after each step. observe is false when an
@@ -117,47 +118,48 @@ private:
     std::vector<std::string> names_;
     std::vector<double> values_, initial_, worst_, scale_;
     double fit_count_ = 0, fit_n_ = 0, fit_nn_ = 0;  // drift_per_step's sums: states, sum n, sum n^2 ...
-    std::vector<double> fit_e_, fit_ne_;              // ... and per invariant sum e, sum n e
-    Eigen::VectorXd last_;                    // the last state observed (the left end of the next step's events)
+    std::vector<double> fit_e_, fit_ne_;             // ... and per invariant sum e, sum n e
+    Eigen::VectorXd last_;                           // the last state observed (the left end of the next step's events)
     std::string non_finite_;
     const RunCancel* cancel_ = nullptr;
 };
 
 template <class OnState, class OnCrossing>
-RunEnd RunLoop::run(NewtonStepper& stepper, Eigen::VectorXd& x, std::size_t N, OnState&& on_state, EventDetector* events,
-                    OnCrossing&& on_crossing) {
+RunEnd RunLoop::run(NewtonStepper& stepper, Eigen::VectorXd& x, std::size_t N, OnState&& on_state,
+                    EventDetector* events, OnCrossing&& on_crossing) {
     RunEnd end;
     start(x);
     if (events) events->start(x);
     const double dt = stepper.dt();
-    const IntegrationSummary summary = integrate_steps(stepper, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& y) {
-        if (!evaluate(y)) {
-            end.non_finite = non_finite_;
-            return true;  // this state is not a result
-        }
-        if (n > 0) end.max_iterations = std::max(end.max_iterations, stepper.last_iterations());
-        if (events && n > 0)
-            if (const Crossing* c = report_crossings(*events, last_, y, dt, n, end.crossings, on_crossing)) {
-                end.stopped = end.terminal_event = true;
-                last_ = c->x;
-                if (!evaluate(last_)) {
-                    end.non_finite = non_finite_;
+    const IntegrationSummary summary =
+        integrate_steps(stepper, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& y) {
+            if (!evaluate(y)) {
+                end.non_finite = non_finite_;
+                return true;  // this state is not a result
+            }
+            if (n > 0) end.max_iterations = std::max(end.max_iterations, stepper.last_iterations());
+            if (events && n > 0)
+                if (const Crossing* c = report_crossings(*events, last_, y, dt, n, end.crossings, on_crossing)) {
+                    end.stopped = end.terminal_event = true;
+                    last_ = c->x;
+                    if (!evaluate(last_)) {
+                        end.non_finite = non_finite_;
+                        return true;
+                    }
+                    commit(false);
+                    end.steps = n;
+                    end.t = c->t;
+                    (void)on_state(RunPoint{n, c->t, last_, *this, true});
                     return true;
                 }
-                commit(false);
-                end.steps = n;
-                end.t = c->t;
-                (void)on_state(RunPoint{n, c->t, last_, *this, true});
-                return true;
-            }
-        commit(n == 0);
-        last_ = y;
-        end.steps = n;
-        end.t = t;
-        end.started = true;
-        if (on_state(RunPoint{n, t, y, *this, n == N})) end.stopped = true;
-        return end.stopped;
-    });
+            commit(n == 0);
+            last_ = y;
+            end.steps = n;
+            end.t = t;
+            end.started = true;
+            if (on_state(RunPoint{n, t, y, *this, n == N})) end.stopped = true;
+            return end.stopped;
+        });
     end.status = summary.status;
     end.mean_iterations = summary.mean_iterations;
     if (!end.non_finite.empty()) end.status = StepStatus::non_finite;

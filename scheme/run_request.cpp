@@ -37,12 +37,13 @@ RunPlan plan_run(const RunRequest& r, const RunLimits& limits) {
     check_domain(r);
     const double steps = steps_to_reach(r.t_end, r.dt);
     if (!(steps <= double(limits.max_steps)))
-        throw RunBudgetError(format("t_end / dt = %.6g / %.6g needs %.6g steps, above the step budget of %zu "
-                                         "(raise max_steps / --max-steps, or use a larger dt)",
-                                         r.t_end, r.dt, steps, limits.max_steps));
+        throw RunBudgetError(
+            format("t_end / dt = %.6g / %.6g needs %.6g steps, above the step budget of %zu "
+                   "(raise max_steps / --max-steps, or use a larger dt)",
+                   r.t_end, r.dt, steps, limits.max_steps));
     if (r.event_samples > RunLimits::max_event_samples)
-        throw RunBudgetError(format("event_samples = %zu is above the limit of %zu sign tests per step", r.event_samples,
-                                         RunLimits::max_event_samples));
+        throw RunBudgetError(format("event_samples = %zu is above the limit of %zu sign tests per step",
+                                    r.event_samples, RunLimits::max_event_samples));
     RunPlan plan;
     plan.steps = static_cast<std::size_t>(steps);
     // rows: the start, every `every`-th step, the last; every = 0: the end only
@@ -53,11 +54,12 @@ RunPlan plan_run(const RunRequest& r, const RunLimits& limits) {
     const double per_trajectory = double(plan.records) * per_row + 8.0 * double(r.dim) + 64;
     plan.output_mb = double(r.trajectories) * per_trajectory / double(1 << 20);
     if (!(plan.output_mb <= limits.max_output_mb))
-        throw RunBudgetError(format("the run would keep about %.4g MB (%zu trajector%s of %zu recorded row%s), above the "
-                                         "output budget of %.4g MB (%s, or raise max_output_mb / --max-output-mb)",
-                                         plan.output_mb, r.trajectories, r.trajectories == 1 ? "y" : "ies", plan.records,
-                                         plan.records == 1 ? "" : "s", limits.max_output_mb,
-                                         r.every == 0 ? "run fewer trajectories at once" : "record less with a larger every / --every"));
+        throw RunBudgetError(
+            format("the run would keep about %.4g MB (%zu trajector%s of %zu recorded row%s), above the "
+                   "output budget of %.4g MB (%s, or raise max_output_mb / --max-output-mb)",
+                   plan.output_mb, r.trajectories, r.trajectories == 1 ? "y" : "ies", plan.records,
+                   plan.records == 1 ? "" : "s", limits.max_output_mb,
+                   r.every == 0 ? "run fewer trajectories at once" : "record less with a larger every / --every"));
     return plan;
 }
 

@@ -36,8 +36,8 @@ struct RunLimits {
     static constexpr double default_max_output_mb = 1024;
     /// Sign tests of an event per step: past this the dense output dominates any step.
     static constexpr std::size_t max_event_samples = 10'000;
-    std::size_t max_steps = default_max_steps;         // steps of one trajectory
-    double max_output_mb = default_max_output_mb;      // bytes kept / 2^20
+    std::size_t max_steps = default_max_steps;     // steps of one trajectory
+    double max_output_mb = default_max_output_mb;  // bytes kept / 2^20
 };
 
 /// A run as a surface was asked for it. every = 0 records only the end state (an ensemble's default).
@@ -45,17 +45,17 @@ struct RunRequest {
     double dt = 0;
     double t_end = 0;
     std::size_t every = 1;
-    std::size_t dim = 0;            // coordinates
-    std::size_t invariants = 1;     // values kept per recorded row besides t and x (H, the Casimirs, ...)
+    std::size_t dim = 0;         // coordinates
+    std::size_t invariants = 1;  // values kept per recorded row besides t and x (H, the Casimirs, ...)
     std::size_t trajectories = 1;
     std::size_t event_samples = 1;
 };
 
 /// What the run will do, known before it starts.
 struct RunPlan {
-    std::size_t steps = 0;      // whole steps of dt reaching t_end (steps_to_reach)
-    std::size_t records = 0;    // rows recorded per trajectory
-    double output_mb = 0;       // what the run keeps in memory, all trajectories together
+    std::size_t steps = 0;    // whole steps of dt reaching t_end (steps_to_reach)
+    std::size_t records = 0;  // rows recorded per trajectory
+    double output_mb = 0;     // what the run keeps in memory, all trajectories together
 };
 
 /// Whole steps of size dt that reach t_end: 0 at t_end = 0, else max(1, ceil(t_end / dt - 1e-9)) (the 1e-9

@@ -32,7 +32,8 @@ public:
 
     Scene read_text(std::string_view text) {
         toml::table doc = parse_document(text);
-        check_keys(doc, "", {"name", "coordinates", "brackets", "hamiltonian", "integrator", "run", "magnus", "splitting"});
+        check_keys(doc, "",
+                   {"name", "coordinates", "brackets", "hamiltonian", "integrator", "run", "magnus", "splitting"});
         std::string name = string_at(doc, "name", true).value_or("");
         if (has_control(name)) fail("name", "contains a control character: '" + name + "'");
         PhaseSpace M(read_coordinates(doc), budget());
@@ -51,21 +52,39 @@ public:
                 casimirs.push_back(poly(M, key, *s));
             }
         }
-        Scene scene{file_, name, std::move(pi), std::move(H), std::move(casimirs), 2, 0.1, "1/10", RealisationChoice::automatic, false, std::nullopt, std::nullopt, std::nullopt, std::nullopt, nullptr};
+        Scene scene{file_,
+                    name,
+                    std::move(pi),
+                    std::move(H),
+                    std::move(casimirs),
+                    2,
+                    0.1,
+                    "1/10",
+                    RealisationChoice::automatic,
+                    false,
+                    std::nullopt,
+                    std::nullopt,
+                    std::nullopt,
+                    std::nullopt,
+                    nullptr};
         read_integrator(doc, scene);
         read_run(doc, scene);
         read_magnus(doc, scene);
         read_splitting(doc, scene);
-        scene.scheme = std::make_shared<const Scheme>(scene.pi, scene.H, scene.casimirs, scene.order, scene.realisation, ov_.trust_jacobi, scene.jit);
+        scene.scheme = std::make_shared<const Scheme>(scene.pi, scene.H, scene.casimirs, scene.order, scene.realisation,
+                                                      ov_.trust_jacobi, scene.jit);
         return scene;
     }
 
 private:
     static bool has_control(const std::string& s) {
-        return std::any_of(s.begin(), s.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; });
+        return std::any_of(s.begin(), s.end(),
+                           [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; });
     }
 
-    [[noreturn]] void fail(const std::string& key, const std::string& problem) const { throw SceneError(file_, key, problem); }
+    [[noreturn]] void fail(const std::string& key, const std::string& problem) const {
+        throw SceneError(file_, key, problem);
+    }
 
     // The input rules (scheme/input_file.hpp), at most max_scene_bytes.
     std::string file_text() const {
@@ -124,7 +143,7 @@ private:
         try {
             return parse_polynomial(M, key, text);
         } catch (const ResourceLimitError& e) {  // a budget refusal stays one (exit 4), naming the key
-            throw ParseBudgetError(e.what());  // the key is in the message, pgi prefixes the file
+            throw ParseBudgetError(e.what());    // the key is in the message, pgi prefixes the file
         } catch (const InputError& e) {
             fail(e.key(), e.problem());
         }
@@ -220,10 +239,14 @@ private:
             if (!n->is_integer()) fail("integrator.order", "must be an integer");
             scene.order = order("integrator.order", *n->value<long>());
         }
-        if (ov_.dt) scene.dt = real("--dt", *ov_.dt, &scene.dt_text);
-        else if (const toml::node* n = t.get("dt")) scene.dt = real("integrator.dt", *n, &scene.dt_text);
-        if (!(scene.dt > 0)) fail(ov_.dt ? "--dt" : "integrator.dt", "the step dt must be positive, got " + scene.dt_text);
-        std::optional<std::string> r = ov_.realisation ? ov_.realisation : string_at(t, "realisation", false, "integrator.");
+        if (ov_.dt)
+            scene.dt = real("--dt", *ov_.dt, &scene.dt_text);
+        else if (const toml::node* n = t.get("dt"))
+            scene.dt = real("integrator.dt", *n, &scene.dt_text);
+        if (!(scene.dt > 0))
+            fail(ov_.dt ? "--dt" : "integrator.dt", "the step dt must be positive, got " + scene.dt_text);
+        std::optional<std::string> r =
+            ov_.realisation ? ov_.realisation : string_at(t, "realisation", false, "integrator.");
         if (r) {
             try {
                 scene.realisation = parse_realisation_choice(*r);
@@ -260,16 +283,19 @@ private:
         } else if (const toml::node* node = t.get("x0")) {
             const toml::array* arr = node->as_array();
             if (!arr) fail("run.x0", "must be a list of numbers");
-            for (std::size_t i = 0; i < arr->size(); ++i) x0.push_back(real("run.x0[" + std::to_string(i) + "]", (*arr)[i]));
+            for (std::size_t i = 0; i < arr->size(); ++i)
+                x0.push_back(real("run.x0[" + std::to_string(i) + "]", (*arr)[i]));
         }
         if (ov_.x0 || t.get("x0")) {
             if (x0.size() != n)
-                fail(ov_.x0 ? "--x0" : "run.x0", "has " + std::to_string(x0.size()) + " values for " + std::to_string(n) +
-                                                     " coordinates");
+                fail(ov_.x0 ? "--x0" : "run.x0",
+                     "has " + std::to_string(x0.size()) + " values for " + std::to_string(n) + " coordinates");
             scene.x0 = std::move(x0);
         }
-        if (ov_.t_end) scene.t_end = real("--t-end", *ov_.t_end);
-        else if (const toml::node* node = t.get("t_end")) scene.t_end = real("run.t_end", *node);
+        if (ov_.t_end)
+            scene.t_end = real("--t-end", *ov_.t_end);
+        else if (const toml::node* node = t.get("t_end"))
+            scene.t_end = real("run.t_end", *node);
         if (scene.t_end && !(*scene.t_end > 0)) fail(ov_.t_end ? "--t-end" : "run.t_end", "must be positive");
     }
 

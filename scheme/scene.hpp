@@ -27,12 +27,12 @@ inline constexpr std::size_t max_scene_bytes = 8u << 20;
 /// Command-line values that replace the scene's, in the scene's own forms ("1/10", "0.6,0.8,0.3").
 struct SceneOverrides {
     std::optional<std::string> order, dt, realisation, x0, t_end;
-    std::size_t max_terms = Ring::default_max_terms;   // --max-terms: the exact phase's product bound
-    std::size_t max_memory_mb = 0;                      // --max-memory-mb: its memory (0: default_memory_budget())
+    std::size_t max_terms = Ring::default_max_terms;         // --max-terms: the exact phase's product bound
+    std::size_t max_memory_mb = 0;                           // --max-memory-mb: its memory (0: default_memory_budget())
     double max_seconds = BudgetLimits::default_max_seconds;  // --max-seconds: its algebra's time (none; pgi: 60)
-    Budget::ProgressSink progress;                      // progress lines of a long exact phase
-    bool trust_jacobi = false;                          // --trust-jacobi: the Jacobi identity is not checked
-    bool jit = false;                                   // --jit: the step's maps as native code (integrator.jit)
+    Budget::ProgressSink progress;                           // progress lines of a long exact phase
+    bool trust_jacobi = false;                               // --trust-jacobi: the Jacobi identity is not checked
+    bool jit = false;                                        // --jit: the step's maps as native code (integrator.jit)
 };
 
 struct Scene {
@@ -41,15 +41,15 @@ struct Scene {
     PoissonStructure pi;
     Poly H;
     std::vector<Poly> casimirs;
-    std::size_t order = 2;                      // k
+    std::size_t order = 2;  // k
     double dt = 0.1;
-    std::string dt_text = "1/10";               // as written, for reports
+    std::string dt_text = "1/10";  // as written, for reports
     RealisationChoice realisation = RealisationChoice::automatic;
-    bool jit = false;                           // [integrator] jit: the step's compiled maps as native code (series/native.hpp)
+    bool jit = false;  // [integrator] jit: the step's compiled maps as native code (series/native.hpp)
     std::optional<std::vector<double>> x0;
     std::optional<double> t_end;
-    std::optional<Series> magnus_h;             // [magnus] h, a t-series
-    std::optional<Poly> splitting_A;            // [splitting] A: H = A + B, B = H - A, for splitting methods
+    std::optional<Series> magnus_h;   // [magnus] h, a t-series
+    std::optional<Poly> splitting_A;  // [splitting] A: H = A + B, B = H - A, for splitting methods
     /// The exact work on pi, H, the Casimirs, order and realisation above (checks, realisation, S_1..S_k,
     /// the step, the modified Hamiltonian), each computed once when a command first asks for it.
     std::shared_ptr<const Scheme> scheme;

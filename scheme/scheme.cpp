@@ -20,13 +20,14 @@ namespace {
 // A compiled step and what it serves: dt up to the one it was built for, typical states up to twice its own.
 struct StepperEntry {
     StepOptions options;
-    double scale;                                   // |x_typical|_inf of the build
+    double scale;  // |x_typical|_inf of the build
     NewtonStepper stepper;
     std::uint64_t used;
     bool serves(const StepOptions& o, double x_scale) const {
-        return o.dt <= options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order && o.solver == options.solver && o.jit == options.jit &&
-               o.max_degree == options.max_degree && o.newton_max_iter == options.newton_max_iter &&
-               o.newton_tol == options.newton_tol && o.truncation_bound == options.truncation_bound;
+        return o.dt <= options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order &&
+               o.solver == options.solver && o.jit == options.jit && o.max_degree == options.max_degree &&
+               o.newton_max_iter == options.newton_max_iter && o.newton_tol == options.newton_tol &&
+               o.truncation_bound == options.truncation_bound;
     }
 };
 
@@ -48,11 +49,11 @@ struct Scheme::Cache {
     explicit Cache(RealisationChoice choice) : realisation(choice) {}
     std::recursive_mutex mutex;
     std::optional<SchemeChecks> checks;
-    DeepestRealisation realisation;                 // at the deepest p-degree asked so far
-    std::optional<std::vector<Poly>> terms;         // S_1..S_k
-    std::vector<Poly> modified;                     // H_0..H_m for the largest m asked so far
-    std::vector<StepperEntry> steppers;             // at most stepper_cache_size
-    std::uint64_t clock = 0;                        // the last use of each entry, for eviction
+    DeepestRealisation realisation;          // at the deepest p-degree asked so far
+    std::optional<std::vector<Poly>> terms;  // S_1..S_k
+    std::vector<Poly> modified;              // H_0..H_m for the largest m asked so far
+    std::vector<StepperEntry> steppers;      // at most stepper_cache_size
+    std::uint64_t clock = 0;                 // the last use of each entry, for eviction
     // the evaluators' maps: node-based, never dropped, so the references handed out stay valid
     std::optional<CompiledMap> vector_field, invariants;
     std::optional<CompiledBrackets> brackets;
@@ -64,10 +65,12 @@ Scheme::Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::siz
                bool trust_jacobi, bool jit)
     : pi_(std::move(pi)), H_(std::move(H)), casimirs_(std::move(casimirs)), k_(check_order("order", long(order))),
       choice_(choice), trust_jacobi_(trust_jacobi), jit_(jit), cache_(std::make_unique<Cache>(choice)) {
-    if (H_.ring() != phase_space().ring()) throw InputError("hamiltonian.H", "not a polynomial of the scheme's phase space");
+    if (H_.ring() != phase_space().ring())
+        throw InputError("hamiltonian.H", "not a polynomial of the scheme's phase space");
     for (std::size_t i = 0; i < casimirs_.size(); ++i)
         if (casimirs_[i].ring() != phase_space().ring())
-            throw InputError("hamiltonian.casimirs[" + std::to_string(i) + "]", "not a polynomial of the scheme's phase space");
+            throw InputError("hamiltonian.casimirs[" + std::to_string(i) + "]",
+                             "not a polynomial of the scheme's phase space");
     try {
         realisation_form();
     } catch (const std::invalid_argument& e) {
@@ -89,11 +92,13 @@ Scheme Scheme::from_values(const SchemeValues& v) {
     } catch (const std::invalid_argument& e) {
         throw InputError("realisation", e.what());
     }
-    return Scheme(std::move(pi), std::move(H), std::move(casimirs), check_order("order", v.order), choice, v.trust_jacobi, v.jit);
+    return Scheme(std::move(pi), std::move(H), std::move(casimirs), check_order("order", v.order), choice,
+                  v.trust_jacobi, v.jit);
 }
 
 Scheme::Scheme(const Scheme& o)
-    : pi_(o.pi_), H_(o.H_), casimirs_(o.casimirs_), k_(o.k_), choice_(o.choice_), trust_jacobi_(o.trust_jacobi_), jit_(o.jit_), cache_(std::make_unique<Cache>(o.choice_)) {}
+    : pi_(o.pi_), H_(o.H_), casimirs_(o.casimirs_), k_(o.k_), choice_(o.choice_), trust_jacobi_(o.trust_jacobi_),
+      jit_(o.jit_), cache_(std::make_unique<Cache>(o.choice_)) {}
 Scheme& Scheme::operator=(const Scheme& o) {
     if (this != &o) *this = Scheme(o);
     return *this;
@@ -102,7 +107,9 @@ Scheme::Scheme(Scheme&&) noexcept = default;
 Scheme& Scheme::operator=(Scheme&&) noexcept = default;
 Scheme::~Scheme() = default;
 
-RealisationForm Scheme::realisation_form() const { return pgi::realisation_form(pi_.structure_class(), choice_); }
+RealisationForm Scheme::realisation_form() const {
+    return pgi::realisation_form(pi_.structure_class(), choice_);
+}
 
 // Jacobi and the Casimirs first (require_valid needs only these), the realisation identities when checks() asks.
 const SchemeChecks& Scheme::structure_checks_locked() const {
@@ -141,8 +148,8 @@ void Scheme::require_valid_locked() const {
     const auto& names = phase_space().coordinates();
     const SchemeChecks& c = structure_checks_locked();
     if (const auto& f = c.jacobi)
-        throw InputError("brackets", "the Jacobi identity fails at (" + names[f->i] + ", " + names[f->j] + ", " + names[f->k] +
-                                         "): jacobiator = " + f->jacobiator.to_string());
+        throw InputError("brackets", "the Jacobi identity fails at (" + names[f->i] + ", " + names[f->j] + ", " +
+                                         names[f->k] + "): jacobiator = " + f->jacobiator.to_string());
     for (std::size_t i = 0; i < c.casimirs.size(); ++i)
         if (const auto& f = c.casimirs[i])
             throw InputError("hamiltonian.casimirs[" + std::to_string(i) + "]",
@@ -177,7 +184,8 @@ const std::vector<Poly>& Scheme::terms() const {
 
 const std::vector<Poly>& Scheme::terms_locked() const {
     if (!cache_->terms) {
-        require_valid_locked();  // S_1..S_k and everything built on them solve the Hamilton-Jacobi equation of a Poisson pi
+        require_valid_locked();  // S_1..S_k and everything built on them solve the Hamilton-Jacobi equation of a
+                                 // Poisson pi
         // S_1..S_k read alpha only through degree k - 1: a deeper realisation already built serves as is
         const std::size_t D = realisation_degree_for_order(k_);
         if (const RealisationPtr& r = cache_->realisation.deepest(); !r || r->degree < D) realisation_locked(D);
@@ -210,9 +218,13 @@ NewtonStepper Scheme::stepper(double dt, const Eigen::VectorXd& x_typical) const
 }
 
 NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_typical) const {
-    if (opt.k != k_) throw InputError("order", "the step's order " + std::to_string(opt.k) + " is not the scheme's " + std::to_string(k_));
-    if (opt.realisation != choice_) throw InputError("realisation", "the step's realisation choice is not the scheme's");
-    if (!(opt.dt > 0) || !std::isfinite(opt.dt)) throw std::invalid_argument("Scheme::stepper: dt must be positive and finite");
+    if (opt.k != k_)
+        throw InputError("order",
+                         "the step's order " + std::to_string(opt.k) + " is not the scheme's " + std::to_string(k_));
+    if (opt.realisation != choice_)
+        throw InputError("realisation", "the step's realisation choice is not the scheme's");
+    if (!(opt.dt > 0) || !std::isfinite(opt.dt))
+        throw std::invalid_argument("Scheme::stepper: dt must be positive and finite");
     const double scale = x_typical.size() ? x_typical.lpNorm<Eigen::Infinity>() : 0.0;
     std::lock_guard lock(cache_->mutex);
     auto& cache = cache_->steppers;
@@ -225,7 +237,8 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
             pi_, terms_locked(), [this](std::size_t D) { return realisation_locked(D); }, opt, x_typical);
         ++cache_->stats.stepper_builds;
         if (cache.size() >= stepper_cache_size)
-            cache.erase(std::min_element(cache.begin(), cache.end(), [](const auto& a, const auto& b) { return a.used < b.used; }));
+            cache.erase(std::min_element(cache.begin(), cache.end(),
+                                         [](const auto& a, const auto& b) { return a.used < b.used; }));
         cache.push_back({opt, scale, std::move(built), 0});
         best = cache.end() - 1;
     }
@@ -261,8 +274,9 @@ const CompiledMap& Scheme::invariants_map() const {
 
 const CompiledMap& Scheme::vector_field_map() const {
     std::lock_guard lock(cache_->mutex);
-    return built_once(cache_->vector_field, cache_->stats.evaluator_builds,
-                      [&] { return CompiledMap::build(pi_.hamiltonian_vector_field(H_), phase_space().coordinate_vars()); });
+    return built_once(cache_->vector_field, cache_->stats.evaluator_builds, [&] {
+        return CompiledMap::build(pi_.hamiltonian_vector_field(H_), phase_space().coordinate_vars());
+    });
 }
 
 const CompiledBrackets& Scheme::brackets_map() const {

@@ -20,23 +20,23 @@ namespace pgi {
 
 /// A scheme from plain values, as a Python caller or a C++ program writes it.
 struct SchemeValues {
-    std::vector<std::string> coordinates;                        // {"x1", "x2", "x3"}
-    std::vector<std::pair<std::string, std::string>> brackets;   // {{"x1,x2", "-x3"}, ...}: {x1, x2} = -x3
-    std::string hamiltonian;                                     // "x1^2/2 + x2^2/3 + x3^2/4"
-    std::vector<std::string> casimirs;                           // {"x1^2 + x2^2 + x3^2"}
-    long order = 2;                                              // k, the Hamilton-Jacobi order
-    std::string realisation = "auto";                            // "auto" | "closed-form" | "radial"
-    std::size_t max_terms = Ring::default_max_terms;             // bound on every product of the exact phase
-    bool trust_jacobi = false;                                   // skip the Jacobi check: the caller vouches for pi
-    bool jit = false;                                            // the steps' compiled maps as native code (StepOptions::jit)
+    std::vector<std::string> coordinates;                       // {"x1", "x2", "x3"}
+    std::vector<std::pair<std::string, std::string>> brackets;  // {{"x1,x2", "-x3"}, ...}: {x1, x2} = -x3
+    std::string hamiltonian;                                    // "x1^2/2 + x2^2/3 + x3^2/4"
+    std::vector<std::string> casimirs;                          // {"x1^2 + x2^2 + x3^2"}
+    long order = 2;                                             // k, the Hamilton-Jacobi order
+    std::string realisation = "auto";                           // "auto" | "closed-form" | "radial"
+    std::size_t max_terms = Ring::default_max_terms;            // bound on every product of the exact phase
+    bool trust_jacobi = false;                                  // skip the Jacobi check: the caller vouches for pi
+    bool jit = false;  // the steps' compiled maps as native code (StepOptions::jit)
 };
 
 /// The verdicts of the exact checks (docs/math.md sections 1 and 2).
 struct SchemeChecks {
     StructureClass structure_class = StructureClass::general;
-    bool jacobi_checked = true;                             // false when the scheme trusts pi (trust_jacobi)
-    std::optional<JacobiFailure> jacobi;                    // the first failing triple, if any (checked only)
-    std::vector<std::optional<CasimirFailure>> casimirs;    // one per listed Casimir
+    bool jacobi_checked = true;                           // false when the scheme trusts pi (trust_jacobi)
+    std::optional<JacobiFailure> jacobi;                  // the first failing triple, if any (checked only)
+    std::vector<std::optional<CasimirFailure>> casimirs;  // one per listed Casimir
     /// The realisation identities, checked (only when Jacobi holds) in every p-degree below
     /// realisation_checked_below_degree = k: S_1..S_k read alpha through degree k - 1.
     bool realisation_checked = false;
@@ -50,7 +50,7 @@ struct SchemeChecks {
 struct SchemeStats {
     std::size_t realisation_builds = 0, terms_builds = 0, modified_builds = 0, stepper_builds = 0;
     std::size_t evaluator_builds = 0;  // the evaluators' compiled maps (vector_field_map(), ...), each built once
-    std::size_t steppers_kept = 0;  // compiled steps in the cache now (at most Scheme::stepper_cache_size)
+    std::size_t steppers_kept = 0;     // compiled steps in the cache now (at most Scheme::stepper_cache_size)
 };
 
 /// The brackets a scheme's pi holds, compiled: output e is {x_i, x_j} for (i, j) = entries[e], i < j; every other
@@ -84,8 +84,8 @@ public:
     const PhaseSpace& phase_space() const { return pi_.phase_space(); }
     const Poly& hamiltonian() const { return H_; }
     const std::vector<Poly>& casimirs() const { return casimirs_; }
-    std::size_t order() const { return k_; }                                // k
-    std::size_t method_order() const { return 2 * ((k_ + 1) / 2); }         // 2 ceil(k/2)
+    std::size_t order() const { return k_; }                         // k
+    std::size_t method_order() const { return 2 * ((k_ + 1) / 2); }  // 2 ceil(k/2)
     RealisationChoice realisation_choice() const { return choice_; }
     RealisationForm realisation_form() const;
     bool jacobi_trusted() const { return trust_jacobi_; }

@@ -8,7 +8,6 @@
 
 namespace pgi {
 
-
 double term_size(const Poly& f, std::span<const double> x) {
     double s = 0;
     for (std::size_t t = 0; t < f.length(); ++t) {
@@ -35,16 +34,18 @@ double relative_error(double value, double initial, double scale) {
 
 std::string step_failure_message(const NewtonStepper& s, std::size_t step, StepStatus status) {
     char buffer[512];
-    std::snprintf(buffer, sizeof buffer,
-                  "step %zu (from t = %.17g) failed: %s after %d Newton iterations, residual %.3g, last correction %.3g; "
-                  "a smaller dt may help", step,
-                  double(step - 1) * s.dt(), to_string(status).c_str(), s.last_iterations(), s.last_residual(),
-                  s.last_correction());
+    std::snprintf(
+        buffer, sizeof buffer,
+        "step %zu (from t = %.17g) failed: %s after %d Newton iterations, residual %.3g, last correction %.3g; "
+        "a smaller dt may help",
+        step, double(step - 1) * s.dt(), to_string(status).c_str(), s.last_iterations(), s.last_residual(),
+        s.last_correction());
     return buffer;
 }
 
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every,
-                     const std::optional<Eigen::VectorXd>& x_typical, const TrajectoryEvents& events, const RunControl& control) {
+                     const std::optional<Eigen::VectorXd>& x_typical, const TrajectoryEvents& events,
+                     const RunControl& control) {
     const std::size_t n = scheme.phase_space().dim();
     if (every == 0) throw InputError("every", "must be at least 1");
     RunRequest request;
@@ -61,8 +62,8 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
     NewtonStepper stepper = scheme.stepper(dt, x_typical ? *x_typical : x0);
     std::optional<EventDetector> detector;
     if (event_set)
-        detector.emplace(std::move(*event_set), DenseOutput::build(scheme.structure(), scheme.hamiltonian(), stepper.order()),
-                         events.samples);
+        detector.emplace(std::move(*event_set),
+                         DenseOutput::build(scheme.structure(), scheme.hamiltonian(), stepper.order()), events.samples);
     const std::size_t N = plan.steps, C = scheme.casimirs().size();
     RunLoop loop(scheme);
     loop.set_cancel(control.cancel);

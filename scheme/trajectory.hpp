@@ -17,7 +17,8 @@ namespace pgi {
 /// evaluate f at x, the scale its round-off and its drift are measured against.
 double term_size(const Poly& f, std::span<const double> x);
 /// term_size at x of H, the Casimirs, then extra: the scales of the outputs of scheme.invariants(extra).
-std::vector<double> invariant_scales(const Scheme& scheme, std::span<const double> x, const std::vector<Poly>& extra = {});
+std::vector<double> invariant_scales(const Scheme& scheme, std::span<const double> x,
+                                     const std::vector<Poly>& extra = {});
 /// How every report (the command line, Python, ensembles, pgi_peers) measures an invariant's drift:
 /// |value - initial| / scale, scale the size of the invariant's terms at x0 (term_size), or the absolute
 /// change when that is 0. Dividing by |C(x0)| instead made a Casimir through 0 report 7.0 for a drift of 2e-16.
@@ -27,20 +28,22 @@ double relative_error(double value, double initial, double scale);
 /// follows the flow of H (the rigid body at k = 1, dt = 3: 0.14).
 inline constexpr double energy_warning_from = 0.1;
 /// Whether a run whose largest relative energy error is this gets the warning (a NaN error too).
-inline bool energy_drifted(double energy_error_max) { return !(energy_error_max <= energy_warning_from); }
+inline bool energy_drifted(double energy_error_max) {
+    return !(energy_error_max <= energy_warning_from);
+}
 /// The message of a failed step: which step, from which t, why, the iterations, residual and last correction,
 /// and the hint that a smaller dt may help.
 std::string step_failure_message(const NewtonStepper& s, std::size_t step, StepStatus status);
 
 struct Trajectory {
     std::size_t dim = 0;
-    std::vector<double> t;                       // the recorded times: 0, every `every` steps, and the last
-    std::vector<double> x;                       // row-major, t.size() rows of dim values
-    std::vector<double> energy_error;            // relative error of H at each recorded time
-    std::vector<double> casimir_error;           // row-major, t.size() rows of one value per Casimir
-    std::size_t steps = 0;                       // steps completed
-    double energy_error_max = 0;                 // over every step, not only the recorded ones
-    bool energy_warning = false;                 // energy_drifted(energy_error_max)
+    std::vector<double> t;              // the recorded times: 0, every `every` steps, and the last
+    std::vector<double> x;              // row-major, t.size() rows of dim values
+    std::vector<double> energy_error;   // relative error of H at each recorded time
+    std::vector<double> casimir_error;  // row-major, t.size() rows of one value per Casimir
+    std::size_t steps = 0;              // steps completed
+    double energy_error_max = 0;        // over every step, not only the recorded ones
+    bool energy_warning = false;        // energy_drifted(energy_error_max)
     std::vector<double> casimir_error_max;
     /// Per Casimir: the least-squares slope of its signed relative error against the step (RunLoop::drift_per_step),
     /// a bias per step. Kept at round-off, a Casimir's error is a random walk and this is ~u / steps or less; a
@@ -53,8 +56,8 @@ struct Trajectory {
     std::size_t failed_step = 0;
     double failed_t = 0, failed_residual = 0;
     std::string message;
-    std::vector<Crossing> crossings;   // with events: every crossing, in time order
-    bool terminal_event = false;       // a terminal event ended the run: its crossing is the last row
+    std::vector<Crossing> crossings;  // with events: every crossing, in time order
+    bool terminal_event = false;      // a terminal event ended the run: its crossing is the last row
 };
 
 /// Events watched along a run: g_i(x) = 0 crossed in event i's direction, located on the dense output
@@ -62,19 +65,19 @@ struct Trajectory {
 struct TrajectoryEvents {
     std::vector<EventSpec> specs;
     std::size_t samples = 1;
-    EventNaming naming;   // how errors name an event ("event 1", or Python's "events[0]")
+    EventNaming naming;  // how errors name an event ("event 1", or Python's "events[0]")
 };
 
-/// Integrates with scheme.stepper(dt, x_typical) (default: x_typical = x0) from x0 over plan_run's steps_to_reach(t_end, dt) steps, Kahan-summed
-/// (integrate_steps), recording every `every`-th state and the last. Stops at the first failed step, or
-/// non-finite state or invariant (status, failed_step, message say why; the trajectory holds what came
-/// before). Throws, before any work, InputError on every = 0 or x0 of the wrong length or not finite, what
-/// plan_run throws (a bad dt or t_end, a run above control.limits) and what EventSet::build throws for a bad
-/// event; RunInterrupted once control.cancel is set. A given x_typical (finite, of
-/// x0's length) makes the run the one an ensemble built at x_typical makes. With events, each crossing is
-/// kept and a terminal one ends the run: its state at its t is the last row (terminal_event).
+/// Integrates with scheme.stepper(dt, x_typical) (default: x_typical = x0) from x0 over plan_run's
+/// steps_to_reach(t_end, dt) steps, Kahan-summed (integrate_steps), recording every `every`-th state and the last.
+/// Stops at the first failed step, or non-finite state or invariant (status, failed_step, message say why; the
+/// trajectory holds what came before). Throws, before any work, InputError on every = 0 or x0 of the wrong length or
+/// not finite, what plan_run throws (a bad dt or t_end, a run above control.limits) and what EventSet::build throws for
+/// a bad event; RunInterrupted once control.cancel is set. A given x_typical (finite, of x0's length) makes the run the
+/// one an ensemble built at x_typical makes. With events, each crossing is kept and a terminal one ends the run: its
+/// state at its t is the last row (terminal_event).
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1,
-                     const std::optional<Eigen::VectorXd>& x_typical = std::nullopt, const TrajectoryEvents& events = {},
-                     const RunControl& control = {});
+                     const std::optional<Eigen::VectorXd>& x_typical = std::nullopt,
+                     const TrajectoryEvents& events = {}, const RunControl& control = {});
 
 }  // namespace pgi

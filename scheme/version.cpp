@@ -2,6 +2,8 @@
 
 namespace pgi {
 
-std::string_view version() { return PGI_VERSION; }
+std::string_view version() {
+    return PGI_VERSION;
+}
 
 }  // namespace pgi

@@ -23,8 +23,10 @@ std::string megabytes(double bytes) {
 
 std::string count(double n) {
     char buf[64];
-    if (n < 1e15) std::snprintf(buf, sizeof buf, "%.0f", n);
-    else std::snprintf(buf, sizeof buf, "%.3g", n);
+    if (n < 1e15)
+        std::snprintf(buf, sizeof buf, "%.0f", n);
+    else
+        std::snprintf(buf, sizeof buf, "%.3g", n);
     return buf;
 }
 
@@ -45,7 +47,8 @@ std::size_t resident_memory() {
 
 std::size_t default_memory_budget() {
     const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
-    double budget = pages > 0 && page > 0 ? 0.5 * static_cast<double>(pages) * static_cast<double>(page) : 4.0 * 1024 * mib;
+    double budget =
+        pages > 0 && page > 0 ? 0.5 * static_cast<double>(pages) * static_cast<double>(page) : 4.0 * 1024 * mib;
     rlimit as{};
     if (::getrlimit(RLIMIT_AS, &as) == 0 && as.rlim_cur != RLIM_INFINITY)
         budget = std::min(budget, 0.75 * static_cast<double>(as.rlim_cur));
@@ -58,7 +61,8 @@ double bytes_per_term(std::size_t nvars, double max_degree, double coefficient_b
     double bits = 8;
     while (bits < 64 && std::ldexp(1.0, static_cast<int>(bits) - 1) <= max_degree) bits *= 2;
     const double fields = static_cast<double>(nvars) + 1, per_word = std::floor(64 / bits);
-    const double exponent_words = bits < 64 ? std::ceil(fields / per_word) : fields * std::ceil(std::log2(max_degree + 2) / 64);
+    const double exponent_words =
+        bits < 64 ? std::ceil(fields / per_word) : fields * std::ceil(std::log2(max_degree + 2) / 64);
     const double coefficient = 8 + (coefficient_bits > 62 ? 16 + 8 * std::ceil(coefficient_bits / 64) : 0);
     return 8 * exponent_words + coefficient;
 }
@@ -95,7 +99,9 @@ std::string describe(const Budget::Stage& s) {
 
 }  // namespace
 
-double Budget::seconds() const { return std::chrono::duration<double>(busy_).count(); }
+double Budget::seconds() const {
+    return std::chrono::duration<double>(busy_).count();
+}
 
 void Budget::refuse(BudgetExceeded::Resource r, const std::string& what) const {
     throw BudgetExceeded(r, stage_.name.empty() ? what : describe(stage_) + ": " + what);
@@ -110,8 +116,9 @@ bool Budget::begin_and_exceeds(double terms, double bytes_per_term) const {
 
 void Budget::refuse_reserve(const std::string& operation, double terms, double bytes_per_term) const {
     if (terms > static_cast<double>(limits_.max_terms))
-        refuse(BudgetExceeded::Resource::terms, operation + " could reach " + count(terms) + " terms, above the limit of " +
-                                                    count(static_cast<double>(limits_.max_terms)) + " (raise it with --max-terms)");
+        refuse(BudgetExceeded::Resource::terms,
+               operation + " could reach " + count(terms) + " terms, above the limit of " +
+                   count(static_cast<double>(limits_.max_terms)) + " (raise it with --max-terms)");
     const double bytes = terms * bytes_per_term;  // called only when the terms or these bytes are above the budget
     refuse(BudgetExceeded::Resource::memory,
            operation + " could take " + megabytes(bytes) + " (with the " + megabytes(static_cast<double>(resident_)) +
@@ -121,8 +128,9 @@ void Budget::refuse_reserve(const std::string& operation, double terms, double b
 
 void Budget::account(std::string_view operation, std::size_t terms) const {
     if (terms > limits_.max_terms)
-        refuse(BudgetExceeded::Resource::terms, std::string(operation) + " reached " + std::to_string(terms) + " terms, above the limit of " +
-                                                    std::to_string(limits_.max_terms) + " (raise it with --max-terms)");
+        refuse(BudgetExceeded::Resource::terms, std::string(operation) + " reached " + std::to_string(terms) +
+                                                    " terms, above the limit of " + std::to_string(limits_.max_terms) +
+                                                    " (raise it with --max-terms)");
     largest_ = std::max(largest_, terms);
     // NOTE: reading the clock costs as much as a small sum; every 32nd operation (and every estimated one)
     // is enough to see time and memory go by
@@ -131,8 +139,10 @@ void Budget::account(std::string_view operation, std::size_t terms) const {
     // a gap of a second or more between operations is time spent elsewhere, unless an estimated
     // (possibly long) operation filled it
     constexpr auto idle = std::chrono::seconds(1);
-    if (now - last_ < idle) busy_ += now - last_;
-    else if (estimated_) busy_ += now - begun_;
+    if (now - last_ < idle)
+        busy_ += now - last_;
+    else if (estimated_)
+        busy_ += now - begun_;
     last_ = now;
     estimated_ = false;
     if (now >= next_poll_) poll(now);
@@ -142,13 +152,14 @@ void Budget::poll(Clock::time_point now) const {
     next_poll_ = now + std::chrono::milliseconds(20);
     const double elapsed = seconds();
     if (elapsed > limits_.max_seconds)
-        refuse(BudgetExceeded::Resource::time, "the exact phase has run " + seconds_text(elapsed) + ", above the time budget of " +
-                                                   seconds_text(limits_.max_seconds) + " (raise it with --max-seconds)");
+        refuse(BudgetExceeded::Resource::time, "the exact phase has run " + seconds_text(elapsed) +
+                                                   ", above the time budget of " + seconds_text(limits_.max_seconds) +
+                                                   " (raise it with --max-seconds)");
     resident_ = resident_memory();
     if (resident_ > limits_.max_bytes)
-        refuse(BudgetExceeded::Resource::memory, "the process uses " + megabytes(static_cast<double>(resident_)) +
-                                                     ", above the memory budget of " + megabytes(static_cast<double>(limits_.max_bytes)) +
-                                                     " (raise it with --max-memory-mb)");
+        refuse(BudgetExceeded::Resource::memory,
+               "the process uses " + megabytes(static_cast<double>(resident_)) + ", above the memory budget of " +
+                   megabytes(static_cast<double>(limits_.max_bytes)) + " (raise it with --max-memory-mb)");
     if (progress_ && elapsed >= 1 && now >= next_progress_) {
         next_progress_ = now + std::chrono::seconds(2);
         progress_("exact phase: " + (stage_.name.empty() ? std::string() : describe(stage_) + ": ") +

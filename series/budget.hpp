@@ -44,9 +44,9 @@ struct BudgetLimits {
     /// No time limit by default in the library (a program that reuses a scene for many steppers or tests
     /// would add up their time); the pgi program sets one (60 s, --max-seconds).
     static constexpr double default_max_seconds = std::numeric_limits<double>::infinity();
-    std::size_t max_terms = default_max_terms;      // terms of any one result (products: predicted)
+    std::size_t max_terms = default_max_terms;        // terms of any one result (products: predicted)
     std::size_t max_bytes = default_memory_budget();  // resident memory of the process
-    double max_seconds = default_max_seconds;       // busy time of the algebra (see Budget::seconds)
+    double max_seconds = default_max_seconds;         // busy time of the algebra (see Budget::seconds)
 };
 
 class Budget {
@@ -98,9 +98,9 @@ private:
     mutable std::size_t largest_ = 0;
     mutable std::size_t resident_ = 0;
     mutable Clock::time_point next_poll_, next_progress_;
-    mutable Clock::time_point last_;      // the previous account() or restart()
-    mutable Clock::time_point begun_;     // the start of the estimated operation under way
-    mutable bool estimated_ = false;      // reserve() was called for the operation under way
+    mutable Clock::time_point last_;   // the previous account() or restart()
+    mutable Clock::time_point begun_;  // the start of the estimated operation under way
+    mutable bool estimated_ = false;   // reserve() was called for the operation under way
     mutable Clock::duration busy_{};
     mutable unsigned operations_ = 0;
 };

@@ -74,7 +74,8 @@ void install_handler(int sig) {
 void install_handler_where_default() {
     for (int sig : {SIGINT, SIGTERM}) {
         struct sigaction current {};
-        if (::sigaction(sig, nullptr, &current) == 0 && current.sa_handler == SIG_DFL && !(current.sa_flags & SA_SIGINFO))
+        if (::sigaction(sig, nullptr, &current) == 0 && current.sa_handler == SIG_DFL &&
+            !(current.sa_flags & SA_SIGINFO))
             install_handler(sig);
     }
 }
@@ -144,7 +145,8 @@ int spawn_registered(const std::vector<std::string>& argv, int output, pid_t& pi
 }
 
 std::string how_it_ended(int status) {
-    if (WIFEXITED(status)) return WEXITSTATUS(status) == 0 ? "" : "exited with status " + std::to_string(WEXITSTATUS(status));
+    if (WIFEXITED(status))
+        return WEXITSTATUS(status) == 0 ? "" : "exited with status " + std::to_string(WEXITSTATUS(status));
     if (WIFSIGNALED(status)) return "was killed by signal " + std::to_string(WTERMSIG(status));
     return "ended with wait status " + std::to_string(status);
 }
@@ -184,10 +186,14 @@ ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& 
     if (open) drain(read_end.fd, result.output, options.output_limit);
     if (slot >= 0) table.group[slot].store(0);
     int status = 0;
-    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
-    if (result.output.size() > options.output_limit) result.output.erase(0, result.output.size() - options.output_limit);
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+    if (result.output.size() > options.output_limit)
+        result.output.erase(0, result.output.size() - options.output_limit);
     const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(options.timeout).count();
-    result.failure = timed_out ? "stopped after " + (ms % 1000 ? std::to_string(ms) + " ms" : std::to_string(ms / 1000) + " s") : how_it_ended(status);
+    result.failure =
+        timed_out ? "stopped after " + (ms % 1000 ? std::to_string(ms) + " ms" : std::to_string(ms / 1000) + " s")
+                  : how_it_ended(status);
     return result;
 }
 

@@ -17,7 +17,8 @@
 
 namespace pgi {
 
-// The groups of eval() in double on AVX2 (series/compile_avx2.cpp, compiled for it): GroupSums' operations, lane by lane.
+// The groups of eval() in double on AVX2 (series/compile_avx2.cpp, compiled for it): GroupSums' operations, lane by
+// lane.
 void eval_groups_avx2(const CompiledMap::Tape& tape, const double* mono, double* out);
 
 namespace {
@@ -43,7 +44,9 @@ std::size_t total_degree(Exponents e) {
 class MonomialTable {
 public:
     MonomialTable() : slots_(1024, empty), start_{0} {}
-    Exponents exponents(std::uint32_t id) const { return {powers_.data() + start_[id], powers_.data() + start_[id + 1]}; }
+    Exponents exponents(std::uint32_t id) const {
+        return {powers_.data() + start_[id], powers_.data() + start_[id + 1]};
+    }
     std::size_t count() const { return start_.size() - 1; }
     /// The number of e, and whether it is new.
     std::pair<std::uint32_t, bool> insert(Exponents e) {
@@ -63,7 +66,8 @@ private:
     static constexpr std::uint32_t empty = none;
     static std::size_t hash(Exponents e) {
         std::uint64_t h = 0x9e3779b97f4a7c15ull;
-        for (const Power& p : e) h = (h ^ (std::uint64_t(p.input) << 32 | p.exponent)) * 0xff51afd7ed558ccdull, h ^= h >> 32;
+        for (const Power& p : e)
+            h = (h ^ (std::uint64_t(p.input) << 32 | p.exponent)) * 0xff51afd7ed558ccdull, h ^= h >> 32;
         return static_cast<std::size_t>(h);
     }
     // e's slot, or the empty one where it would go
@@ -152,7 +156,8 @@ private:
         std::vector<Power> less = t;
         for (std::size_t i = 0; i < t.size(); ++i) {
             if (--less[i].exponent == 0) less.erase(less.begin() + std::ptrdiff_t(i));
-            if (const std::uint32_t id = made_.find(less); id != MonomialTable::none) return {id, 1 + t[i].input, 0, {}};
+            if (const std::uint32_t id = made_.find(less); id != MonomialTable::none)
+                return {id, 1 + t[i].input, 0, {}};
             less = t;
         }
         const std::size_t degree = total_degree(t);
@@ -193,8 +198,9 @@ double term_value(const fmpq_t content, const fmpz_t z) {
     const fmpz* num = fmpq_numref(content);
     const fmpz* den = fmpq_denref(content);
     slong product;
-    if (fmpz_fits_si(num) && fmpz_fits_si(z) && fmpz_fits_si(den) && !__builtin_mul_overflow(fmpz_get_si(num), fmpz_get_si(z), &product) &&
-        product > -exact && product < exact && fmpz_get_si(den) < exact)
+    if (fmpz_fits_si(num) && fmpz_fits_si(z) && fmpz_fits_si(den) &&
+        !__builtin_mul_overflow(fmpz_get_si(num), fmpz_get_si(z), &product) && product > -exact && product < exact &&
+        fmpz_get_si(den) < exact)
         return static_cast<double>(product) / static_cast<double>(fmpz_get_si(den));
     Rational q;
     fmpq_mul_fmpz(q.get_mut(), content, z);
@@ -218,7 +224,8 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
     std::vector<Power> x;
     c.row_start_.push_back(0);
     for (std::size_t o = 0; o < outputs.size(); ++o) {
-        if (outputs[o].ring() != ring) throw std::invalid_argument("pgi::CompiledMap: the outputs belong to different rings");
+        if (outputs[o].ring() != ring)
+            throw std::invalid_argument("pgi::CompiledMap: the outputs belong to different rings");
         const fmpq_mpoly_struct* f = outputs[o].get();
         const fmpz_mpoly_struct* z = f->zpoly;
         const mpoly_ctx_struct* minfo = outputs[o].ctx()->zctx->minfo;
@@ -226,25 +233,30 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
         e.resize(static_cast<std::size_t>(minfo->nvars));
         const std::size_t words = mpoly_words_per_exp(z->bits, minfo);
         for (slong t = 0; t < z->length; ++t) {
-            if (z->bits > FLINT_BITS) throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " has a power above 2^64");
+            if (z->bits > FLINT_BITS)
+                throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) +
+                                            " has a power above 2^64");
             mpoly_get_monomial_ui(e.data(), z->exps + std::size_t(t) * words, z->bits, minfo);
             x.clear();
             for (std::size_t j = 0; j < vars.size(); ++j) {
                 const std::size_t v = vars[j];
                 if (e[j] == 0) continue;
                 if (slot[v] < 0)
-                    throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " reads '" + ring->names()[v] +
-                                                "', which is not an input");
-                if (e[j] > UINT32_MAX) throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " has a power above 2^32");
+                    throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) + " reads '" +
+                                                ring->names()[v] + "', which is not an input");
+                if (e[j] > UINT32_MAX)
+                    throw std::invalid_argument("pgi::CompiledMap: output " + std::to_string(o) +
+                                                " has a power above 2^32");
                 x.push_back({static_cast<std::uint32_t>(slot[v]), static_cast<std::uint32_t>(e[j])});
             }
             std::sort(x.begin(), x.end(), [](const Power& a, const Power& b) { return a.input < b.input; });
             const double coeff = term_value(f->content, z->coeffs + t);
             // NOTE: never let a rational become an infinite double silently
             if (!std::isfinite(coeff))
-                throw std::invalid_argument("a coefficient of " +
-                                            std::to_string(fmpz_sizeinbase(fmpq_numref(outputs[o].term_coeff(std::size_t(t)).get()), 10)) +
-                                            " digits in output " + std::to_string(o) + " is beyond the double range");
+                throw std::invalid_argument(
+                    "a coefficient of " +
+                    std::to_string(fmpz_sizeinbase(fmpq_numref(outputs[o].term_coeff(std::size_t(t)).get()), 10)) +
+                    " digits in output " + std::to_string(o) + " is beyond the double range");
             c.term_monomial_.push_back(targets.insert(x).first);
             c.term_coeff_.push_back(coeff);
         }
@@ -268,10 +280,12 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
     const auto& factors = chain.factors();
     const std::size_t first = 1 + k;
     std::vector<std::uint32_t> level(first + factors.size(), 0);
-    for (std::size_t m = 0; m < factors.size(); ++m) level[first + m] = 1 + std::max(level[factors[m].first], level[factors[m].second]);
+    for (std::size_t m = 0; m < factors.size(); ++m)
+        level[first + m] = 1 + std::max(level[factors[m].first], level[factors[m].second]);
     std::vector<std::uint32_t> order(factors.size());
     std::iota(order.begin(), order.end(), 0u);
-    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return level[first + a] < level[first + b]; });
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::uint32_t a, std::uint32_t b) { return level[first + a] < level[first + b]; });
     std::vector<std::uint32_t> number(first + factors.size());
     std::iota(number.begin(), number.begin() + std::ptrdiff_t(first), 0u);
     for (std::size_t m = 0; m < order.size(); ++m) number[first + order[m]] = static_cast<std::uint32_t>(first + m);
@@ -287,7 +301,9 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
     return c;
 }
 
-bool processor_has_avx2() { return __builtin_cpu_supports("avx2"); }
+bool processor_has_avx2() {
+    return __builtin_cpu_supports("avx2");
+}
 
 std::size_t CompiledMap::saved_by_fours() const {
     std::size_t saved = 0;
@@ -320,11 +336,14 @@ void CompiledMap::split_sums() {
             std::vector<std::pair<std::uint32_t, double>> sums[4];
             for (std::size_t p = 0; p < L; ++p) {
                 const std::size_t t = group_start_[g] + p;
-                if (group_coeff_[t * group_width + i] != 0) sums[sum_of(p, L)].push_back({group_monomial_[t], group_coeff_[t * group_width + i]});
+                if (group_coeff_[t * group_width + i] != 0)
+                    sums[sum_of(p, L)].push_back({group_monomial_[t], group_coeff_[t * group_width + i]});
             }
             LaneRow row{static_cast<std::uint32_t>(lane_coeff_.size()), UINT32_MAX, {}};
             for (const auto& sum : sums) row.quads = std::min(row.quads, static_cast<std::uint32_t>(sum.size()));
-            const auto put = [&](const std::pair<std::uint32_t, double>& term) { lane_monomial_.push_back(term.first), lane_coeff_.push_back(term.second); };
+            const auto put = [&](const std::pair<std::uint32_t, double>& term) {
+                lane_monomial_.push_back(term.first), lane_coeff_.push_back(term.second);
+            };
             for (std::size_t q = 0; q < row.quads; ++q)
                 for (const auto& sum : sums) put(sum[q]);
             for (std::size_t a = 0; a < 4; ++a) {
@@ -360,7 +379,9 @@ struct GroupSums {
         }
     }
     GroupSums operator+(const GroupSums& o) const { return {lo + o.lo, hi + o.hi}; }
-    bool finite() const { return std::isfinite(lo[0]) && std::isfinite(lo[1]) && std::isfinite(hi[0]) && std::isfinite(hi[1]); }
+    bool finite() const {
+        return std::isfinite(lo[0]) && std::isfinite(lo[1]) && std::isfinite(hi[0]) && std::isfinite(hi[1]);
+    }
     double operator[](std::size_t i) const { return i < 2 ? lo[i] : hi[i - 2]; }
 };
 // The same in long double (reference evaluations), one lane at a time; its zero coefficients always skipped.
@@ -397,7 +418,8 @@ void CompiledMap::group_outputs() {
     const std::size_t O = num_outputs();
     if (O < 2 || O > group_limit) return;
     const auto row = [&](std::size_t o) {
-        std::vector<std::uint32_t> m(term_monomial_.begin() + row_start_[o], term_monomial_.begin() + row_start_[o + 1]);
+        std::vector<std::uint32_t> m(term_monomial_.begin() + row_start_[o],
+                                     term_monomial_.begin() + row_start_[o + 1]);
         std::sort(m.begin(), m.end());
         return m;
     };
@@ -406,9 +428,12 @@ void CompiledMap::group_outputs() {
     const auto shared = [](const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
         std::size_t n = 0;
         for (std::size_t i = 0, j = 0; i < a.size() && j < b.size();) {
-            if (a[i] < b[j]) ++i;
-            else if (b[j] < a[i]) ++j;
-            else ++n, ++i, ++j;
+            if (a[i] < b[j])
+                ++i;
+            else if (b[j] < a[i])
+                ++j;
+            else
+                ++n, ++i, ++j;
         }
         return n;
     };
@@ -424,7 +449,8 @@ void CompiledMap::group_outputs() {
             std::size_t best = O;
             double best_part = 0;
             for (std::size_t o = seed + 1; o < O; ++o) {
-                if (taken[o] || rows[o].empty() || std::find(members.begin(), members.end(), o) != members.end()) continue;
+                if (taken[o] || rows[o].empty() || std::find(members.begin(), members.end(), o) != members.end())
+                    continue;
                 const double part = double(shared(rows[o], u)) / double(rows[o].size());
                 if (part > best_part) best = o, best_part = part;
             }
@@ -438,7 +464,8 @@ void CompiledMap::group_outputs() {
         if (members.size() < 2 || group_cost * double(u.size()) >= double(alone)) continue;
         std::array<std::uint32_t, group_width> g;
         g.fill(no_output);
-        for (std::size_t i = 0; i < members.size(); ++i) g[i] = static_cast<std::uint32_t>(members[i]), taken[members[i]] = true;
+        for (std::size_t i = 0; i < members.size(); ++i)
+            g[i] = static_cast<std::uint32_t>(members[i]), taken[members[i]] = true;
         groups.push_back(g);
         unions.push_back(std::move(u));
     }
@@ -454,8 +481,10 @@ void CompiledMap::group_outputs() {
         for (std::size_t i = 0; i < group_width; ++i) {
             if (g[i] == no_output) continue;
             for (std::uint32_t t = row_start_[g[i]]; t < row_start_[g[i] + 1]; ++t) {
-                const std::size_t at = first + std::size_t(std::lower_bound(u.begin(), u.end(), term_monomial_[t]) - u.begin());
-                group_coeff_[at * group_width + i] += term_coeff_[t];  // one term per monomial: FLINT's terms are distinct
+                const std::size_t at =
+                    first + std::size_t(std::lower_bound(u.begin(), u.end(), term_monomial_[t]) - u.begin());
+                group_coeff_[at * group_width + i] +=
+                    term_coeff_[t];  // one term per monomial: FLINT's terms are distinct
             }
         }
         group_start_.push_back(static_cast<std::uint32_t>(group_monomial_.size()));
@@ -470,7 +499,8 @@ void CompiledMap::group_outputs() {
     std::vector<double> coeff;
     for (std::size_t o = 0; o < O; ++o) {
         if (!grouped[o])
-            for (std::uint32_t t = row_start_[o]; t < row_start_[o + 1]; ++t) monomial.push_back(term_monomial_[t]), coeff.push_back(term_coeff_[t]);
+            for (std::uint32_t t = row_start_[o]; t < row_start_[o + 1]; ++t)
+                monomial.push_back(term_monomial_[t]), coeff.push_back(term_coeff_[t]);
         start.push_back(static_cast<std::uint32_t>(coeff.size()));
     }
     row_start_ = std::move(start);

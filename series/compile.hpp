@@ -59,7 +59,9 @@ public:
     /// What eval runs once native code is attached (series/native.hpp): the same outputs, bit for bit.
     using NativeEval = void (*)(const double* in, double* out);
     /// eval() runs f from now on, library keeping its code loaded (shared by the copies of this map).
-    void attach_native(std::shared_ptr<const void> library, NativeEval f) { native_library_ = std::move(library), native_ = f; }
+    void attach_native(std::shared_ptr<const void> library, NativeEval f) {
+        native_library_ = std::move(library), native_ = f;
+    }
     bool native() const { return native_ != nullptr; }
     /// m points at once, structure of arrays: in[v m + j] is input v of point j, out[o m + j] is output o
     /// of point j. Every point's outputs are bit for bit eval()'s on it (the same operations in the same
@@ -93,10 +95,10 @@ public:
         const double* group_coeff;
     };
     Tape tape() const {
-        return {num_inputs_,          left_.size(),           num_outputs(),         left_.data(),          right_.data(),
-                row_start_.data(),    term_monomial_.data(),  term_coeff_.data(),    lane_row_.data(),      lane_monomial_.data(),
-                lane_coeff_.data(),   group_output_.size(),   group_output_.data(),  group_start_.data(),   group_monomial_.data(),
-                group_coeff_.data()};
+        return {num_inputs_,          left_.size(),          num_outputs(),          left_.data(),
+                right_.data(),        row_start_.data(),     term_monomial_.data(),  term_coeff_.data(),
+                lane_row_.data(),     lane_monomial_.data(), lane_coeff_.data(),     group_output_.size(),
+                group_output_.data(), group_start_.data(),   group_monomial_.data(), group_coeff_.data()};
     }
     static constexpr std::size_t group_width = 4;
     static constexpr std::uint32_t no_output = UINT32_MAX;
@@ -106,7 +108,7 @@ public:
 
 private:
     std::size_t num_inputs_ = 0;
-    std::vector<std::uint32_t> left_, right_;       // monomial 1 + k + m = monomial[left_[m]] * monomial[right_[m]]
+    std::vector<std::uint32_t> left_, right_;  // monomial 1 + k + m = monomial[left_[m]] * monomial[right_[m]]
     std::vector<std::uint32_t> row_start_, term_monomial_;
     std::vector<double> term_coeff_;
     // groups of up to group_width outputs read together: group g's terms group_start_[g] .. group_start_[g + 1] - 1,

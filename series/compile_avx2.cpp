@@ -24,12 +24,17 @@ struct QuadSums {
             v += a * mm;
     }
     QuadSums operator+(const QuadSums& o) const { return {v + o.v}; }
-    bool finite() const { return __builtin_isfinite(v[0]) && __builtin_isfinite(v[1]) && __builtin_isfinite(v[2]) && __builtin_isfinite(v[3]); }
+    bool finite() const {
+        return __builtin_isfinite(v[0]) && __builtin_isfinite(v[1]) && __builtin_isfinite(v[2]) &&
+               __builtin_isfinite(v[3]);
+    }
     double operator[](std::size_t i) const { return v[i]; }
 };
 
 }  // namespace
 
-void eval_groups_avx2(const CompiledMap::Tape& tape, const double* mono, double* out) { eval_groups<QuadSums>(tape, mono, out); }
+void eval_groups_avx2(const CompiledMap::Tape& tape, const double* mono, double* out) {
+    eval_groups<QuadSums>(tape, mono, out);
+}
 
 }  // namespace pgi

@@ -17,7 +17,9 @@ template <bool masked, class Sums, class T>
 Sums group_sum(const CompiledMap::Tape& tape, std::size_t g, const T* mono) {
     constexpr std::size_t G = CompiledMap::group_width;
     Sums s0{}, s1{}, s2{}, s3{};
-    const auto term = [&](std::uint32_t t, Sums& acc) { acc.template add<masked>(tape.group_coeff + std::size_t(t) * G, mono[tape.group_monomial[t]]); };
+    const auto term = [&](std::uint32_t t, Sums& acc) {
+        acc.template add<masked>(tape.group_coeff + std::size_t(t) * G, mono[tape.group_monomial[t]]);
+    };
     std::uint32_t t = tape.group_start[g];
     const std::uint32_t end = tape.group_start[g + 1];
     for (; t + 4 <= end; t += 4) {

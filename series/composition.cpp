@@ -53,7 +53,8 @@ std::map<SparseExponents, Poly> substitution_groups(const Poly& f, const std::ve
         for (const Term& t : group) {
             std::fill(k.begin(), k.end(), 0);
             for (const auto& [j, ej] : t.kept) k[position[j]] = ej;
-            fmpz_mpoly_push_term_fmpz_ui(kept.get_mut()->zpoly, f.get()->zpoly->coeffs + t.index, k.data(), kept.ctx()->zctx);
+            fmpz_mpoly_push_term_fmpz_ui(kept.get_mut()->zpoly, f.get()->zpoly->coeffs + t.index, k.data(),
+                                         kept.ctx()->zctx);
         }
         fmpq_mpoly_reduce(kept.get_mut(), kept.ctx());
         groups.emplace(key, std::move(kept));
@@ -72,7 +73,8 @@ std::vector<Poly> coefficients(const std::vector<Series>& fs, std::size_t N) {
 void check_images(std::size_t nvars, const std::vector<std::optional<Series>>& images, std::size_t N) {
     if (images.size() != nvars) throw std::invalid_argument("pgi::compose: need one (optional) image per variable");
     for (const auto& im : images)
-        if (im && im->order() != N) throw std::invalid_argument("pgi::compose: an image has the wrong truncation order");
+        if (im && im->order() != N)
+            throw std::invalid_argument("pgi::compose: an image has the wrong truncation order");
 }
 
 }  // namespace
@@ -85,7 +87,8 @@ ComposeByOrder::ComposeByOrder(RingPtr ring, std::vector<std::optional<Series>> 
     product_of_.emplace(SparseExponents{}, 0);
 }
 
-ComposeByOrder::ComposeByOrder(const std::vector<Poly>& fs, std::vector<std::optional<Series>> images, std::size_t N) : N_(N) {
+ComposeByOrder::ComposeByOrder(const std::vector<Poly>& fs, std::vector<std::optional<Series>> images, std::size_t N)
+    : N_(N) {
     if (fs.empty()) return;
     *this = ComposeByOrder(fs.front().ring(), std::move(images), N);
     for (const Poly& f : fs) append(f);
@@ -96,7 +99,8 @@ std::size_t ComposeByOrder::append(const Poly& f) {
     auto& groups = groups_.emplace_back();
     for (auto& [e, kept] : substitution_groups(f, images_)) {
         std::optional<Rational> scalar;
-        if (fmpq_mpoly_is_fmpq(kept.get(), kept.ctx())) fmpq_mpoly_get_fmpq(scalar.emplace().get_mut(), kept.get(), kept.ctx());
+        if (fmpq_mpoly_is_fmpq(kept.get(), kept.ctx()))
+            fmpq_mpoly_get_fmpq(scalar.emplace().get_mut(), kept.get(), kept.ctx());
         groups.push_back(Group{product_index(e), std::move(kept), std::move(scalar)});
     }
     return groups_.size() - 1;
@@ -113,10 +117,11 @@ std::uint32_t ComposeByOrder::product_index(const SparseExponents& e) {
 
 void ComposeByOrder::set_image(std::size_t v, std::size_t m, Poly c) {
     if (v >= images_.size() || !images_[v] || m >= N_)
-        throw std::invalid_argument("pgi::ComposeByOrder::set_image: variable " + std::to_string(v) + " has no image of order " +
-                                    std::to_string(m + 1));
+        throw std::invalid_argument("pgi::ComposeByOrder::set_image: variable " + std::to_string(v) +
+                                    " has no image of order " + std::to_string(m + 1));
     if (static_cast<long>(m) <= composed_through_)
-        throw std::logic_error("pgi::ComposeByOrder::set_image: order " + std::to_string(m) + " of an image was already read");
+        throw std::logic_error("pgi::ComposeByOrder::set_image: order " + std::to_string(m) +
+                               " of an image was already read");
     (*images_[v])[m] = std::move(c);
 }
 
@@ -145,7 +150,8 @@ const Poly& ComposeByOrder::product_coefficient(std::uint32_t p, std::size_t m) 
 
 Poly ComposeByOrder::coefficient(std::size_t i, std::size_t m) {
     if (i >= groups_.size() || m >= N_)
-        throw std::out_of_range("pgi::ComposeByOrder::coefficient: no order " + std::to_string(m) + " of polynomial " + std::to_string(i));
+        throw std::out_of_range("pgi::ComposeByOrder::coefficient: no order " + std::to_string(m) + " of polynomial " +
+                                std::to_string(i));
     composed_through_ = std::max(composed_through_, static_cast<long>(m));
     std::vector<Poly> pieces;
     pieces.reserve(groups_[i].size());
@@ -156,7 +162,8 @@ Poly ComposeByOrder::coefficient(std::size_t i, std::size_t m) {
     return sum(std::move(pieces), ring_);
 }
 
-std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::optional<Series>>& images, std::size_t N) {
+std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::optional<Series>>& images,
+                            std::size_t N) {
     std::vector<Series> out;
     if (fs.empty()) return out;
     ComposeByOrder composed(fs, images, N);
@@ -172,7 +179,8 @@ Series compose(const Poly& f, const std::vector<std::optional<Series>>& images, 
     return std::move(compose(std::vector<Poly>{f}, images, N).front());
 }
 
-std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std::optional<Series>>& images, std::size_t N) {
+std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std::optional<Series>>& images,
+                            std::size_t N) {
     std::vector<Series> out;
     if (fs.empty()) return out;
     const RingPtr& ring = fs.front().ring();
@@ -187,9 +195,11 @@ std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std
     return out;
 }
 
-std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars, std::size_t N,
+std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars,
+                                          std::size_t N,
                                           const std::function<bool(const std::vector<Series>&)>& enough) {
-    if (u.size() != vars.size()) throw std::invalid_argument("pgi::inverse_near_identity: one displacement per variable");
+    if (u.size() != vars.size())
+        throw std::invalid_argument("pgi::inverse_near_identity: one displacement per variable");
     if (u.empty()) return {};
     const RingPtr& ring = u.front().ring();
     for (const auto& ui : u)

@@ -68,22 +68,25 @@ private:
     std::vector<std::vector<Group>> groups_;  // f_i = sum over groups_[i]
     std::vector<Product> products_;  // only grows (append); product_coefficient's references into each c stay valid
     std::map<SparseExponents, std::uint32_t> product_of_;  // products_'s index by exponents
-    long composed_through_ = -1;              // the highest order asked for so far
+    long composed_through_ = -1;                           // the highest order asked for so far
 };
 
 /// f with the variable v replaced by images[v] where images[v] is set, + O(e^N); the other variables
 /// stay as they are and count as degree 0. Every image must have order N.
 Series compose(const Poly& f, const std::vector<std::optional<Series>>& images, std::size_t N);
 /// The same for several polynomials at once, sharing the products of the images (all in one ring).
-std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::optional<Series>>& images, std::size_t N);
+std::vector<Series> compose(const std::vector<Poly>& fs, const std::vector<std::optional<Series>>& images,
+                            std::size_t N);
 /// sum_m e^m f_m(images) + O(e^N): a series whose coefficients are themselves composed (images of order N).
-std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std::optional<Series>>& images, std::size_t N);
+std::vector<Series> compose(const std::vector<Series>& fs, const std::vector<std::optional<Series>>& images,
+                            std::size_t N);
 /// v with (id + u) o (id + v) = id + O(e^N), for u = O(e) given on the listed variables (u[i] displaces
 /// variable vars[i]; all of order N), order by order (v = -u(id + v): each order reads only lower ones). If
 /// enough is given, it sees v after each sweep (v exact to its order, s + 1 after sweep s) and may end
 /// the computation early by returning true: the result is then of that lower order. Throws
 /// std::invalid_argument when a u[i] is not O(e) or not of order N.
-std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars, std::size_t N,
+std::vector<Series> inverse_near_identity(const std::vector<Series>& u, const std::vector<std::size_t>& vars,
+                                          std::size_t N,
                                           const std::function<bool(const std::vector<Series>&)>& enough = {});
 
 }  // namespace pgi

@@ -50,7 +50,9 @@ std::string coefficient_latex(const Rational& c, bool monomial, double& width) {
 
 }  // namespace
 
-std::string latex_name(const std::string& name) { return typeset_name(name, 1.0).first; }
+std::string latex_name(const std::string& name) {
+    return typeset_name(name, 1.0).first;
+}
 
 std::vector<LatexTerm> latex_terms(const Poly& f) {
     if (f.is_zero()) return {{"0", digit_em}};
@@ -120,7 +122,10 @@ std::string latex_number(double x, int significant) {
         if (mantissa.back() == '.') mantissa.pop_back();
     }
     const int exponent = std::stoi(s.substr(e + 1));
-    return (mantissa == "1" ? "" : mantissa == "-1" ? "-" : mantissa + "\\times ") + "10^{" + std::to_string(exponent) + "}";
+    return (mantissa == "1"    ? ""
+            : mantissa == "-1" ? "-"
+                               : mantissa + "\\times ") +
+           "10^{" + std::to_string(exponent) + "}";
 }
 
 }  // namespace pgi

@@ -51,7 +51,8 @@ struct Term {
 std::vector<Term> row_terms(const CompiledMap::Tape& tape, std::size_t o) {
     std::vector<Term> terms;
     const std::uint32_t start = tape.row_start[o], L = tape.row_start[o + 1] - start, rounds = L / 4 * 4;
-    for (std::uint32_t i = 0; i < L; ++i) terms.push_back({i < rounds ? int(i % 4) : 0, tape.term_monomial[start + i], tape.term_coeff[start + i]});
+    for (std::uint32_t i = 0; i < L; ++i)
+        terms.push_back({i < rounds ? int(i % 4) : 0, tape.term_monomial[start + i], tape.term_coeff[start + i]});
     return terms;
 }
 
@@ -80,7 +81,7 @@ std::vector<std::string> compiler_words(const std::string& command) {
         if (r == 0 || r == WRDE_NOSPACE) ::wordfree(&w);
     }
     if (r != 0 || words.empty()) {
-        const char* why = r == WRDE_CMDSUB ? "command substitution is not allowed"
+        const char* why = r == WRDE_CMDSUB    ? "command substitution is not allowed"
                           : r == WRDE_BADCHAR ? "an unquoted | & ; < > ( ) { } or newline"
                           : r == WRDE_SYNTAX  ? "a syntax error (an unbalanced quote?)"
                           : r == 0            ? "no words"
@@ -103,16 +104,23 @@ bool wide(NativeVectors v, const CompiledMap& map) {
 
 // The maps written in fours carry AVX2 as a target attribute of their functions (target_attribute): the library
 // itself is built for the baseline.
-std::vector<std::string> compiler_flags() { return {"-O2", "-ffp-contract=off", "-fPIC", "-shared", "-w"}; }
+std::vector<std::string> compiler_flags() {
+    return {"-O2", "-ffp-contract=off", "-fPIC", "-shared", "-w"};
+}
 
-std::string target_attribute(bool wide) { return wide ? "__attribute__((target(\"avx2\"))) " : ""; }
+std::string target_attribute(bool wide) {
+    return wide ? "__attribute__((target(\"avx2\"))) " : "";
+}
 
 // A file descriptor closed when it goes out of scope.
 class Fd {
 public:
     explicit Fd(int fd = -1) : fd_(fd) {}
     Fd(Fd&& o) noexcept : fd_(std::exchange(o.fd_, -1)) {}
-    Fd& operator=(Fd&& o) noexcept { std::swap(fd_, o.fd_); return *this; }
+    Fd& operator=(Fd&& o) noexcept {
+        std::swap(fd_, o.fd_);
+        return *this;
+    }
     ~Fd() {
         if (fd_ >= 0) ::close(fd_);
     }
@@ -153,13 +161,17 @@ public:
         Fd fd(::open(path.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC));
         struct stat st {};
         if (fd.get() < 0 || ::fstat(fd.get(), &st) != 0) {
-            why_not = errno == ELOOP ? "it is a symbolic link" : std::string("cannot be opened (") + std::strerror(errno) + ")";  // (made one meanwhile)
+            why_not = errno == ELOOP
+                          ? "it is a symbolic link"
+                          : std::string("cannot be opened (") + std::strerror(errno) + ")";  // (made one meanwhile)
             return std::nullopt;
         }
         if (st.st_uid != ::geteuid())
-            why_not = "it is owned by uid " + std::to_string(st.st_uid) + ", not by the effective user (uid " + std::to_string(::geteuid()) + ")";
+            why_not = "it is owned by uid " + std::to_string(st.st_uid) + ", not by the effective user (uid " +
+                      std::to_string(::geteuid()) + ")";
         else if (st.st_mode & (S_IWGRP | S_IWOTH))
-            why_not = "it is writable by " + std::string(st.st_mode & S_IWOTH ? "others" : "its group") + " (mode " + octal_mode(st.st_mode) + "; chmod go-w it)";
+            why_not = "it is writable by " + std::string(st.st_mode & S_IWOTH ? "others" : "its group") + " (mode " +
+                      octal_mode(st.st_mode) + "; chmod go-w it)";
         else if ((st.st_mode & S_IRWXU) != S_IRWXU || ::faccessat(fd.get(), ".", W_OK | X_OK, AT_EACCESS) != 0)
             why_not = "it is not writable (mode " + octal_mode(st.st_mode) + ")";
         if (!why_not.empty()) return std::nullopt;
@@ -172,12 +184,15 @@ public:
     Fd open_file(const std::string& name) const {
         Fd fd(::openat(fd_.get(), name.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC | O_NONBLOCK));
         struct stat st {};
-        if (fd.get() < 0 || ::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode) || st.st_uid != ::geteuid()) return Fd();
+        if (fd.get() < 0 || ::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode) || st.st_uid != ::geteuid())
+            return Fd();
         return fd;
     }
 
     // The contents of name (see open_file), nullopt if absent or above max bytes.
-    std::optional<std::string> read(const std::string& name, std::size_t max) const { return read_fd(open_file(name), max); }
+    std::optional<std::string> read(const std::string& name, std::size_t max) const {
+        return read_fd(open_file(name), max);
+    }
 
     // Writes a new file name (never an existing one, never through a link) with exactly the given mode.
     void write_new(const std::string& name, const std::string& text, mode_t mode) const {
@@ -189,10 +204,14 @@ public:
             ok = n > 0;
             done += ok ? std::size_t(n) : 0;
         }
-        if (!ok) throw NativeCodeError("native code: cannot write " + (path_ / name).string() + " (" + std::strerror(errno) + ")");
+        if (!ok)
+            throw NativeCodeError("native code: cannot write " + (path_ / name).string() + " (" + std::strerror(errno) +
+                                  ")");
     }
 
-    bool rename(const std::string& from, const std::string& to) const { return ::renameat(fd_.get(), from.c_str(), fd_.get(), to.c_str()) == 0; }
+    bool rename(const std::string& from, const std::string& to) const {
+        return ::renameat(fd_.get(), from.c_str(), fd_.get(), to.c_str()) == 0;
+    }
 
     static std::optional<std::string> read_fd(const Fd& fd, std::size_t max) {
         struct stat st {};
@@ -239,7 +258,8 @@ CacheDir cache_directory(const NativeOptions& o) {
         if (std::optional<CacheDir> dir = CacheDir::open(d, why_not)) return std::move(*dir);
         tried += (tried.empty() ? "" : "; ") + d.string() + ": " + why_not;
     }
-    throw NativeCodeError("native code: no usable directory for the compiled libraries (" + (tried.empty() ? "none found" : tried) + ")");
+    throw NativeCodeError("native code: no usable directory for the compiled libraries (" +
+                          (tried.empty() ? "none found" : tried) + ")");
 }
 
 // FNV-1a: the cache key of a source and its command, a name only (the kept source is compared in full, the library
@@ -257,16 +277,22 @@ std::string key_of(const std::string& text) {
 enum class CacheName { other, kept, temporary };
 CacheName cache_name(std::string_view name) {
     const auto hex = [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); };
-    const auto digits = [](std::string_view s) { return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; }); };
-    if (name.size() < 18 || !std::all_of(name.begin(), name.begin() + 16, hex) || name[16] != '.') return CacheName::other;
+    const auto digits = [](std::string_view s) {
+        return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+    };
+    if (name.size() < 18 || !std::all_of(name.begin(), name.begin() + 16, hex) || name[16] != '.')
+        return CacheName::other;
     std::string_view rest = name.substr(17);
     const std::size_t dot = rest.rfind('.');
     const std::string_view ext = dot == std::string_view::npos ? rest : rest.substr(dot + 1);
-    if (dot == std::string_view::npos) return ext == "cpp" || ext == "so" || ext == "hash" ? CacheName::kept : CacheName::other;
+    if (dot == std::string_view::npos)
+        return ext == "cpp" || ext == "so" || ext == "hash" ? CacheName::kept : CacheName::other;
     const std::string_view suffix = rest.substr(0, dot);
     const std::size_t dash = suffix.find('-');
-    const bool pgi_suffix = dash != std::string_view::npos && digits(suffix.substr(0, dash)) && digits(suffix.substr(dash + 1));
-    return pgi_suffix && (ext == "cpp" || ext == "so" || ext == "hash" || ext == "log") ? CacheName::temporary : CacheName::other;
+    const bool pgi_suffix =
+        dash != std::string_view::npos && digits(suffix.substr(0, dash)) && digits(suffix.substr(dash + 1));
+    return pgi_suffix && (ext == "cpp" || ext == "so" || ext == "hash" || ext == "log") ? CacheName::temporary
+                                                                                        : CacheName::other;
 }
 
 // A name no other process picks: for files written and then renamed into place.
@@ -291,13 +317,16 @@ void trim_cache(const CacheDir& dir, const std::string& key, std::uintmax_t limi
         const std::string name = e->d_name;
         const CacheName kind = cache_name(name);
         struct stat st {};
-        if (kind == CacheName::other || ::fstatat(dir.fd(), name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0 || !S_ISREG(st.st_mode)) continue;
+        if (kind == CacheName::other || ::fstatat(dir.fd(), name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0 ||
+            !S_ISREG(st.st_mode))
+            continue;
         if (kind == CacheName::temporary) {
             if (st.st_mtime < stale) ::unlinkat(dir.fd(), name.c_str(), 0);
             continue;
         }
         total += std::uintmax_t(st.st_size);
-        if (name.compare(0, key.size(), key) != 0) kept.push_back({st.st_mtime, name}), sizes[name] = std::uintmax_t(st.st_size);
+        if (name.compare(0, key.size(), key) != 0)
+            kept.push_back({st.st_mtime, name}), sizes[name] = std::uintmax_t(st.st_size);
     }
     std::sort(kept.begin(), kept.end());
     for (const auto& [time, name] : kept) {
@@ -315,7 +344,8 @@ std::shared_ptr<void> own_handle(void* handle) {
 // a directory swapped after it was checked is never where it is loaded from), with every symbol in place; "" and the
 // handle, or why not. NOTE: glibc returns an object already loaded under the same name; the names are keyed by the
 // source, so such an object holds the same code.
-std::string load_checked(const CacheDir& dir, const std::string& name, const std::vector<std::string>& symbols, std::shared_ptr<void>& handle) {
+std::string load_checked(const CacheDir& dir, const std::string& name, const std::vector<std::string>& symbols,
+                         std::shared_ptr<void>& handle) {
     const std::string via_fd = "/proc/self/fd/" + std::to_string(dir.fd());
     const std::string path = (::access(via_fd.c_str(), X_OK) == 0 ? fs::path(via_fd) : dir.path()) / name;
     void* h = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
@@ -337,7 +367,8 @@ constexpr std::size_t max_library_bytes = std::size_t(1) << 30;
 
 // The kept library of key, loaded, when its source is source, its digest the one pgi wrote beside it and it holds
 // every symbol; else null (and it is built anew, replacing whatever was there).
-std::shared_ptr<void> load_kept(const CacheDir& dir, const std::string& key, const std::string& source, const std::vector<std::string>& symbols) {
+std::shared_ptr<void> load_kept(const CacheDir& dir, const std::string& key, const std::string& source,
+                                const std::vector<std::string>& symbols) {
     const std::optional<std::string> kept_source = dir.read(key + ".cpp", source.size());
     const std::optional<std::string> digest = dir.read(key + ".hash", 256);
     if (!kept_source || *kept_source != source || !digest) return nullptr;
@@ -349,10 +380,11 @@ std::shared_ptr<void> load_kept(const CacheDir& dir, const std::string& key, con
     return handle;
 }
 
-// The library of source with the given symbols, loaded: the kept one if its source, digest and symbols check (load_kept),
-// else compiled now into temporaries, loaded and checked, then renamed into place with its digest beside it (a
-// concurrent build of the same source keeps one of the two; a pair that does not match is built again).
-std::shared_ptr<void> library_for(const std::string& source, const std::vector<std::string>& symbols, const NativeOptions& o) {
+// The library of source with the given symbols, loaded: the kept one if its source, digest and symbols check
+// (load_kept), else compiled now into temporaries, loaded and checked, then renamed into place with its digest beside
+// it (a concurrent build of the same source keeps one of the two; a pair that does not match is built again).
+std::shared_ptr<void> library_for(const std::string& source, const std::vector<std::string>& symbols,
+                                  const NativeOptions& o) {
     std::vector<std::string> argv = compiler_words(compiler_of(o));
     const std::vector<std::string> flags = compiler_flags();
     argv.insert(argv.end(), flags.begin(), flags.end());
@@ -378,11 +410,14 @@ std::shared_ptr<void> library_for(const std::string& source, const std::vector<s
     const std::optional<std::string> bytes = CacheDir::read_fd(fd, max_library_bytes);
     std::shared_ptr<void> handle;
     const std::string why = bytes ? load_checked(dir, tmp + ".so", symbols, handle) : "cannot be read";
-    if (!why.empty()) throw NativeCodeError(compiler + "exited with status 0 but what it wrote " + why + " (nothing kept)");
+    if (!why.empty())
+        throw NativeCodeError(compiler + "exited with status 0 but what it wrote " + why + " (nothing kept)");
     dir.write_new(tmp + ".hash", detail::sha256_hex(*bytes) + "\n", 0600);
     // the library first, its digest last: a reader between the renames finds a mismatch and builds again
-    if (!dir.rename(tmp + ".so", key + ".so") || !dir.rename(tmp + ".cpp", key + ".cpp") || !dir.rename(tmp + ".hash", key + ".hash"))
-        throw NativeCodeError("native code: cannot keep the library in " + dir.path().string() + " (" + std::strerror(errno) + ")");
+    if (!dir.rename(tmp + ".so", key + ".so") || !dir.rename(tmp + ".cpp", key + ".cpp") ||
+        !dir.rename(tmp + ".hash", key + ".hash"))
+        throw NativeCodeError("native code: cannot keep the library in " + dir.path().string() + " (" +
+                              std::strerror(errno) + ")");
     src.keep(), lib.keep(), hash.keep();
     trim_cache(dir, key, o.cache_limit_bytes, o.timeout);
     return handle;
@@ -404,7 +439,8 @@ Statement row_statement(const CompiledMap::Tape& tape, std::size_t out, Name nam
     std::ostringstream o;
     const std::vector<Term> terms = row_terms(tape, out);
     o << "  { double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;\n";
-    for (const Term& t : terms) o << "    s" << t.sum << " += " << literal(t.coeff) << " * " << name(t.monomial) << ";\n";
+    for (const Term& t : terms)
+        o << "    s" << t.sum << " += " << literal(t.coeff) << " * " << name(t.monomial) << ";\n";
     o << "    out[" << out << "] = (s0 + s1) + (s2 + s3); }\n";
     return {o.str(), terms.size() + 1};
 }
@@ -432,7 +468,8 @@ Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name nam
             std::string coeffs, mask;
             bool any = false, masked = false;
             for (std::size_t lane = first; lane < first + width; ++lane) {
-                const bool zero = c[lane] == 0, keep = !zero || !has_output(lane);  // a lane without an output is never read
+                const bool zero = c[lane] == 0,
+                           keep = !zero || !has_output(lane);  // a lane without an output is never read
                 any = any || !zero;
                 masked = masked || !keep;
                 coeffs += (lane > first ? ", " : "") + literal(c[lane]);
@@ -450,10 +487,12 @@ Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name nam
             ++size;
         }
     }
-    o << (wide ? "    const pgi_v4 s = (s0 + s1) + (s2 + s3);\n" : "    const pgi_v2 l = (l0 + l1) + (l2 + l3), h = (h0 + h1) + (h2 + h3);\n");
+    o << (wide ? "    const pgi_v4 s = (s0 + s1) + (s2 + s3);\n"
+               : "    const pgi_v2 l = (l0 + l1) + (l2 + l3), h = (h0 + h1) + (h2 + h3);\n");
     for (std::size_t i = 0; i < 4; ++i)
         if (has_output(i))
-            o << "    out[" << tape.group_output[g][i] << "] = " << (wide ? "s[" + std::to_string(i) : std::string(i < 2 ? "l[" : "h[") + std::to_string(i % 2))
+            o << "    out[" << tape.group_output[g][i]
+              << "] = " << (wide ? "s[" + std::to_string(i) : std::string(i < 2 ? "l[" : "h[") + std::to_string(i % 2))
               << "];\n";
     o << "  }\n";
     return {o.str(), size};
@@ -464,10 +503,15 @@ template <class Name>
 std::vector<Statement> statements(const CompiledMap::Tape& tape, Name name, bool wide) {
     std::vector<Statement> all;
     for (std::size_t k = 0; k < tape.products; ++k)
-        all.push_back({"  " + name(std::uint32_t(1 + tape.inputs + k), true) + " = " + name(tape.left[k], false) + " * " + name(tape.right[k], false) + ";\n", 1});
+        all.push_back({"  " + name(std::uint32_t(1 + tape.inputs + k), true) + " = " + name(tape.left[k], false) +
+                           " * " + name(tape.right[k], false) + ";\n",
+                       1});
     for (std::size_t out = 0; out < tape.outputs; ++out)
-        if (tape.lane_row[out].start == UINT32_MAX) all.push_back(row_statement(tape, out, [&](std::uint32_t k) { return name(k, false); }));
-    for (std::size_t g = 0; g < tape.groups; ++g) all.push_back(group_statement(tape, g, [&](std::uint32_t k) { return name(k, false); }, wide));
+        if (tape.lane_row[out].start == UINT32_MAX)
+            all.push_back(row_statement(tape, out, [&](std::uint32_t k) { return name(k, false); }));
+    for (std::size_t g = 0; g < tape.groups; ++g)
+        all.push_back(group_statement(
+            tape, g, [&](std::uint32_t k) { return name(k, false); }, wide));
     return all;
 }
 
@@ -478,7 +522,8 @@ void write_single(std::ostream& o, const CompiledMap::Tape& tape, const std::str
         n += std::to_string(k);
         return n;
     };
-    o << "extern \"C\" " << target_attribute(wide) << "void " << symbol << "(const double* __restrict in, double* __restrict out) {\n  const double m0 = 1.0;\n";
+    o << "extern \"C\" " << target_attribute(wide) << "void " << symbol
+      << "(const double* __restrict in, double* __restrict out) {\n  const double m0 = 1.0;\n";
     for (std::size_t v = 0; v < tape.inputs; ++v) o << "  const double m" << v + 1 << " = in[" << v << "];\n";
     for (const Statement& s : statements(tape, name, wide)) o << s.text;
     o << "}\n";
@@ -493,7 +538,8 @@ void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::str
     std::ostringstream call;
     std::size_t pieces = 0, size = 0;
     const auto open_piece = [&] {
-        o << "static __attribute__((noinline)) " << target_attribute(wide) << "void " << symbol << "_" << pieces << "(double* __restrict m, double* __restrict out) {\n";
+        o << "static __attribute__((noinline)) " << target_attribute(wide) << "void " << symbol << "_" << pieces
+          << "(double* __restrict m, double* __restrict out) {\n";
         call << "  " << symbol << "_" << pieces++ << "(m, out);\n";
         size = 0;
     };
@@ -503,7 +549,8 @@ void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::str
         o << s.text;
         size += s.size;
     }
-    o << "}\nextern \"C\" " << target_attribute(wide) << "void " << symbol << "(const double* __restrict in, double* __restrict out) {\n";
+    o << "}\nextern \"C\" " << target_attribute(wide) << "void " << symbol
+      << "(const double* __restrict in, double* __restrict out) {\n";
     o << "  double m[" << 1 + tape.inputs + tape.products << "];\n  m[0] = 1.0;\n";
     for (std::size_t v = 0; v < tape.inputs; ++v) o << "  m[" << v + 1 << "] = in[" << v << "];\n";
     o << call.str() << "}\n";
@@ -552,13 +599,15 @@ std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const Nati
     }
     if (todo.empty()) return native;
     std::string source = preamble();
-    for (std::size_t i = 0; i < todo.size(); ++i) source += map_source(*todo[i], "pgi_map_" + std::to_string(i), options.vectors);
+    for (std::size_t i = 0; i < todo.size(); ++i)
+        source += map_source(*todo[i], "pgi_map_" + std::to_string(i), options.vectors);
     std::vector<std::string> symbols;
     for (std::size_t i = 0; i < todo.size(); ++i) symbols.push_back("pgi_map_" + std::to_string(i));
     const std::shared_ptr<void> handle = library_for(source, symbols, options);
     const std::shared_ptr<const void> loaded = handle;
     std::vector<CompiledMap::NativeEval> found;
-    for (const std::string& s : symbols) found.push_back(reinterpret_cast<CompiledMap::NativeEval>(::dlsym(handle.get(), s.c_str())));
+    for (const std::string& s : symbols)
+        found.push_back(reinterpret_cast<CompiledMap::NativeEval>(::dlsym(handle.get(), s.c_str())));
     for (std::size_t i = 0; i < todo.size(); ++i) todo[i]->attach_native(loaded, found[i]);
     return native + todo.size();
 }

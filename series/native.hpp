@@ -27,7 +27,8 @@ public:
 /// How a group of four outputs is written: AVX2's four lanes or SSE2's two pairs, as the interpreter sums them
 /// (GroupVectors, series/compile.hpp). Either gives the interpreter's bits. automatic: AVX2 where the processor running
 /// pgi has it (the library is built for and loaded on it) and it saves a tenth of the map's operations or more, map by
-/// map as the interpreter decides (CompiledMap::fours_pay); a map written in fours carries AVX2 as its functions' target.
+/// map as the interpreter decides (CompiledMap::fours_pay); a map written in fours carries AVX2 as its functions'
+/// target.
 using NativeVectors = GroupVectors;
 
 struct NativeOptions {
@@ -38,8 +39,8 @@ struct NativeOptions {
     NativeVectors vectors = NativeVectors::automatic;
     /// Where built libraries are kept, keyed by a hash of their source and command (a later build of the same maps
     /// loads the kept library instead of compiling): empty means $PGI_JIT_CACHE, else $XDG_CACHE_HOME/pgi/jit, else
-    /// $HOME/.cache/pgi/jit, else $TMPDIR/pgi-jit-EUID. Missing directories are created 0700. The directory must be owned
-    /// by the effective user, not writable by group or others and not a symbolic link; one named here or by
+    /// $HOME/.cache/pgi/jit, else $TMPDIR/pgi-jit-EUID. Missing directories are created 0700. The directory must be
+    /// owned by the effective user, not writable by group or others and not a symbolic link; one named here or by
     /// $PGI_JIT_CACHE that fails this is a NativeCodeError saying why, of the defaults the first that passes is used.
     /// A kept library is loaded only if its source matches and its SHA-256 is the one pgi wrote beside it (KEY.hash).
     std::string cache_dir;
@@ -60,13 +61,15 @@ struct NativeOptions {
     std::size_t max_map_size = 3000;
 };
 
-/// The C++ source of map's evaluator, a translation unit of its own: extern "C" void symbol(const double* in, double* out), the interpreter's
-/// operations in its order (CompiledMap::eval_with and the lane rows of split_sums).
-std::string native_source(const CompiledMap& map, const std::string& symbol, NativeVectors vectors = NativeVectors::automatic);
+/// The C++ source of map's evaluator, a translation unit of its own: extern "C" void symbol(const double* in, double*
+/// out), the interpreter's operations in its order (CompiledMap::eval_with and the lane rows of split_sums).
+std::string native_source(const CompiledMap& map, const std::string& symbol,
+                          NativeVectors vectors = NativeVectors::automatic);
 
 /// Builds native code for the maps (one source, one compiler call, or none when the cache has it) and attaches
 /// each map's to it, the maps in the order given (the most used first) while they fit in max_size. Skips maps
-/// already native and empty ones. Returns how many maps run native code afterwards. Throws NativeCodeError (the maps then stay interpreted).
+/// already native and empty ones. Returns how many maps run native code afterwards. Throws NativeCodeError (the maps
+/// then stay interpreted).
 std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
 
 }  // namespace pgi

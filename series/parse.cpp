@@ -52,8 +52,8 @@ private:
     public:
         explicit Nested(Reader& r) : r_(r) {
             if (++r_.depth_ > max_parse_depth)
-                r_.fail("nesting deeper than " + std::to_string(max_parse_depth) + " (parentheses and signs) at position " +
-                        r_.pos(r_.i_));
+                r_.fail("nesting deeper than " + std::to_string(max_parse_depth) +
+                        " (parentheses and signs) at position " + r_.pos(r_.i_));
         }
         ~Nested() { --r_.depth_; }
         Nested(const Nested&) = delete;
@@ -135,13 +135,15 @@ private:
         if (end == start) fail("'^' must be followed by a non-negative integer at position " + pos(start));
         const std::string digits(text_.substr(start, end - start));
         if (digits.size() > 18 || std::stoul(digits) > max_exponent_)
-            fail("exponent " + digits + " exceeds the limit " + std::to_string(max_exponent_) + " (at position " + pos(start) + ")");
+            fail("exponent " + digits + " exceeds the limit " + std::to_string(max_exponent_) + " (at position " +
+                 pos(start) + ")");
         const unsigned long n = std::stoul(digits);
         if (n != 0 && a.scale > max_exponent_ / n)
-            fail("exponent " + std::to_string(a.scale) + " inside groups raised to the power " + digits + " exceeds the limit " +
-                 std::to_string(max_exponent_) + " (at position " + pos(start) + ")");
+            fail("exponent " + std::to_string(a.scale) + " inside groups raised to the power " + digits +
+                 " exceeds the limit " + std::to_string(max_exponent_) + " (at position " + pos(start) + ")");
         i_ = end;
-        if (skip_space() < text_.size() && text_[i_] == '^') fail("chained exponents at position " + pos(i_) + ": write (a^b)^c");
+        if (skip_space() < text_.size() && text_[i_] == '^')
+            fail("chained exponents at position " + pos(i_) + ": write (a^b)^c");
         op_ = at;
         return {pow(a.value, n), std::max<unsigned long>(1, a.scale * n)};
     }
@@ -173,7 +175,8 @@ private:
             return {Poly::gen(ring_, static_cast<std::size_t>(v))};
         }
         if (c == ')' || c == '*' || c == '/' || c == '^')
-            fail(std::string("syntax error at position ") + pos(i_) + ": expected a number, a variable or '(' before '" + c + "'");
+            fail(std::string("syntax error at position ") + pos(i_) +
+                 ": expected a number, a variable or '(' before '" + c + "'");
         unexpected(c);
     }
 

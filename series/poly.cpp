@@ -44,7 +44,9 @@ double degree(const Poly& f) {
     return d;
 }
 
-std::string terms_text(std::size_t n) { return std::to_string(n) + "-term"; }
+std::string terms_text(std::size_t n) {
+    return std::to_string(n) + "-term";
+}
 
 using Variables = std::vector<std::uint32_t>;
 constexpr std::size_t not_kept = static_cast<std::size_t>(-1);
@@ -69,7 +71,8 @@ void place_terms(Poly& r, const Poly& f, const std::vector<std::size_t>& positio
         const std::size_t nf = mpoly_words_per_exp(z->bits, from);
         mpoly_get_monomial_ui(ef.data(), z->exps, z->bits, from);
         const ulong degree = std::accumulate(ef.begin(), ef.end(), ulong(0));  // the first term's is the highest
-        const flint_bitcnt_t bits = mpoly_fix_bits(std::max<flint_bitcnt_t>(MPOLY_MIN_BITS, 1 + FLINT_BIT_COUNT(degree)), to);
+        const flint_bitcnt_t bits =
+            mpoly_fix_bits(std::max<flint_bitcnt_t>(MPOLY_MIN_BITS, 1 + FLINT_BIT_COUNT(degree)), to);
         const std::size_t nr = mpoly_words_per_exp(bits, to);
         fmpz_mpoly_fit_length_reset_bits(w, z->length, bits, r.ctx()->zctx);
         for (slong t = 0; t < z->length; ++t) {
@@ -127,7 +130,8 @@ bool same_variables(const Poly& f, const Poly& g) {
 // The union of the polynomials' variables, or nothing when they are all stored over the same ones (always so
 // for dense storage).
 std::optional<Variables> common_variables(std::span<const Poly* const> fs) {
-    if (std::all_of(fs.begin(), fs.end(), [&](const Poly* f) { return same_variables(*f, *fs.front()); })) return std::nullopt;
+    if (std::all_of(fs.begin(), fs.end(), [&](const Poly* f) { return same_variables(*f, *fs.front()); }))
+        return std::nullopt;
     Variables u;
     for (const Poly* f : fs) u.insert(u.end(), f->variables().begin(), f->variables().end());
     std::sort(u.begin(), u.end());
@@ -187,7 +191,9 @@ void Ring::ContextDelete::operator()(fmpq_mpoly_ctx_struct* c) const {
     delete c;
 }
 
-Ring::~Ring() { fmpq_mpoly_ctx_clear(ctx_); }
+Ring::~Ring() {
+    fmpq_mpoly_ctx_clear(ctx_);
+}
 
 Ring::Ring(std::vector<std::string> names, std::shared_ptr<const Budget> budget, PolyStorage storage)
     : names_(std::move(names)), budget_(std::move(budget)) {
@@ -289,8 +295,12 @@ std::string Poly::to_string() const {
     return out;
 }
 
-Poly& Poly::operator+=(const Poly& o) { return combine(*this, o, fmpq_mpoly_add, "pgi::add", "a sum"); }
-Poly& Poly::operator-=(const Poly& o) { return combine(*this, o, fmpq_mpoly_sub, "pgi::sub", "a difference"); }
+Poly& Poly::operator+=(const Poly& o) {
+    return combine(*this, o, fmpq_mpoly_add, "pgi::add", "a sum");
+}
+Poly& Poly::operator-=(const Poly& o) {
+    return combine(*this, o, fmpq_mpoly_sub, "pgi::sub", "a difference");
+}
 Poly& Poly::operator*=(const Rational& c) {
     fmpq_mpoly_scalar_mul_fmpq(p_, p_, c.get(), ctx());
     drop_unused_variables();  // only when c = 0
@@ -300,10 +310,19 @@ Poly& Poly::operator*=(const Rational& c) {
 
 bool operator==(const Poly& a, const Poly& b) {
     require_same_ring(a, b, "pgi::equal");
-    return same_variables(a, b) && fmpq_mpoly_equal(a.get(), b.get(), a.ctx());  // local storage: both hold exactly these
+    return same_variables(a, b) &&
+           fmpq_mpoly_equal(a.get(), b.get(), a.ctx());  // local storage: both hold exactly these
 }
-Poly operator+(const Poly& a, const Poly& b) { Poly r(a); r += b; return r; }
-Poly operator-(const Poly& a, const Poly& b) { Poly r(a); r -= b; return r; }
+Poly operator+(const Poly& a, const Poly& b) {
+    Poly r(a);
+    r += b;
+    return r;
+}
+Poly operator-(const Poly& a, const Poly& b) {
+    Poly r(a);
+    r -= b;
+    return r;
+}
 Poly operator-(const Poly& a) {
     Poly r = zero_like(a);
     fmpq_mpoly_neg(r.get_mut(), a.get(), a.ctx());
@@ -321,9 +340,11 @@ Poly operator*(const Poly& a, const Poly& b) {
         const double d = degree(a) + degree(b);
         const std::size_t nvars = std::min(a.variables().size() + b.variables().size(), a.ring()->size());
         const double terms = std::min(at_most, monomials_up_to(nvars, d));
-        const double bits = coefficient_bits(a) + coefficient_bits(b) + std::log2(static_cast<double>(std::min(la, lb)) + 1);
-        a.ring()->budget().reserve(terms, bytes_per_term(nvars, d, bits),
-                                   [&] { return "a product of a " + terms_text(la) + " and a " + terms_text(lb) + " polynomial"; });
+        const double bits =
+            coefficient_bits(a) + coefficient_bits(b) + std::log2(static_cast<double>(std::min(la, lb)) + 1);
+        a.ring()->budget().reserve(terms, bytes_per_term(nvars, d, bits), [&] {
+            return "a product of a " + terms_text(la) + " and a " + terms_text(lb) + " polynomial";
+        });
     }
     if (a.is_zero() || b.is_zero()) return accounted(Poly(a.ring()), "a product");
     Aligned ab(a, b);
@@ -331,7 +352,11 @@ Poly operator*(const Poly& a, const Poly& b) {
     fmpq_mpoly_mul(r.get_mut(), ab.pa->get(), ab.pb->get(), r.ctx());
     return accounted(std::move(r), "a product");
 }
-Poly operator*(const Rational& c, const Poly& a) { Poly r(a); r *= c; return r; }
+Poly operator*(const Rational& c, const Poly& a) {
+    Poly r(a);
+    r *= c;
+    return r;
+}
 
 Poly sum(std::vector<Poly> pieces, const RingPtr& ring) {
     std::erase_if(pieces, [](const Poly& p) { return p.is_zero(); });
@@ -414,8 +439,7 @@ Poly derivative(const Poly& f, std::size_t var) {
 }
 
 Poly substitute(const Poly& f, const std::vector<Poly>& images) {
-    if (images.size() != f.ring()->size())
-        throw std::invalid_argument("pgi::substitute: need one image per variable");
+    if (images.size() != f.ring()->size()) throw std::invalid_argument("pgi::substitute: need one image per variable");
     for (const auto& g : images) require_same_ring(f, g, "pgi::substitute");
     if (images.empty()) return f;
     // only the images of the variables f is stored over take part (local storage: those it holds)
@@ -432,18 +456,21 @@ Poly substitute(const Poly& f, const std::vector<Poly>& images) {
     const auto common = used.empty() ? std::nullopt : common_variables(used);
     const std::size_t nvars = common ? common->size() : used.empty() ? 1 : used.front()->variables().size();
     const double d = degree(f) * image_degree;
-    const double terms = std::min(static_cast<double>(f.length()) * std::pow(longest, degree(f)), monomials_up_to(nvars, d));
-    f.ring()->budget().reserve(terms, bytes_per_term(nvars, d, coefficient_bits(f) + degree(f) * (bits + std::log2(longest + 1))),
-                               [&] { return "a substitution into a " + terms_text(f.length()) + " polynomial"; });
+    const double terms =
+        std::min(static_cast<double>(f.length()) * std::pow(longest, degree(f)), monomials_up_to(nvars, d));
+    f.ring()->budget().reserve(
+        terms, bytes_per_term(nvars, d, coefficient_bits(f) + degree(f) * (bits + std::log2(longest + 1))),
+        [&] { return "a substitution into a " + terms_text(f.length()) + " polynomial"; });
     if (used.empty()) return f;  // a constant
-    std::vector<Poly> stored;  // the images over their common variables, where they differ
+    std::vector<Poly> stored;    // the images over their common variables, where they differ
     if (common) {
         stored.reserve(used.size());
         for (const Poly*& g : used)
             if (g->variables().size() != common->size()) g = &stored.emplace_back(stored_over(*g, *common));
     }
     std::vector<fmpq_mpoly_struct*> c;
-    for (const Poly* g : used) c.push_back(const_cast<fmpq_mpoly_struct*>(g->get()));  // FLINT's signature lacks const; it only reads
+    for (const Poly* g : used)
+        c.push_back(const_cast<fmpq_mpoly_struct*>(g->get()));  // FLINT's signature lacks const; it only reads
     Poly r = zero_like(*used.front());
     if (!fmpq_mpoly_compose_fmpq_mpoly(r.get_mut(), f.get(), c.data(), f.ctx(), r.ctx()))
         throw std::overflow_error("pgi::substitute: exponent overflow");
@@ -480,7 +507,8 @@ double evaluate(const Poly& f, std::span<const double> point) {
 
 std::vector<std::size_t> used_variables(const Poly& f) {
     const auto vars = f.variables();
-    std::vector<int> used(static_cast<std::size_t>(f.ctx()->zctx->minfo->nvars), 1);  // a ring of no names has a context of one
+    std::vector<int> used(static_cast<std::size_t>(f.ctx()->zctx->minfo->nvars),
+                          1);  // a ring of no names has a context of one
     if (!f.ring()->local_storage()) fmpq_mpoly_used_vars(used.data(), f.get(), f.ctx());
     std::vector<std::size_t> held;
     for (std::size_t j = 0; j < vars.size(); ++j)
@@ -551,7 +579,8 @@ long masked_degree(const Poly& f, const VarMask& mask) {
 namespace pgi {
 
 Poly rename_variables(const Poly& f, RingPtr target, const std::vector<long>& var_map) {
-    if (var_map.size() != f.ring()->size()) throw std::invalid_argument("pgi::rename_variables: need one target per variable");
+    if (var_map.size() != f.ring()->size())
+        throw std::invalid_argument("pgi::rename_variables: need one target per variable");
     for (long v : var_map)
         if (v < 0 || static_cast<std::size_t>(v) >= target->size())
             throw std::out_of_range("pgi::rename_variables: target variable out of range");

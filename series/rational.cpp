@@ -57,7 +57,10 @@ Rational integer(std::string_view digits) {
 Rational parse_decimal(std::string_view text) {
     std::string_view s = text;
     bool negative = false;
-    if (!s.empty() && (s[0] == '-' || s[0] == '+')) { negative = s[0] == '-'; s.remove_prefix(1); }
+    if (!s.empty() && (s[0] == '-' || s[0] == '+')) {
+        negative = s[0] == '-';
+        s.remove_prefix(1);
+    }
     long exponent = 0;
     if (auto e = s.find_first_of("eE"); e != std::string_view::npos) {
         std::string_view ex = s.substr(e + 1);
@@ -70,7 +73,8 @@ Rational parse_decimal(std::string_view text) {
     std::string digits(s);
     if (auto dot = s.find('.'); dot != std::string_view::npos) {
         std::string_view whole = s.substr(0, dot), frac = s.substr(dot + 1);
-        if ((!whole.empty() && !all_digits(whole)) || (!frac.empty() && !all_digits(frac)) || whole.size() + frac.size() == 0)
+        if ((!whole.empty() && !all_digits(whole)) || (!frac.empty() && !all_digits(frac)) ||
+            whole.size() + frac.size() == 0)
             bad_number(text, "malformed decimal");
         digits = std::string(whole) + std::string(frac);
         exponent -= static_cast<long>(frac.size());
@@ -100,7 +104,7 @@ Rational Rational::from_double(double v) {
     if (!std::isfinite(v)) throw std::invalid_argument("pgi::Rational::from_double: non-finite value");
     Rational r;
     int e = 0;
-    double m = std::frexp(v, &e);                       // v = m * 2^e, 0.5 <= |m| < 1
+    double m = std::frexp(v, &e);                             // v = m * 2^e, 0.5 <= |m| < 1
     fmpz_set_d(fmpq_numref(r.get_mut()), std::ldexp(m, 53));  // exact: 53-bit integer
     e -= 53;
     if (e >= 0) {
@@ -134,10 +138,26 @@ std::string Rational::to_string() const {
     return out;
 }
 
-Rational operator+(const Rational& a, const Rational& b) { Rational r; fmpq_add(r.q_, a.q_, b.q_); return r; }
-Rational operator-(const Rational& a, const Rational& b) { Rational r; fmpq_sub(r.q_, a.q_, b.q_); return r; }
-Rational operator*(const Rational& a, const Rational& b) { Rational r; fmpq_mul(r.q_, a.q_, b.q_); return r; }
-Rational operator-(const Rational& a) { Rational r; fmpq_neg(r.q_, a.q_); return r; }
+Rational operator+(const Rational& a, const Rational& b) {
+    Rational r;
+    fmpq_add(r.q_, a.q_, b.q_);
+    return r;
+}
+Rational operator-(const Rational& a, const Rational& b) {
+    Rational r;
+    fmpq_sub(r.q_, a.q_, b.q_);
+    return r;
+}
+Rational operator*(const Rational& a, const Rational& b) {
+    Rational r;
+    fmpq_mul(r.q_, a.q_, b.q_);
+    return r;
+}
+Rational operator-(const Rational& a) {
+    Rational r;
+    fmpq_neg(r.q_, a.q_);
+    return r;
+}
 Rational operator/(const Rational& a, const Rational& b) {
     if (b.is_zero()) throw std::domain_error("pgi::Rational: division by zero");
     Rational r;

@@ -15,7 +15,10 @@ public:
     Rational(long num, unsigned long den = 1);
     Rational(const Rational& o) : Rational() { fmpq_set(q_, o.q_); }
     Rational(Rational&& o) noexcept : Rational() { fmpq_swap(q_, o.q_); }
-    Rational& operator=(Rational o) noexcept { fmpq_swap(q_, o.q_); return *this; }
+    Rational& operator=(Rational o) noexcept {
+        fmpq_swap(q_, o.q_);
+        return *this;
+    }
     ~Rational() { fmpq_clear(q_); }
 
     /// Parses "a", "-a/b", or a decimal "1.25", "-3e-2" (exactly, no rounding through double).

@@ -62,9 +62,21 @@ bool operator==(const Series& a, const Series& b) {
         if (!(a[m] == b[m])) return false;
     return true;
 }
-Series operator+(const Series& a, const Series& b) { Series r(a); r += b; return r; }
-Series operator-(const Series& a, const Series& b) { Series r(a); r -= b; return r; }
-Series operator*(const Rational& c, const Series& a) { Series r(a); r *= c; return r; }
+Series operator+(const Series& a, const Series& b) {
+    Series r(a);
+    r += b;
+    return r;
+}
+Series operator-(const Series& a, const Series& b) {
+    Series r(a);
+    r -= b;
+    return r;
+}
+Series operator*(const Rational& c, const Series& a) {
+    Series r(a);
+    r *= c;
+    return r;
+}
 
 Series mul_trunc(const Series& a, const Series& b) {
     require_same_order(a, b, "pgi::mul_trunc");

@@ -10,8 +10,8 @@
 namespace pgi::test {
 
 // A reference for alpha = g(L(p)) x, g(z) = z / (e^z - 1), in long double: the Taylor coefficients c_m of g
-// summed to degree 3000 (for spectral radii below 0.97 * 2 pi the tail is under 1e-39), the structure matrices taken from the evaluator's
-// own delta_p (C_j x) and delta_x (L) being linear in x and p.
+// summed to degree 3000 (for spectral radii below 0.97 * 2 pi the tail is under 1e-39), the structure matrices taken
+// from the evaluator's own delta_p (C_j x) and delta_x (L) being linear in x and p.
 struct LongDoubleLie {
     std::vector<Eigen::Matrix<long double, -1, -1>> C;
     std::vector<long double> c;
@@ -46,7 +46,8 @@ struct LongDoubleLie {
             c.push_back((m % 4 == 0 ? -2.0L : 2.0L) * zeta * std::pow(two_pi, -static_cast<long double>(m)));
         }
     }
-    Eigen::Matrix<long double, -1, 1> alpha(const Eigen::Matrix<long double, -1, 1>& x, const Eigen::Matrix<long double, -1, 1>& p) const {
+    Eigen::Matrix<long double, -1, 1> alpha(const Eigen::Matrix<long double, -1, 1>& x,
+                                            const Eigen::Matrix<long double, -1, 1>& p) const {
         const auto n = x.size();
         Eigen::Matrix<long double, -1, -1> L = Eigen::Matrix<long double, -1, -1>::Zero(n, n);
         for (Eigen::Index j = 0; j < n; ++j) L += p[j] * C[static_cast<std::size_t>(j)];
@@ -59,7 +60,6 @@ struct LongDoubleLie {
     }
 };
 
-
 using VectorLD = Eigen::Matrix<long double, -1, 1>;
 
 /// One step of order k and size dt from x on a Lie-Poisson structure, in long double: S_1..S_k exact (from the
@@ -67,8 +67,8 @@ using VectorLD = Eigen::Matrix<long double, -1, 1>;
 /// LongDoubleLie, xb by Newton from xb0 (the double solution: the same branch of the implicit equation) with
 /// a central-difference Jacobian (h = 1e-7 |x|: its error ~1e-14 slows convergence to a factor 1e-14 per
 /// iteration, still to the long double floor), x_new = x + L(p) xb (delta = beta - alpha = L x).
-inline VectorLD lie_step_reference(const PoissonStructure& pi, const Poly& H, std::size_t k, double dt, const Eigen::VectorXd& x,
-                                   const Eigen::VectorXd& xb0, double& spectral_radius) {
+inline VectorLD lie_step_reference(const PoissonStructure& pi, const Poly& H, std::size_t k, double dt,
+                                   const Eigen::VectorXd& x, const Eigen::VectorXd& xb0, double& spectral_radius) {
     const PhaseSpace& M = pi.phase_space();
     const auto n = x.size();
     const auto S = hamilton_jacobi_terms(M, lie_poisson_realisation(pi, k + 1), H, k);
@@ -107,7 +107,8 @@ inline VectorLD lie_step_reference(const PoissonStructure& pi, const Poly& H, st
 }
 
 /// grad S_dt at xb (double), S of order k from the exact Lie-Poisson realisation.
-inline Eigen::VectorXd lie_p(const PoissonStructure& pi, const Poly& H, std::size_t k, double dt, const Eigen::VectorXd& xb) {
+inline Eigen::VectorXd lie_p(const PoissonStructure& pi, const Poly& H, std::size_t k, double dt,
+                             const Eigen::VectorXd& xb) {
     const PhaseSpace& M = pi.phase_space();
     const auto S = hamilton_jacobi_terms(M, lie_poisson_realisation(pi, k + 1), H, k);
     const Poly S_dt = sum_powers(S, Rational::from_double(dt), 1);

@@ -9,7 +9,9 @@ using namespace pgi;
 namespace {
 
 // pi grad f = 0: two Hamiltonians that differ by this are the same modulo Casimirs.
-bool is_casimir(const PoissonStructure& pi, const Poly& f) { return !pi.casimir_failure(f).has_value(); }
+bool is_casimir(const PoissonStructure& pi, const Poly& f) {
+    return !pi.casimir_failure(f).has_value();
+}
 
 }  // namespace
 
@@ -37,7 +39,9 @@ TEST_CASE("magnus: low orders are h_0, h_1/2 and h_2/3 - {h_0, h_1}/12 (generic 
     CHECK_FALSE(s.pi.bracket(h[1], h[0]).is_zero());  // the bracket term is really there
 }
 
-TEST_CASE("magnus: symplectic Euler gives Hairer-Lubich-Wanner's modified Hamiltonian (docs/math.md 7, corrected paper example)") {
+TEST_CASE(
+    "magnus: symplectic Euler gives Hairer-Lubich-Wanner's modified Hamiltonian (docs/math.md 7, corrected paper "
+    "example)") {
     // H = V(q) + K(p), V = q^3/3 + q^2/2, K = p^2/2 + p^4/12: h_t = K(p) + V(q - t K'(p)), and
     // M_eps = eps H - (eps^2/2) V_q K_p + (eps^3/12)(K_pp V_q^2 + V_qq K_p^2) + O(eps^4).
     auto pi = test::structure({"q", "p"}, {{0, 1, "1"}});

@@ -39,7 +39,8 @@ std::vector<Series> flow_series(const PoissonStructure& pi, const Series& K, std
             // t^n/n! L^n x: one more bracket with K, one more power of t
             Series next = poisson_bracket(pi, term, K);
             Series shifted(M.ring(), N);
-            for (std::size_t m = 0; m + 1 < N; ++m) shifted[m + 1] = Rational(1, static_cast<unsigned long>(n)) * next[m];
+            for (std::size_t m = 0; m + 1 < N; ++m)
+                shifted[m + 1] = Rational(1, static_cast<unsigned long>(n)) * next[m];
             term = shifted;
             sum += term;
         }
@@ -56,7 +57,9 @@ Series as_series(const std::vector<Poly>& terms, std::size_t N) {
 
 }  // namespace
 
-TEST_CASE("modified: the oscillator's midpoint rule has Htilde = (2/dt) arctan(dt/2) H = H (1 - dt^2/12 + dt^4/80 - dt^6/448)") {
+TEST_CASE(
+    "modified: the oscillator's midpoint rule has Htilde = (2/dt) arctan(dt/2) H = H (1 - dt^2/12 + dt^4/80 - "
+    "dt^6/448)") {
     Scene s = test::bundled("harmonic_oscillator");
     auto Ht = modified_hamiltonian(s.pi, s.H, 1, RealisationChoice::automatic, 6);
     REQUIRE(Ht.size() == 7);
@@ -71,7 +74,8 @@ namespace {
 
 // pi grad H_j from the step alone, by Lie-series matching: the time-t flow of sum_{i<j} t^i H_i agrees with the
 // step through t^j, and at t^(j+1) they differ by exactly t^(j+1) pi grad H_j (the flow's first term in H_j).
-std::vector<Poly> matched_field(const Scene& s, const std::vector<Series>& step, const std::vector<Poly>& lower, std::size_t j) {
+std::vector<Poly> matched_field(const Scene& s, const std::vector<Series>& step, const std::vector<Poly>& lower,
+                                std::size_t j) {
     const std::size_t N = j + 2;
     Series K(s.phase_space().ring(), N);
     for (std::size_t i = 0; i < j; ++i) K[i] = lower[i];
@@ -111,7 +115,9 @@ TEST_CASE("H_j = 0 below the order, odd H_j = 0, and pi grad H_j equals the Lie-
     }
 }
 
-TEST_CASE("modified: the time-dt flow of Htilde agrees with one step to the truncation order, exactly as series (docs/math.md 7)") {
+TEST_CASE(
+    "modified: the time-dt flow of Htilde agrees with one step to the truncation order, exactly as series "
+    "(docs/math.md 7)") {
     // Htilde truncated after dt^m (m even, so H_{m+1} = 0 too): its time-t flow and the step agree in every
     // power t^0..t^{m+2} and differ at t^{m+3}, where the missing H_{m+2} enters.
     for (const std::string name : {"rigid_body", "lotka_volterra", "plane_quadratic"}) {
@@ -165,7 +171,9 @@ Eigen::VectorXd rk4_flow(const CompiledMap& f, Eigen::VectorXd x, double T, int 
 
 }  // namespace
 
-TEST_CASE("modified: numerically, the time-dt flow of Htilde_m matches one step to O(dt^(m+2)) (rigid body, Lotka-Volterra)") {
+TEST_CASE(
+    "modified: numerically, the time-dt flow of Htilde_m matches one step to O(dt^(m+2)) (rigid body, "
+    "Lotka-Volterra)") {
     // With the odd terms zero the difference is in fact O(dt^(m+3)); the fit must show at least m + 2.
     for (const std::string name : {"rigid_body", "lotka_volterra"}) {
         Scene s = test::bundled(name);

@@ -132,7 +132,8 @@ TEST_CASE("Yoshida over Q(w): order 4 and symmetric, exactly (H_1 = H_2 = H_3 = 
     for (std::size_t j : {1, 2, 3, 5})
         for (std::size_t c = 0; c < 3; ++c) CHECK(Ht.H[j][c].is_zero());
     CHECK_FALSE((Ht.H[4][0].is_zero() && Ht.H[4][1].is_zero() && Ht.H[4][2].is_zero()));
-    CHECK(std::abs(6 * std::pow(yoshida_weight(), 3) - 12 * std::pow(yoshida_weight(), 2) + 6 * yoshida_weight() - 1) < 1e-14);
+    CHECK(std::abs(6 * std::pow(yoshida_weight(), 3) - 12 * std::pow(yoshida_weight(), 2) + 6 * yoshida_weight() - 1) <
+          1e-14);
 }
 
 TEST_CASE("PolynomialFlow: kicks and drifts are exact, a rotation is refused") {
@@ -153,17 +154,20 @@ TEST_CASE("The splitting's orbit keeps Htilde through dt^m to O(dt^{m+1}): fitte
     // (sign, coefficient) drops it by at least one; round-off (1e-16 x steps) stays far below the drifts.
     Split s = henon_heiles();
     const std::vector<double> x0{0.1, -0.1, 0.2, 0.1}, dts{0.2, 0.1, 0.05, 0.025};
-    check_conservation_slopes(s, x0, dts, {SlopeCase{SplittingMethod::lie_trotter, 0, 1}, SlopeCase{SplittingMethod::lie_trotter, 1, 2},
-                          SlopeCase{SplittingMethod::lie_trotter, 2, 3}, SlopeCase{SplittingMethod::strang, 0, 2},
-                          SlopeCase{SplittingMethod::strang, 2, 4}, SlopeCase{SplittingMethod::yoshida, 0, 4},
-                          SlopeCase{SplittingMethod::yoshida, 4, 6}});
+    check_conservation_slopes(
+        s, x0, dts,
+        {SlopeCase{SplittingMethod::lie_trotter, 0, 1}, SlopeCase{SplittingMethod::lie_trotter, 1, 2},
+         SlopeCase{SplittingMethod::lie_trotter, 2, 3}, SlopeCase{SplittingMethod::strang, 0, 2},
+         SlopeCase{SplittingMethod::strang, 2, 4}, SlopeCase{SplittingMethod::yoshida, 0, 4},
+         SlopeCase{SplittingMethod::yoshida, 4, 6}});
 }
 
 TEST_CASE("The same on the harmonic oscillator: Strang through dt^2 and dt^4, Lie-Trotter through dt^2") {
     Split s = oscillator();
     const std::vector<double> x0{1.0, 0.0}, dts{0.2, 0.1, 0.05, 0.025};
-    check_conservation_slopes(s, x0, dts, {SlopeCase{SplittingMethod::lie_trotter, 2, 3}, SlopeCase{SplittingMethod::strang, 2, 4},
-                          SlopeCase{SplittingMethod::strang, 4, 6}});
+    check_conservation_slopes(s, x0, dts,
+                              {SlopeCase{SplittingMethod::lie_trotter, 2, 3}, SlopeCase{SplittingMethod::strang, 2, 4},
+                               SlopeCase{SplittingMethod::strang, 4, 6}});
     // symplectic Euler keeps q^2 + p^2 - dt q p exactly, and Lie-Trotter's series through an odd power is a
     // multiple of it ((1 + dt^2/6 + ...)(q^2 + p^2 - dt q p)/2): its drift is round-off only
     for (std::size_t m : {1, 3}) {
@@ -187,7 +191,8 @@ TEST_CASE("as_polynomial_in: the midpoint rule's H_2 = -H/12 and H_4 = H/80; the
     auto Hr = modified_hamiltonian(rb.pi, rb.H, 2, rb.realisation, 2);
     CHECK_FALSE(as_polynomial_in(Hr[2], {rb.H, rb.casimirs[0]}, {"H", "C1"}));
     // a product found exactly: (H + C)^2 - 3 C
-    auto f = as_polynomial_in(pow(rb.H + rb.casimirs[0], 2) - Rational(3) * rb.casimirs[0], {rb.H, rb.casimirs[0]}, {"H", "C1"});
+    auto f = as_polynomial_in(pow(rb.H + rb.casimirs[0], 2) - Rational(3) * rb.casimirs[0], {rb.H, rb.casimirs[0]},
+                              {"H", "C1"});
     REQUIRE(f);
     CHECK(f->to_string() == Poly::parse(f->ring(), "H^2 + 2*H*C1 + C1^2 - 3*C1").to_string());
 }
@@ -202,7 +207,8 @@ TEST_CASE("compose_flows is the group law: associative and with inverses, exactl
         return r;
     };
     const Series X = series("q1^2*q2 + p1"), Y = series("p1^2/2 + q2*p2"), Z = series("q1*p2 - q2^3/3");
-    CHECK(compose_flows(s.pi, compose_flows(s.pi, X, Y, N), Z, N) == compose_flows(s.pi, X, compose_flows(s.pi, Y, Z, N), N));
+    CHECK(compose_flows(s.pi, compose_flows(s.pi, X, Y, N), Z, N) ==
+          compose_flows(s.pi, X, compose_flows(s.pi, Y, Z, N), N));
     const Series zero(M.ring(), N);
     CHECK(compose_flows(s.pi, X, Rational(-1) * X, N) == zero);
     // flows of one Hamiltonian commute and add: Z(X, 2X) = 3X

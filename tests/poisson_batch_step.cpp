@@ -18,7 +18,8 @@ std::vector<Eigen::VectorXd> states_around(const Eigen::VectorXd& x0, std::size_
     std::vector<Eigen::VectorXd> X;
     for (std::size_t i = 0; i < m; ++i) {
         Eigen::VectorXd x = x0;
-        for (Eigen::Index v = 0; v < x.size(); ++v) x[v] = x0[(v + Eigen::Index(i)) % x.size()] * (0.5 + double(i) / double(m));
+        for (Eigen::Index v = 0; v < x.size(); ++v)
+            x[v] = x0[(v + Eigen::Index(i)) % x.size()] * (0.5 + double(i) / double(m));
         X.push_back(x);
     }
     return X;
@@ -32,8 +33,8 @@ std::vector<LaneInstructions> instruction_sets() {
 }
 
 // Steps the states with the batch and one by one with a copy of stepper; every number must be equal.
-void require_lanes_equal_single(const NewtonStepper& stepper, std::size_t lanes, const std::vector<Eigen::VectorXd>& states, double dt,
-                                LaneInstructions instructions) {
+void require_lanes_equal_single(const NewtonStepper& stepper, std::size_t lanes,
+                                const std::vector<Eigen::VectorXd>& states, double dt, LaneInstructions instructions) {
     const std::size_t n = stepper.dim(), m = states.size();
     BatchStepper batch(stepper, lanes, instructions);
     // the dense steps at N = 2, 3, 4, 6 with a closed so(3) or compiled polynomial realisation run on lanes
@@ -59,7 +60,8 @@ void require_lanes_equal_single(const NewtonStepper& stepper, std::size_t lanes,
 
 }  // namespace
 
-TEST_CASE("BatchStepper: each lane is the single step bit for bit, on every bundled scene, at the build's dt and at others") {
+TEST_CASE(
+    "BatchStepper: each lane is the single step bit for bit, on every bundled scene, at the build's dt and at others") {
     for (const std::string& name : test::bundled_names()) {
         CAPTURE(name);
         const Scene s = test::bundled(name);
@@ -79,7 +81,8 @@ TEST_CASE("BatchStepper: each lane is the single step bit for bit, on every bund
     }
 }
 
-TEST_CASE("BatchStepper: which steps run on lanes; a step without a lane form (sl(2)*) goes state by state, the same bits") {
+TEST_CASE(
+    "BatchStepper: which steps run on lanes; a step without a lane form (sl(2)*) goes state by state, the same bits") {
     for (const auto& name : {"rigid_body", "lotka_volterra", "henon_heiles", "volterra_chain", "nambu"}) {
         CAPTURE(name);
         const Scene s = test::bundled(name);
@@ -114,7 +117,8 @@ TEST_CASE("BatchStepper: a failing and a non-finite state fail alone, with the s
     auto states = states_around(x0, 9);
     states[2] *= 1e4;  // dt |x| ~ 1e3: far beyond what the step built at x0 solves
     states[6][1] = std::numeric_limits<double>::quiet_NaN();
-    for (const LaneInstructions instructions : instruction_sets()) require_lanes_equal_single(stepper, 9, states, 0.1, instructions);
+    for (const LaneInstructions instructions : instruction_sets())
+        require_lanes_equal_single(stepper, 9, states, 0.1, instructions);
     BatchStepper batch(stepper, 9);
     std::vector<double> X(27), increments(27);
     for (std::size_t j = 0; j < 9; ++j)
@@ -124,7 +128,8 @@ TEST_CASE("BatchStepper: a failing and a non-finite state fail alone, with the s
     CHECK(status[2] != StepStatus::ok);
     CHECK(status[6] == StepStatus::non_finite);
     for (std::size_t j : {0, 1, 3, 4, 5, 7, 8}) CHECK(status[j] == StepStatus::ok);
-    CHECK_THROWS_AS(batch.step(X.data(), 10, 0.1, increments.data(), status.data()), std::invalid_argument);  // more states than lanes
+    CHECK_THROWS_AS(batch.step(X.data(), 10, 0.1, increments.data(), status.data()),
+                    std::invalid_argument);  // more states than lanes
 }
 
 TEST_CASE("BatchStepper: the AVX2 kernels' file sees the library's types with the same layout as the rest of it") {

@@ -59,14 +59,15 @@ Drift casimir_drift(const std::string& what, const Scheme& scheme, double dt, co
     d.at_tenth.assign(C.size(), 0.0), d.at_end.assign(C.size(), 0.0);
     NewtonStepper stepper = scheme.stepper(dt, x0);
     Eigen::VectorXd x = x0;
-    const IntegrationSummary s = integrate_steps(stepper, x, steps, [&](std::size_t n, double, const Eigen::VectorXd& y) {
-        const std::vector<double> point = M.point(std::span<const double>(y.data(), std::size_t(y.size())));
-        for (std::size_t i = 0; i < C.size(); ++i) {
-            d.at_end[i] = std::max(d.at_end[i], std::abs(evaluate(C[i], point) - c0[i]) / size[i]);
-            if (n == tenth) d.at_tenth[i] = d.at_end[i];
-        }
-        return false;
-    });
+    const IntegrationSummary s =
+        integrate_steps(stepper, x, steps, [&](std::size_t n, double, const Eigen::VectorXd& y) {
+            const std::vector<double> point = M.point(std::span<const double>(y.data(), std::size_t(y.size())));
+            for (std::size_t i = 0; i < C.size(); ++i) {
+                d.at_end[i] = std::max(d.at_end[i], std::abs(evaluate(C[i], point) - c0[i]) / size[i]);
+                if (n == tenth) d.at_tenth[i] = d.at_end[i];
+            }
+            return false;
+        });
     d.ok = s.status == StepStatus::ok && s.steps == steps;
     return d;
 }
@@ -81,7 +82,9 @@ void check_drift(const Drift& d) {
     }
 }
 
-Scheme scheme_of(SchemeValues v) { return Scheme(v); }
+Scheme scheme_of(SchemeValues v) {
+    return Scheme(v);
+}
 
 }  // namespace
 
@@ -92,7 +95,8 @@ TEST_CASE("Casimirs over 1e5 steps: a round-off random walk on every bundled sce
         const Scene scene = test::bundled(name);
         REQUIRE(scene.x0);
         const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
-        for (const double factor : {1.0, 2.0, 4.0}) check_drift(casimir_drift(name, *scene.scheme, factor * scene.dt, x0));
+        for (const double factor : {1.0, 2.0, 4.0})
+            check_drift(casimir_drift(name, *scene.scheme, factor * scene.dt, x0));
     }
 }
 
@@ -108,7 +112,8 @@ TEST_CASE("Casimirs over 1e5 steps: a round-off random walk on every realisation
         for (const std::string realisation : {"auto", "radial"}) {
             sl2.order = k, sl2.realisation = realisation;
             for (const double dt : {0.1, 0.3})
-                check_drift(casimir_drift("sl(2)* k = " + std::to_string(k) + " " + realisation, scheme_of(sl2), dt, sl2_x0));
+                check_drift(
+                    casimir_drift("sl(2)* k = " + std::to_string(k) + " " + realisation, scheme_of(sl2), dt, sl2_x0));
         }
     // the rigid body through the compiled polynomial (radial) realisation
     {
@@ -125,7 +130,8 @@ TEST_CASE("Casimirs over 1e5 steps: a round-off random walk on every realisation
     // a log-canonical system of four species with two Casimirs, {x_i, x_j} = a_ij x_i x_j, a of rank 2
     SchemeValues four;
     four.coordinates = {"x1", "x2", "x3", "x4"};
-    four.brackets = {{"x1,x2", "x1*x2"}, {"x1,x3", "-x1*x3"}, {"x1,x4", "x1*x4"}, {"x2,x3", "x2*x3"}, {"x2,x4", "-x2*x4"}};
+    four.brackets = {
+        {"x1,x2", "x1*x2"}, {"x1,x3", "-x1*x3"}, {"x1,x4", "x1*x4"}, {"x2,x3", "x2*x3"}, {"x2,x4", "-x2*x4"}};
     four.hamiltonian = "x1 + x2 + x3 + x4";
     four.casimirs = {"x1*x2*x3", "x3*x4"};
     four.order = 4;

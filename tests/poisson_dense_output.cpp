@@ -11,12 +11,18 @@ using namespace pgi;
 
 namespace {
 
-Eigen::VectorXd vec(const std::vector<double>& v) { return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())); }
+Eigen::VectorXd vec(const std::vector<double>& v) {
+    return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size()));
+}
 
 // Classical RK4 on the compiled field with many small steps: the reference flow (error ~ h^4 t, below 1e-16 here).
 Eigen::VectorXd flow(const Scene& s, Eigen::VectorXd x, double t, std::size_t N = 2000) {
     const CompiledMap f = CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), s.phase_space().coordinate_vars());
-    auto F = [&](const Eigen::VectorXd& y) { Eigen::VectorXd r(y.size()); f.eval(y.data(), r.data()); return r; };
+    auto F = [&](const Eigen::VectorXd& y) {
+        Eigen::VectorXd r(y.size());
+        f.eval(y.data(), r.data());
+        return r;
+    };
     const double h = t / double(N);
     for (std::size_t n = 0; n < N; ++n) {
         Eigen::VectorXd k1 = F(x), k2 = F(x + 0.5 * h * k1), k3 = F(x + 0.5 * h * k2), k4 = F(x + h * k3);

@@ -13,7 +13,9 @@ using namespace pgi;
 
 namespace {
 
-Eigen::VectorXd vec(const std::vector<double>& v) { return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())); }
+Eigen::VectorXd vec(const std::vector<double>& v) {
+    return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size()));
+}
 
 struct Run {
     std::vector<Crossing> crossings;
@@ -32,18 +34,23 @@ Run run(const Scene& s, std::size_t k, double dt, Eigen::VectorXd x0, double T, 
     Run r;
     r.x = std::move(x0);
     RunLoop loop(*s.scheme);  // the run of every surface, watching s's invariants
-    r.summary = loop.run(st, r.x, std::size_t(std::llround(T / dt)), [](const RunPoint&) { return false; }, &detector,
-                         [&](const Crossing& c) {
-                             r.crossings.push_back(c);
-                             return false;
-                         });
+    r.summary = loop.run(
+        st, r.x, std::size_t(std::llround(T / dt)), [](const RunPoint&) { return false; }, &detector,
+        [&](const Crossing& c) {
+            r.crossings.push_back(c);
+            return false;
+        });
     REQUIRE(r.summary.status == StepStatus::ok);
     return r;
 }
 
 // Classical RK4 with many small steps on the compiled field: the rigid body's reference flow.
 Eigen::VectorXd flow(const CompiledMap& f, Eigen::VectorXd x, double t, double h_max) {
-    auto F = [&](const Eigen::VectorXd& y) { Eigen::VectorXd r(y.size()); f.eval(y.data(), r.data()); return r; };
+    auto F = [&](const Eigen::VectorXd& y) {
+        Eigen::VectorXd r(y.size());
+        f.eval(y.data(), r.data());
+        return r;
+    };
     const auto N = std::size_t(std::ceil(t / h_max));
     const double h = t / double(N);
     for (std::size_t n = 0; n < N; ++n) {
@@ -72,7 +79,7 @@ TEST_CASE("events: the oscillator's crossings of q = 0 against its exact flow, w
                 const Crossing& c = r.crossings[j];
                 CHECK(c.event == 0);
                 CHECK(std::abs(c.x(0)) <= 1e-15);                   // on the section, to round-off
-                CHECK((c.x(1) > 0) == (j % 2 == 1));               // falling (p < 0) first, then rising
+                CHECK((c.x(1) > 0) == (j % 2 == 1));                // falling (p < 0) first, then rising
                 CHECK(c.step == std::size_t(std::ceil(c.t / dt)));  // found in the step that holds it
                 error = std::max(error, std::abs(c.t - (pi / 2 + pi * double(j))));
                 state_error = std::max(state_error, std::hypot(c.x(0) - std::cos(c.t), c.x(1) + std::sin(c.t)));
@@ -158,7 +165,8 @@ TEST_CASE("events: the rigid body's section x2 = 0 (rising) against a fine refer
         }
         time_errors.push_back(time_error);
         state_errors.push_back(state_error);
-        INFO("rigid body dt = " << dt << ": " << count << " crossings, time error " << time_error << ", state error " << state_error);
+        INFO("rigid body dt = " << dt << ": " << count << " crossings, time error " << time_error << ", state error "
+                                << state_error);
     }
     CHECK(time_errors[0] / time_errors[1] >= 0.8 * 16);
     CHECK(time_errors[0] / time_errors[1] <= 1.25 * 16);

@@ -14,7 +14,8 @@ std::vector<Poly> terms(const Scene& s, RealisationChoice choice, std::size_t k,
 
 }  // namespace
 
-TEST_CASE("hamilton_jacobi: the whole recursion gives S_2 = S_4 = S_6 = 0 for the symmetric realisations (docs/math.md 5)") {
+TEST_CASE(
+    "hamilton_jacobi: the whole recursion gives S_2 = S_4 = S_6 = 0 for the symmetric realisations (docs/math.md 5)") {
     for (const auto& name : test::bundled_names()) {
         Scene s = test::bundled(name);
         for (auto choice : {RealisationChoice::automatic, RealisationChoice::radial}) {
@@ -69,9 +70,9 @@ TEST_CASE("hamilton_jacobi: log-canonical S_3 matches an independent sympy deriv
 }
 
 TEST_CASE("hamilton_jacobi: for a quadratic H on so(3)*, S_3 = H(f)/12 with f = pi grad H (derived by hand)") {
-    // By hand from docs/math.md 3 and 5, H = x^T D x / 2, p = t grad H: alpha = x - (t/2) f + (t^2/12) pi(f) grad H + O(t^3)
-    // with f = L(grad H) x = pi(x) grad H. In [t^2] H(alpha), grad H . pi(f) grad H = 0 (pi skew), so
-    // S_3 = (1/3)(1/2)(f/2)^T D (f/2) = H(f)/12 -- and for I = (2, 1, 2/3) that is the polynomial below.
+    // By hand from docs/math.md 3 and 5, H = x^T D x / 2, p = t grad H: alpha = x - (t/2) f + (t^2/12) pi(f) grad H +
+    // O(t^3) with f = L(grad H) x = pi(x) grad H. In [t^2] H(alpha), grad H . pi(f) grad H = 0 (pi skew), so S_3 =
+    // (1/3)(1/2)(f/2)^T D (f/2) = H(f)/12 -- and for I = (2, 1, 2/3) that is the polynomial below.
     Scene s = test::bundled("rigid_body");
     const PhaseSpace& M = s.phase_space();
     auto S = terms(s, RealisationChoice::automatic, 3);

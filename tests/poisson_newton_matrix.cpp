@@ -40,12 +40,13 @@ LogCanonical lattice(std::size_t n) {
 
 Eigen::VectorXd smooth_state(std::size_t n) {
     Eigen::VectorXd x(static_cast<Eigen::Index>(n));
-    for (std::size_t i = 0; i < n; ++i) x[Eigen::Index(i)] = 1.0 + 0.5 * std::sin(2 * M_PI * double(i) / double(n)) + 0.1 * std::cos(3.0 * double(i));
+    for (std::size_t i = 0; i < n; ++i)
+        x[Eigen::Index(i)] = 1.0 + 0.5 * std::sin(2 * M_PI * double(i) / double(n)) + 0.1 * std::cos(3.0 * double(i));
     return x;
 }
 
-NewtonStepper build(const LogCanonical& s, NewtonSolverChoice solver, std::size_t k, double dt, const Eigen::VectorXd& x0,
-                    RealisationChoice realisation = RealisationChoice::automatic) {
+NewtonStepper build(const LogCanonical& s, NewtonSolverChoice solver, std::size_t k, double dt,
+                    const Eigen::VectorXd& x0, RealisationChoice realisation = RealisationChoice::automatic) {
     StepOptions opt;
     opt.k = k;
     opt.dt = dt;
@@ -97,13 +98,16 @@ TEST_CASE("sparse step: a non-banded sparse structure (long-range pairs) steps a
     for (std::size_t i = 0; i < n; ++i) {
         pairs.emplace_back(int(i), int((i + 1) % n));
         const std::size_t j = (7 * i + 3) % n;
-        if (j != i && j != (i + 1) % n && (j + 1) % n != i) pairs.emplace_back(int(std::min(i, j)), int(std::max(i, j)));
+        if (j != i && j != (i + 1) % n && (j + 1) % n != i)
+            pairs.emplace_back(int(std::min(i, j)), int(std::max(i, j)));
     }
     const LogCanonical s = log_canonical(n, pairs);
     same_steps(s, 2, 0.05, RealisationChoice::automatic, 20);
 }
 
-TEST_CASE("sparse step: the compiled polynomial (radial) realisation on its derivative pattern steps as the dense path does") {
+TEST_CASE(
+    "sparse step: the compiled polynomial (radial) realisation on its derivative pattern steps as the dense path "
+    "does") {
     same_steps(lattice(8), 2, 0.05, RealisationChoice::radial, 20);
 }
 
@@ -145,7 +149,8 @@ TEST_CASE("sparse step: the Casimirs of the lattice are kept to round-off, and b
     // a step far too large for the lattice (dt = 40, u_j ~ dt x ~ 40 in the exponentials): refused, not returned
     NewtonStepper huge = build(s, NewtonSolverChoice::sparse, 4, 40.0, x0);
     const StepStatus status = huge.step(x0, inc);
-    MESSAGE("dt = 40: " << to_string(status) << ", residual " << huge.last_residual() << ", tolerance " << huge.last_tolerance());
+    MESSAGE("dt = 40: " << to_string(status) << ", residual " << huge.last_residual() << ", tolerance "
+                        << huge.last_tolerance());
     CHECK(status != StepStatus::ok);
 }
 
@@ -163,10 +168,12 @@ TEST_CASE("newton matrix: the sparse and dense solves agree on random sparse sys
         }
         return SparsePattern::from_columns(n, cols);
     };
-    const SparsePattern ax = random_pattern(0.03, true), ap = random_pattern(0.03, false), h = random_pattern(0.03, false);
+    const SparsePattern ax = random_pattern(0.03, true), ap = random_pattern(0.03, false),
+                        h = random_pattern(0.03, false);
     std::vector<double> vx(ax.nonzeros()), vp(ap.nonzeros()), vh(h.nonzeros());
     for (std::size_t c = 0; c < n; ++c)
-        for (int k = ax.outer[c]; k < ax.outer[c + 1]; ++k) vx[std::size_t(k)] = ax.inner[std::size_t(k)] == int(c) ? 4.0 : U(rng);
+        for (int k = ax.outer[c]; k < ax.outer[c + 1]; ++k)
+            vx[std::size_t(k)] = ax.inner[std::size_t(k)] == int(c) ? 4.0 : U(rng);
     for (auto& v : vp) v = 0.3 * U(rng);
     for (auto& v : vh) v = 0.3 * U(rng);
     NewtonMatrix dense(ax, ap, h, NewtonSolverChoice::dense), sparse(ax, ap, h, NewtonSolverChoice::sparse);
@@ -236,6 +243,6 @@ TEST_CASE("sparse hessian: grad S_dt and Hess S_dt on its whole pattern from the
         }
     }
     CHECK(mirrored > 0);
-    CHECK(g.with_hessian.width() == 4 + upper);  // only the upper triangle compiled
+    CHECK(g.with_hessian.width() == 4 + upper);       // only the upper triangle compiled
     CHECK(g.hessian.outer[4] == g.hessian.outer[3]);  // d holds nothing
 }

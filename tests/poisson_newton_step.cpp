@@ -14,12 +14,15 @@ using namespace pgi;
 
 namespace {
 
-Eigen::VectorXd vec(const std::vector<double>& v) { return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())); }
+Eigen::VectorXd vec(const std::vector<double>& v) {
+    return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size()));
+}
 
 // The vector field pi grad H, compiled: the reference integrator's and the RK4 baseline's right-hand side.
 struct VectorField {
     CompiledMap f;
-    explicit VectorField(const Scene& s) : f(CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), s.phase_space().coordinate_vars())) {}
+    explicit VectorField(const Scene& s)
+        : f(CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), s.phase_space().coordinate_vars())) {}
     Eigen::VectorXd operator()(const Eigen::VectorXd& x) const {
         Eigen::VectorXd y(x.size());
         f.eval(x.data(), y.data());
@@ -86,10 +89,12 @@ TEST_CASE("newton_step: global order 2 ceil(k/2) for k = 1..6 (rigid body, Lotka
         Scene s = test::bundled(name);
         const Eigen::VectorXd x0 = vec(*s.x0);
         std::map<int, Eigen::VectorXd> reference;  // by N
-        for (int N : {3, 4, 5, 6, 8, 16, 32, 64}) reference[N] = rk4(VectorField(s), x0, T / (N * 400), std::size_t(N) * 400);
+        for (int N : {3, 4, 5, 6, 8, 16, 32, 64})
+            reference[N] = rk4(VectorField(s), x0, T / (N * 400), std::size_t(N) * 400);
         for (std::size_t k = 1; k <= 6; ++k) {
             // dt = T/N; order 6 falls to round-off fast, so its ladder is shorter and denser
-            const std::vector<int> steps = k <= 4 ? std::vector<int>{4, 8, 16, 32, 64} : std::vector<int>{3, 4, 5, 6, 8};
+            const std::vector<int> steps =
+                k <= 4 ? std::vector<int>{4, 8, 16, 32, 64} : std::vector<int>{3, 4, 5, 6, 8};
             std::vector<double> dts;
             for (int N : steps) dts.push_back(T / N);
             std::vector<double> errors;
@@ -147,7 +152,8 @@ TEST_CASE("newton_step: Casimirs are kept to round-off over 1e5 steps for every 
 }
 
 TEST_CASE("newton_step: one step is a Poisson map to round-off, Dphi pi(x) Dphi^T = pi(phi(x)), for every class") {
-    for (const std::string name : {"henon_heiles", "rigid_body", "lotka_volterra", "volterra_chain", "nambu", "plane_quadratic"}) {
+    for (const std::string name :
+         {"henon_heiles", "rigid_body", "lotka_volterra", "volterra_chain", "nambu", "plane_quadratic"}) {
         Scene s = test::bundled(name);
         const Eigen::VectorXd x = vec(*s.x0);
         const auto n = x.size();
@@ -280,7 +286,9 @@ TEST_CASE("newton_step: a non-finite state is refused, not stepped") {
     CHECK_THROWS_AS(stepper(s, 2, -0.1, vec(*s.x0)), std::invalid_argument);
 }
 
-TEST_CASE("newton_step: stiff coupled oscillators (frequencies 1e3 and 1, omega dt = 10): the stiff mode is neither damped nor amplified") {
+TEST_CASE(
+    "newton_step: stiff coupled oscillators (frequencies 1e3 and 1, omega dt = 10): the stiff mode is neither damped "
+    "nor amplified") {
     // The fast mode's energy (p1^2 + 1e6 q1^2)/2 stays within 1e-5 of its start over 1e4 steps for every k,
     // (a BDF method damps such a mode); Newton needs about 3 iterations, the dt-series predictor being poor
     // at omega dt = 10.
@@ -304,7 +312,8 @@ TEST_CASE("newton_step: stiff coupled oscillators (frequencies 1e3 and 1, omega 
     }
 }
 
-TEST_CASE("newton_step: the predictor order follows its cost model, and the iterations it expects are the ones measured") {
+TEST_CASE(
+    "newton_step: the predictor order follows its cost model, and the iterations it expects are the ones measured") {
     struct Case {
         const char* scene;
         std::size_t k, min_order, max_order;
@@ -337,8 +346,11 @@ TEST_CASE("newton_step: the predictor order follows its cost model, and the iter
     CHECK(NewtonStepper::build(s.pi, s.H, opt, vec(*s.x0)).info().predictor_order == 6);
 }
 
-TEST_CASE("newton_step: Newton's expected cost round by round: full iterations square the error, kept-factor rounds multiply it by the kept J's") {
-    const NewtonCost c{1000, 200, 100, true}, full{1000, 200, 100, false};  // a full iteration, the test anew, a kept solve
+TEST_CASE(
+    "newton_step: Newton's expected cost round by round: full iterations square the error, kept-factor rounds multiply "
+    "it by the kept J's") {
+    const NewtonCost c{1000, 200, 100, true},
+        full{1000, 200, 100, false};  // a full iteration, the test anew, a kept solve
     const double tol = 1e-9;
     CHECK(c.from(1e-10, tol) == 1000);             // a correction within newton_tol: p updated by the Hessian
     CHECK(c.from(5e-9, tol) == 1000 + 200);        // leaves 2.5e-17 < u: the test anew passes after one iteration
@@ -368,18 +380,27 @@ TEST_CASE("newton_step: with the radial realisation a linear H is integrated exa
         NewtonStepper closed = stepper(s, k, 0.1, x0, RealisationChoice::closed_form);
         const double radial_error = (run(radial, x0, 100) - exact).lpNorm<Eigen::Infinity>();
         const double closed_error = (run(closed, x0, 100) - exact).lpNorm<Eigen::Infinity>();
-        CHECK(radial_error < 1e-12);   // round-off over 100 steps, whatever the order
-        CHECK(closed_error > 1e-6);    // the closed form's truncation error at dt = 0.1, order 2 ceil(k/2)
+        CHECK(radial_error < 1e-12);  // round-off over 100 steps, whatever the order
+        CHECK(closed_error > 1e-6);   // the closed form's truncation error at dt = 0.1, order 2 ceil(k/2)
     }
 }
 
 namespace {
 
 // sl(2)* ({h,e} = 2e, {h,f} = -2f, {e,f} = h: L(p) has real or imaginary spectra) and e(3)* (L(p) defective).
-PoissonStructure sl2() { return test::structure({"h", "e", "f"}, {{0, 1, "2*e"}, {0, 2, "-2*f"}, {1, 2, "h"}}); }
+PoissonStructure sl2() {
+    return test::structure({"h", "e", "f"}, {{0, 1, "2*e"}, {0, 2, "-2*f"}, {1, 2, "h"}});
+}
 PoissonStructure e3() {
-    return test::structure({"m1", "m2", "m3", "g1", "g2", "g3"}, {{0, 1, "m3"}, {1, 2, "m1"}, {2, 0, "m2"}, {0, 4, "g3"}, {0, 5, "-g2"},
-                                                                {1, 5, "g1"}, {1, 3, "-g3"}, {2, 3, "g2"}, {2, 4, "-g1"}});
+    return test::structure({"m1", "m2", "m3", "g1", "g2", "g3"}, {{0, 1, "m3"},
+                                                                  {1, 2, "m1"},
+                                                                  {2, 0, "m2"},
+                                                                  {0, 4, "g3"},
+                                                                  {0, 5, "-g2"},
+                                                                  {1, 5, "g1"},
+                                                                  {1, 3, "-g3"},
+                                                                  {2, 3, "g2"},
+                                                                  {2, 4, "-g1"}});
 }
 
 NewtonStepper stepper(const PoissonStructure& pi, const Poly& H, std::size_t k, double dt, const Eigen::VectorXd& x0,
@@ -426,7 +447,10 @@ TEST_CASE("large steps on sl(2)* and e(3)* agree with a long double reference of
         {sl2(), "h^2 + 2*e^2 + 2*f^2", {0.5, 1, -2}, 0.25},
         {sl2(), "h^2 + 2*e^2 + 2*f^2", {0.5, 1, -2}, 0.5},
         {sl2(), "h*e + e^2 - f^2 + 3*h", {0.7, -0.4, 0.9}, 0.4},
-        {e3(), "1/2*m1^2 + 1/3*m2^2 + 1/4*m3^2 + g1*m1 + 1/2*g2^2 + 1/3*g3^2 + g1*g2", {0.3, -0.5, 0.4, 0.6, 0.2, -0.7}, 1.0},
+        {e3(),
+         "1/2*m1^2 + 1/3*m2^2 + 1/4*m3^2 + g1*m1 + 1/2*g2^2 + 1/3*g3^2 + g1*g2",
+         {0.3, -0.5, 0.4, 0.6, 0.2, -0.7},
+         1.0},
         {e3(), "m1^2 + 2*m2^2 + 3*m3^2 + g3", {1.3, -0.5, 0.8, 0.6, 0.2, -0.7}, 0.4},
     };
     for (const auto& c : cases) {
@@ -440,10 +464,12 @@ TEST_CASE("large steps on sl(2)* and e(3)* agree with a long double reference of
             Eigen::VectorXd inc(x0.size());
             REQUIRE(st.step(x0, inc) == StepStatus::ok);
             double radius = 0;
-            const Eigen::VectorXd x_ref = test::lie_step_reference(c.pi, H, k, c.dt, x0, st.base_point(), radius).cast<double>();
+            const Eigen::VectorXd x_ref =
+                test::lie_step_reference(c.pi, H, k, c.dt, x0, st.base_point(), radius).cast<double>();
             REQUIRE(radius < 0.97 * 2 * M_PI);  // where the reference converges
             // past the D = 24 series' radius, where 57dddde truncated (|L(p)|_inf measured 2.6 to 12 here)
-            CHECK(RealisationEvaluator::lie_poisson(c.pi, 2).operator_norm_at(test::lie_p(c.pi, H, k, c.dt, st.base_point())) > 1.38);
+            CHECK(RealisationEvaluator::lie_poisson(c.pi, 2).operator_norm_at(
+                      test::lie_p(c.pi, H, k, c.dt, st.base_point())) > 1.38);
             const double scale = x_ref.lpNorm<Eigen::Infinity>();
             CHECK(((x0 + inc) - x_ref).lpNorm<Eigen::Infinity>() <= std::max(1e-14 * scale, st.last_tolerance()));
         }
@@ -514,7 +540,8 @@ TEST_CASE("steps that cannot be trusted fail instead of returning a state") {
 TEST_CASE("every accepted step satisfies its equation within the stated round-off tolerance") {
     // residual_at_solution recomputes alpha(xb, grad S_dt(xb)) - x at the accepted base point; the tolerance
     // is 64 u (|x| + terms summed) componentwise, and for these well-scaled scenes stays below 1e-13 |x|.
-    for (const std::string name : {"rigid_body", "lotka_volterra", "nambu", "plane_quadratic", "henon_heiles", "volterra_chain"}) {
+    for (const std::string name :
+         {"rigid_body", "lotka_volterra", "nambu", "plane_quadratic", "henon_heiles", "volterra_chain"}) {
         const Scene s = test::bundled(name);
         for (std::size_t k : {1, 4}) {
             CAPTURE(name);
@@ -569,7 +596,9 @@ TEST_CASE("the one-step error against the exact flow scales as dt^(p+1), p = 2 c
     }
 }
 
-TEST_CASE("newton_step: the Newton matrix's Hessian truncated where its tail moves J by at most u / newton_tol; steps still at round-off, the tangent map whole") {
+TEST_CASE(
+    "newton_step: the Newton matrix's Hessian truncated where its tail moves J by at most u / newton_tol; steps still "
+    "at round-off, the tangent map whole") {
     for (const std::string name : {"henon_heiles", "rigid_body", "lotka_volterra"}) {
         CAPTURE(name);
         Scene s = test::bundled(name);
@@ -593,8 +622,10 @@ TEST_CASE("newton_step: the Newton matrix's Hessian truncated where its tail mov
             Eigen::MatrixXd hess(n, n);
             for (Eigen::Index a = 0; a < n; ++a)
                 for (Eigen::Index b = 0; b < n; ++b)
-                    hess(a, b) = evaluate(derivative(derivative(S[j], M.x(std::size_t(a))), M.x(std::size_t(b))), point);
-            const double size = alpha_p_size * std::pow(s.dt, double(j + 1)) * hess.cwiseAbs().rowwise().sum().maxCoeff();
+                    hess(a, b) =
+                        evaluate(derivative(derivative(S[j], M.x(std::size_t(a))), M.x(std::size_t(b))), point);
+            const double size =
+                alpha_p_size * std::pow(s.dt, double(j + 1)) * hess.cwiseAbs().rowwise().sum().maxCoeff();
             if (j >= st.info().hessian_terms) tail += size;
             if (j + 1 == st.info().hessian_terms) last_kept = size;
         }
@@ -613,7 +644,8 @@ TEST_CASE("newton_step: the Newton matrix's Hessian truncated where its tail mov
         // (built for states a thousand times smaller, the matrix keeps one or two terms: Newton takes more iterations
         // at x, and a tangent map from that Hessian would be off by far more than round-off)
         auto coarse = stepper(s, k, s.dt, 1e-3 * x);
-        if (name == std::string("rigid_body")) CHECK(coarse.info().hessian_terms == 1);  // homogeneous S_j: Hess S_j(x) ~ |x|^(j-1)
+        if (name == std::string("rigid_body"))
+            CHECK(coarse.info().hessian_terms == 1);  // homogeneous S_j: Hess S_j(x) ~ |x|^(j-1)
         for (NewtonStepper* t : {&st, &coarse}) {
             REQUIRE(t->step(x, inc) == StepStatus::ok);
             const Eigen::MatrixXd Dphi = t->tangent_map(x);

@@ -6,9 +6,10 @@
 using namespace pgi;
 using pgi::test::structure;
 
-TEST_CASE("realisation: radial recursion reproduces the Bernoulli realisation of so(3)* to degree 6 (docs/math.md 3-4)") {
-    for (const auto& pi : {test::bundled("rigid_body").pi,
-                           structure({"x1", "x2", "x3"}, {{0, 1, "x3"}, {1, 2, "x1"}, {2, 0, "x2"}})}) {
+TEST_CASE(
+    "realisation: radial recursion reproduces the Bernoulli realisation of so(3)* to degree 6 (docs/math.md 3-4)") {
+    for (const auto& pi :
+         {test::bundled("rigid_body").pi, structure({"x1", "x2", "x3"}, {{0, 1, "x3"}, {1, 2, "x1"}, {2, 0, "x2"}})}) {
         auto radial = radial_realisation(pi, 6);
         auto closed = lie_poisson_realisation(pi, 6);
         for (std::size_t i = 0; i < 3; ++i) {
@@ -29,7 +30,8 @@ TEST_CASE("realisation: low terms of the Lie-Poisson form are x - L x/2 + L^2 x/
     CHECK(r.alpha[0][2] == r.beta[0][2]);
 }
 
-TEST_CASE("realisation: the three identities hold for every bundled structure, closed form and radial (docs/math.md 2)") {
+TEST_CASE(
+    "realisation: the three identities hold for every bundled structure, closed form and radial (docs/math.md 2)") {
     for (const auto& name : test::bundled_names()) {
         Scene s = test::bundled(name);
         for (auto choice : {RealisationChoice::automatic, RealisationChoice::radial}) {
@@ -63,7 +65,7 @@ TEST_CASE("realisation: for a log-canonical structure radial and exponential are
     auto radial = radial_realisation(s.pi, 4);
     CHECK_FALSE(realisation_defect(s.pi, exp_form).has_value());
     CHECK_FALSE(realisation_defect(s.pi, radial).has_value());
-    CHECK(exp_form.alpha[0][1] == radial.alpha[0][1]);     // both start x - pi p / 2
+    CHECK(exp_form.alpha[0][1] == radial.alpha[0][1]);  // both start x - pi p / 2
     CHECK_FALSE(exp_form.alpha[0] == radial.alpha[0]);
 }
 

@@ -61,7 +61,6 @@ TEST_CASE("realisation_eval: the closed form is offered only for skew structure 
     CHECK_FALSE(RealisationEvaluator::has_rotation_form(test::bundled("lotka_volterra").pi));
 }
 
-
 // issue 11.9 / 16.1
 TEST_CASE("the Lie-Poisson evaluator equals g(L(p)) x in long double, inside and beyond its series' radius") {
     // sl(2)* ({h,e} = 2e, {h,f} = -2f, {e,f} = h: real and imaginary spectra), e(3)* (defective L) and the
@@ -71,8 +70,15 @@ TEST_CASE("the Lie-Poisson evaluator equals g(L(p)) x in long double, inside and
     // (h = 1e-5 |p|: truncation h^2 |alpha'''| ~ 1e-10, round-off 1e-19 / h), 1e-8.
     const std::vector<PoissonStructure> algebras{
         structure({"h", "e", "f"}, {{0, 1, "2*e"}, {0, 2, "-2*f"}, {1, 2, "h"}}),
-        structure({"m1", "m2", "m3", "g1", "g2", "g3"}, {{0, 1, "m3"}, {1, 2, "m1"}, {2, 0, "m2"}, {0, 4, "g3"}, {0, 5, "-g2"},
-                                                         {1, 5, "g1"}, {1, 3, "-g3"}, {2, 3, "g2"}, {2, 4, "-g1"}}),
+        structure({"m1", "m2", "m3", "g1", "g2", "g3"}, {{0, 1, "m3"},
+                                                         {1, 2, "m1"},
+                                                         {2, 0, "m2"},
+                                                         {0, 4, "g3"},
+                                                         {0, 5, "-g2"},
+                                                         {1, 5, "g1"},
+                                                         {1, 3, "-g3"},
+                                                         {2, 3, "g2"},
+                                                         {2, 4, "-g1"}}),
         structure({"x1", "x2", "x3"}, {{0, 1, "x2"}, {0, 2, "x3"}})};
     std::mt19937 gen(11);
     std::normal_distribution<double> normal;
@@ -101,31 +107,39 @@ TEST_CASE("the Lie-Poisson evaluator equals g(L(p)) x in long double, inside and
                 const long double h = 1e-5L * p.lpNorm<Eigen::Infinity>();
                 Eigen::Matrix<long double, -1, 1> pp = p.cast<long double>(), pm = pp;
                 pp[j] += h, pm[j] -= h;
-                const Eigen::VectorXd fd = ((ref.alpha(x.cast<long double>(), pp) - ref.alpha(x.cast<long double>(), pm)) / (2 * h)).cast<double>();
+                const Eigen::VectorXd fd =
+                    ((ref.alpha(x.cast<long double>(), pp) - ref.alpha(x.cast<long double>(), pm)) / (2 * h))
+                        .cast<double>();
                 CHECK((v.alpha_p.col(j) - fd).lpNorm<Eigen::Infinity>() / (size / p.lpNorm<Eigen::Infinity>()) < 1e-8);
             }
         }
     }
 }
 
-TEST_CASE("log-canonical: e^(u/2) - 1 from a nearby exponent is expm1's to a few ulps of the nearby value; farther away it is expm1's") {
+TEST_CASE(
+    "log-canonical: e^(u/2) - 1 from a nearby exponent is expm1's to a few ulps of the nearby value; farther away it "
+    "is expm1's") {
     std::mt19937_64 rng(7);
     std::uniform_real_distribution<double> exponent(-3, 3), unit(-1, 1);
     std::uniform_int_distribution<int> scale(0, 9), shift(19, 60);
     const double ulp = std::numeric_limits<double>::epsilon();
     int near = 0;
     for (int i = 0; i < 20000; ++i) {
-        // u0 over several scales (e^(u/2) - 1 keeps its relative accuracy near 0), u moved by up to 2^-19 (d up to 2^-20)
-        const double u0 = exponent(rng) * std::pow(10.0, -double(scale(rng))), u = u0 + std::ldexp(unit(rng), -shift(rng));
+        // u0 over several scales (e^(u/2) - 1 keeps its relative accuracy near 0), u moved by up to 2^-19 (d up to
+        // 2^-20)
+        const double u0 = exponent(rng) * std::pow(10.0, -double(scale(rng))),
+                     u = u0 + std::ldexp(unit(rng), -shift(rng));
         const double em1_0 = std::expm1(0.5 * u0), want = std::expm1(0.5 * u), got = expm1_near(u, u0, em1_0);
         CAPTURE(u0);
         CAPTURE(u);
-        CHECK(std::abs(got - want) <= 4 * ulp * std::max(std::abs(em1_0), std::abs(want)));  // both libm calls, d and two roundings
+        CHECK(std::abs(got - want) <=
+              4 * ulp * std::max(std::abs(em1_0), std::abs(want)));  // both libm calls, d and two roundings
         near += std::abs(0.5 * (u - u0)) <= 0x1p-20;
     }
     CHECK(near > 19000);  // the cubic served nearly all of them (a quadratic instead fails where em1 is small)
     // beyond |d| = 2^-20 (and for a NaN exponent) the libm call itself
     for (const double u0 : {-2.0, 0.0, 1e-300, 2.5})
-        for (const double step : {0x1p-18, -0x1p-10, 1.0}) CHECK(expm1_near(u0 + step, u0, std::expm1(0.5 * u0)) == std::expm1(0.5 * (u0 + step)));
+        for (const double step : {0x1p-18, -0x1p-10, 1.0})
+            CHECK(expm1_near(u0 + step, u0, std::expm1(0.5 * u0)) == std::expm1(0.5 * (u0 + step)));
     CHECK(std::isnan(expm1_near(std::nan(""), 0.0, 0.0)));
 }

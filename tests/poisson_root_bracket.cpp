@@ -38,7 +38,7 @@ TEST_CASE("root_bracket: a decreasing function, a zero at an end, and a useless 
     auto dec = [](double x) { return std::pair<double, double>{0.5 - x, -1.0}; };
     CHECK(find_root(dec, 0, 1, 0.5, -0.5) == 0.5);
     auto any = [](double) { return std::pair<double, double>{1.0, 1.0}; };
-    CHECK(find_root(any, 0, 1, 0, 1) == 0);  // f(a) = 0
+    CHECK(find_root(any, 0, 1, 0, 1) == 0);   // f(a) = 0
     CHECK(find_root(any, 0, 1, -1, 0) == 1);  // f(b) = 0
     // a derivative of 0 everywhere: Newton's step is infinite, bisection finds the root anyway
     auto flat = [](double x) { return std::pair<double, double>{x - 0.25, 0.0}; };

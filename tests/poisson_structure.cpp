@@ -32,7 +32,8 @@ TEST_CASE("structure: the class of each bundled structure") {
     CHECK(structure({"x", "y"}, {{0, 1, "x*y + 1"}}).structure_class() == StructureClass::general);
     CHECK(structure({"x", "y"}, {{0, 1, "x^2"}}).structure_class() == StructureClass::general);
     CHECK(structure({"x", "y"}, {}).structure_class() == StructureClass::constant);
-    CHECK(structure({"x", "y", "z"}, {{0, 1, "3/2*x*y"}, {0, 2, "-x*z"}}).log_canonical_coefficient(0, 1) == Rational(3, 2));
+    CHECK(structure({"x", "y", "z"}, {{0, 1, "3/2*x*y"}, {0, 2, "-x*z"}}).log_canonical_coefficient(0, 1) ==
+          Rational(3, 2));
 }
 
 TEST_CASE("structure: Jacobi fails for a non-Poisson bivector and names the triple") {
@@ -160,6 +161,6 @@ TEST_CASE("structure: built from its entries alone it equals the one from the fu
     CHECK_FALSE(a.jacobi_failure().has_value());
     // {x2, x1} missing: not skew at (x1, x2), named with both values
     std::map<std::pair<std::size_t, std::size_t>, Poly> one_sided{{{0, 1}, M.x_gen(2)}};
-    CHECK_THROWS_WITH_AS(PoissonStructure(M, one_sided), "pi is not skew-symmetric at (x1, x2): {x1,x2} = x3 but {x2,x1} = 0",
-                         std::invalid_argument);
+    CHECK_THROWS_WITH_AS(PoissonStructure(M, one_sided),
+                         "pi is not skew-symmetric at (x1, x2): {x1,x2} = x3 but {x2,x1} = 0", std::invalid_argument);
 }

@@ -24,7 +24,8 @@ RowMatrix rigid_body_states(Eigen::Index m) {
     return X;
 }
 
-EnsembleOptions with(std::size_t threads, std::size_t chunk = 0, std::optional<Eigen::VectorXd> typical = std::nullopt, std::size_t batch = 0) {
+EnsembleOptions with(std::size_t threads, std::size_t chunk = 0, std::optional<Eigen::VectorXd> typical = std::nullopt,
+                     std::size_t batch = 0) {
     EnsembleOptions o;
     o.threads = threads;
     o.chunk = chunk;
@@ -34,7 +35,8 @@ EnsembleOptions with(std::size_t threads, std::size_t chunk = 0, std::optional<E
 }
 
 // the ensemble's row i against its single run with the ensemble's x_typical: every number equal
-void require_single_run(const Scheme& scheme, const RowMatrix& X0, const EnsembleResult& r, Eigen::Index i, double dt, double t_end) {
+void require_single_run(const Scheme& scheme, const RowMatrix& X0, const EnsembleResult& r, Eigen::Index i, double dt,
+                        double t_end) {
     CAPTURE(i);
     const auto N = std::size_t(steps_to_reach(t_end, dt));
     const Trajectory tr = integrate(scheme, X0.row(i).transpose(), dt, t_end, N, r.x_typical);
@@ -70,7 +72,8 @@ TEST_CASE("Ensemble: each trajectory equals its single run bit for bit, whatever
                 CAPTURE(threads);
                 CAPTURE(chunk);
                 CAPTURE(batch);
-                const EnsembleResult r = integrate_ensemble(scheme, X0, dt, t_end, with(threads, chunk, std::nullopt, batch));
+                const EnsembleResult r =
+                    integrate_ensemble(scheme, X0, dt, t_end, with(threads, chunk, std::nullopt, batch));
                 CHECK(r.threads == threads);
                 CHECK(r.x == one.x);
                 CHECK(r.energy_error == one.energy_error);
@@ -91,7 +94,8 @@ TEST_CASE("Ensemble: wrong shapes and values are refused before any work") {
     const Scheme& scheme = *s.scheme;
     const RowMatrix two_columns = RowMatrix::Ones(4, 2);
     const RowMatrix X0 = rigid_body_states(4);
-    CHECK_THROWS_WITH_AS(integrate_ensemble(scheme, two_columns, 0.1, 1), "X0: must have 3 columns (one per coordinate), got 2", InputError);
+    CHECK_THROWS_WITH_AS(integrate_ensemble(scheme, two_columns, 0.1, 1),
+                         "X0: must have 3 columns (one per coordinate), got 2", InputError);
     CHECK_THROWS_WITH_AS(integrate_ensemble(scheme, X0, 0.0, 1), "dt: must be positive and finite", InputError);
     CHECK_THROWS_WITH_AS(integrate_ensemble(scheme, X0, 0.1, -1), "t_end: must be finite and not negative", InputError);
     CHECK_THROWS_AS(integrate_ensemble(scheme, X0, 0.1, 1, with(1, 0, Eigen::VectorXd::Ones(2))), InputError);
@@ -119,7 +123,7 @@ TEST_CASE("Ensemble: a NaN row ends with its status and the others finish as wit
             CHECK(r.members[std::size_t(i)].status == TrajectoryStatus::non_finite_start);
             CHECK(r.members[std::size_t(i)].steps == 0);
             CHECK(std::isnan(r.energy_error(i)));
-            CHECK_FALSE(r.members[std::size_t(i)].energy_warning);  // not a run: its own status says why
+            CHECK_FALSE(r.members[std::size_t(i)].energy_warning);            // not a run: its own status says why
             CHECK((i == 2 ? std::isnan(r.x(2, 1)) : std::isinf(r.x(4, 0))));  // the row as it was
         } else {
             CHECK(r.members[std::size_t(i)].status == TrajectoryStatus::ok);
@@ -155,7 +159,8 @@ TEST_CASE("Ensemble: a trajectory whose step fails ends alone, with the failed s
     }
 }
 
-TEST_CASE("Ensemble: a trajectory whose energy drifts past a tenth gets the warning its single run gets, the others not") {
+TEST_CASE(
+    "Ensemble: a trajectory whose energy drifts past a tenth gets the warning its single run gets, the others not") {
     // k = 1 on the rigid body at dt = 3: every step solves its equation, but the relative energy error reaches 0.13
     // from the scene's x0 (tools_cli.cpp); a tenth of that state turns ten times slower, the error is O((dt |x|)^2)
     SceneOverrides o;
@@ -227,13 +232,13 @@ TEST_CASE("Run plan: whole steps reaching t_end, the rows a stride records") {
     RunRequest r;
     r.dt = 0.1, r.t_end = 10, r.every = 7, r.dim = 3;
     const RunPlan p = plan_run(r);
-    CHECK(p.steps == 100);          // t_end / dt = 100.00000000000001 is 100 steps
-    CHECK(p.records == 16);         // 0, 7, ..., 98 and the last
+    CHECK(p.steps == 100);   // t_end / dt = 100.00000000000001 is 100 steps
+    CHECK(p.records == 16);  // 0, 7, ..., 98 and the last
     r.every = 0;
     CHECK(plan_run(r).records == 1);
     r.t_end = 0;
     CHECK(plan_run(r).steps == 0);
-    r.t_end = 1e-12;                // a positive t_end takes one step at least
+    r.t_end = 1e-12;  // a positive t_end takes one step at least
     CHECK(plan_run(r).steps == 1);
     r.dt = std::numeric_limits<double>::quiet_NaN();
     CHECK_THROWS_WITH_AS(plan_run(r), "dt: must be positive and finite", InputError);

@@ -31,7 +31,9 @@ Eigen::Matrix3d rigid_body_pi(const Eigen::Vector3d& x) {
     P << 0, -x[2], x[1], x[2], 0, -x[0], -x[1], x[0], 0;
     return P;
 }
-Eigen::Vector3d rigid_body_grad_H(const Eigen::Vector3d& x) { return {x[0] / 2, x[1], 1.5 * x[2]}; }
+Eigen::Vector3d rigid_body_grad_H(const Eigen::Vector3d& x) {
+    return {x[0] / 2, x[1], 1.5 * x[2]};
+}
 
 // The cyclic Lotka-Volterra's pi ({x1,x2} = x1 x2 and cyclic) and grad H for H = x1 + x2 + x3, by hand.
 Eigen::Matrix3d lotka_volterra_pi(const Eigen::Vector3d& x) {
@@ -39,13 +41,17 @@ Eigen::Matrix3d lotka_volterra_pi(const Eigen::Vector3d& x) {
     P << 0, x[0] * x[1], -x[2] * x[0], -x[0] * x[1], 0, x[1] * x[2], x[2] * x[0], -x[1] * x[2], 0;
     return P;
 }
-Eigen::Vector3d lotka_volterra_grad_H(const Eigen::Vector3d&) { return Eigen::Vector3d::Ones(); }
+Eigen::Vector3d lotka_volterra_grad_H(const Eigen::Vector3d&) {
+    return Eigen::Vector3d::Ones();
+}
 
 using Hand = Eigen::Matrix3d (*)(const Eigen::Vector3d&);
 using Grad = Eigen::Vector3d (*)(const Eigen::Vector3d&);
 
 // The largest relative deviation of f(row) from f(row 0) over the rows of X.
-double drift(const Eigen::VectorXd& f) { return ((f.array() - f[0]).abs() / std::abs(f[0])).maxCoeff(); }
+double drift(const Eigen::VectorXd& f) {
+    return ((f.array() - f[0]).abs() / std::abs(f[0])).maxCoeff();
+}
 
 RowMatrix run_states(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end) {
     const Trajectory tr = integrate(scheme, x0, dt, t_end, 1);
@@ -56,8 +62,8 @@ RowMatrix run_states(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
 }  // namespace
 
 TEST_CASE("Evaluators: the vector field and pi equal pi grad H written by hand, on random states") {
-    const std::vector<std::tuple<std::string, Hand, Grad>> cases{{"rigid_body", rigid_body_pi, rigid_body_grad_H},
-                                                                {"lotka_volterra", lotka_volterra_pi, lotka_volterra_grad_H}};
+    const std::vector<std::tuple<std::string, Hand, Grad>> cases{
+        {"rigid_body", rigid_body_pi, rigid_body_grad_H}, {"lotka_volterra", lotka_volterra_pi, lotka_volterra_grad_H}};
     for (const auto& [name, pi, grad] : cases) {
         CAPTURE(name);
         const Scene s = test::bundled(name);
@@ -66,11 +72,12 @@ TEST_CASE("Evaluators: the vector field and pi equal pi grad H written by hand, 
         for (Eigen::Index j = 0; j < X.rows(); ++j) {
             const Eigen::Vector3d x = X.row(j).transpose();
             const Eigen::Matrix3d Pj = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(P.row(j).data());
-            // each entry of pi is a monomial with coefficient +-1, one product at most: the same operation, the same bits
+            // each entry of pi is a monomial with coefficient +-1, one product at most: the same operation, the same
+            // bits
             CHECK(Pj == pi(x));
             CHECK(Pj.transpose() == -Pj);
-            // each component sums 3 products of pi_ik and dH/dx_k: both sides round each product and sum (3 + 1 roundings
-            // at most per term, relative to the sum of the terms' magnitudes)
+            // each component sums 3 products of pi_ik and dH/dx_k: both sides round each product and sum (3 + 1
+            // roundings at most per term, relative to the sum of the terms' magnitudes)
             const Eigen::Vector3d hand = pi(x) * grad(x), scale = pi(x).cwiseAbs() * grad(x).cwiseAbs();
             for (int i = 0; i < 3; ++i) CHECK(std::abs(F(j, i) - hand[i]) <= 4 * eps * scale[i]);
         }
@@ -87,12 +94,14 @@ TEST_CASE("Evaluators: pi holds every bracket of the structure, and only them") 
         std::vector<Poly> entries;
         for (std::size_t i = 0; i < n; ++i)
             for (std::size_t k = 0; k < n; ++k) entries.push_back(s.pi(i, k));
-        // every entry compiled on its own: the brackets map forms the same monomials the same way (products of the inputs)
+        // every entry compiled on its own: the brackets map forms the same monomials the same way (products of the
+        // inputs)
         const CompiledMap all = CompiledMap::build(entries, s.phase_space().coordinate_vars());
         std::vector<double> expected(n * n);
         for (Eigen::Index j = 0; j < X.rows(); ++j) {
             all.eval(X.row(j).data(), expected.data());
-            for (std::size_t e = 0; e < n * n; ++e) CHECK(P(j, Eigen::Index(e)) == doctest::Approx(expected[e]).epsilon(1e-14));
+            for (std::size_t e = 0; e < n * n; ++e)
+                CHECK(P(j, Eigen::Index(e)) == doctest::Approx(expected[e]).epsilon(1e-14));
         }
     }
 }
@@ -182,7 +191,8 @@ TEST_CASE("Evaluators: bad states, dt and upto are refused by name before any wo
     const Scene s = test::bundled("rigid_body");
     const Scheme scheme = *s.scheme;
     RowMatrix X = RowMatrix::Ones(4, 3);
-    CHECK_THROWS_WITH_AS(vector_field(scheme, RowMatrix::Ones(4, 2)), "x: must have 3 columns (one per coordinate), got 2", InputError);
+    CHECK_THROWS_WITH_AS(vector_field(scheme, RowMatrix::Ones(4, 2)),
+                         "x: must have 3 columns (one per coordinate), got 2", InputError);
     X(2, 1) = std::nan("");
     CHECK_THROWS_WITH_AS(hamiltonian_values(scheme, X), "x: row 2 is not finite", InputError);
     X(2, 1) = std::numeric_limits<double>::infinity();

@@ -76,15 +76,19 @@ TEST_CASE("RunLoop: a terminal event's crossing is the final state, observed at 
     double last_t = -1;
     Eigen::VectorXd last_x;
     bool last_final = false;
-    const RunEnd end = loop.run(st, x, 100, [&](const RunPoint& p) {
-        last_t = p.t;
-        last_x = p.x;
-        last_final = p.final;
-        return false;
-    }, &detector, [&](const Crossing& c) {
-        crossings.push_back(c);
-        return false;
-    });
+    const RunEnd end = loop.run(
+        st, x, 100,
+        [&](const RunPoint& p) {
+            last_t = p.t;
+            last_x = p.x;
+            last_final = p.final;
+            return false;
+        },
+        &detector,
+        [&](const Crossing& c) {
+            crossings.push_back(c);
+            return false;
+        });
     REQUIRE(crossings.size() == 1);
     CHECK(end.ok());
     CHECK(end.stopped);
@@ -96,7 +100,8 @@ TEST_CASE("RunLoop: a terminal event's crossing is the final state, observed at 
     CHECK(last_t == crossings[0].t);
     CHECK(last_x == crossings[0].x);
     CHECK(x == crossings[0].x);
-    // the scene's k = 2 (the midpoint rule) at dt = 0.1 is late by t dt^2/12 = 1.3e-3 (test_events.py), the dense output's error far below
+    // the scene's k = 2 (the midpoint rule) at dt = 0.1 is late by t dt^2/12 = 1.3e-3 (test_events.py), the dense
+    // output's error far below
     CHECK(std::abs(end.t - std::numbers::pi / 2 * (1 + 0.01 / 12)) < 1e-5);
 }
 

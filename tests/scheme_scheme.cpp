@@ -19,7 +19,9 @@ bool same(const Realisation& a, const Realisation& b) {
     return true;
 }
 
-Eigen::VectorXd vec(const std::vector<double>& v) { return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())); }
+Eigen::VectorXd vec(const std::vector<double>& v) {
+    return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size()));
+}
 
 }  // namespace
 
@@ -39,7 +41,8 @@ TEST_CASE("Scheme: S_1..S_k and H_0..H_m equal the free functions', in either or
         CAPTURE(name);
         const Scene s = test::bundled(name);
         const std::size_t k = s.order;
-        const auto S = hamilton_jacobi_terms(s.phase_space(), build_realisation(s.pi, s.realisation, realisation_degree_for_order(k)), s.H, k);
+        const auto S = hamilton_jacobi_terms(
+            s.phase_space(), build_realisation(s.pi, s.realisation, realisation_degree_for_order(k)), s.H, k);
         const auto Ht = modified_hamiltonian(s.pi, s.H, k, s.realisation, 3);
         Scheme terms_first = *s.scheme, modified_first = *s.scheme;  // copies start empty
         CHECK(terms_first.terms() == S);
@@ -80,7 +83,8 @@ TEST_CASE("Scheme: from strings equals the scene, and bad values name their entr
     SchemeValues v;
     v.coordinates = s.phase_space().coordinates();
     for (std::size_t i = 0; i < 3; ++i)
-        for (std::size_t j = i + 1; j < 3; ++j) v.brackets.emplace_back(v.coordinates[i] + "," + v.coordinates[j], s.pi(i, j).to_string());
+        for (std::size_t j = i + 1; j < 3; ++j)
+            v.brackets.emplace_back(v.coordinates[i] + "," + v.coordinates[j], s.pi(i, j).to_string());
     v.hamiltonian = s.H.to_string();
     v.casimirs = {s.casimirs[0].to_string()};
     v.order = long(s.order);
@@ -116,7 +120,8 @@ TEST_CASE("Scheme: from strings equals the scene, and bad values name their entr
     CHECK(key_of([](SchemeValues& w) { w.order = 0; }) == "order");
     CHECK(key_of([](SchemeValues& w) { w.realisation = "exact"; }) == "realisation");
     PoissonStructure general = test::structure({"x", "y", "z"}, {{0, 1, "z^2"}});
-    CHECK_THROWS_AS(Scheme(general, general.phase_space().parse("x"), {}, 2, RealisationChoice::closed_form), InputError);
+    CHECK_THROWS_AS(Scheme(general, general.phase_space().parse("x"), {}, 2, RealisationChoice::closed_form),
+                    InputError);
 }
 
 TEST_CASE("Scheme: the step for a (dt, x_typical) is built once and every copy steps alike") {
@@ -162,7 +167,8 @@ TEST_CASE("Scheme: the checks, S_1..S_k and the step share one realisation and o
     }
 }
 
-TEST_CASE("Scheme: a new dt rebuilds nothing; the step built for a larger dt equals the smaller one's own to round-off") {
+TEST_CASE(
+    "Scheme: a new dt rebuilds nothing; the step built for a larger dt equals the smaller one's own to round-off") {
     for (const auto& name : {"rigid_body", "lotka_volterra", "henon_heiles", "nambu"}) {
         CAPTURE(name);
         const Scene s = test::bundled(name);
@@ -216,7 +222,8 @@ TEST_CASE("Scheme: the stepper cache is bounded") {
     const Scene s = test::bundled("rigid_body");
     const Scheme scheme = *s.scheme;
     const Eigen::VectorXd x0 = vec(*s.x0);
-    for (int i = 1; i <= int(Scheme::stepper_cache_size) + 4; ++i) (void)scheme.stepper(0.01 * i, x0);  // each larger: a build each
+    for (int i = 1; i <= int(Scheme::stepper_cache_size) + 4; ++i)
+        (void)scheme.stepper(0.01 * i, x0);  // each larger: a build each
     CHECK(scheme.stats().stepper_builds == Scheme::stepper_cache_size + 4);
     CHECK(scheme.stats().steppers_kept == Scheme::stepper_cache_size);
     (void)scheme.stepper(0.01, x0);  // served by a kept build

@@ -25,7 +25,8 @@ Poly wide(const RingPtr& r, std::size_t m, std::size_t bits, std::size_t shift) 
     std::vector<Poly> terms;
     for (std::size_t i = 0; i < m; ++i) {
         std::string c = "2^" + std::to_string(bits) + " + " + std::to_string(i + shift);
-        terms.push_back(Poly::parse(r, "(" + c + ")*x1^" + std::to_string(i % 50) + "*x2^" + std::to_string(i / 50 + shift)));
+        terms.push_back(
+            Poly::parse(r, "(" + c + ")*x1^" + std::to_string(i % 50) + "*x2^" + std::to_string(i / 50 + shift)));
     }
     for (std::size_t width = 1; width < m; width *= 2)
         for (std::size_t i = 0; i + width < m; i += 2 * width) terms[i] += terms[i + width];
@@ -42,7 +43,8 @@ TEST_CASE("sums are bounded by the ring's term budget, not only products") {
         [&] {
             for (int i = 0; i < 60; ++i) sum += pow(Poly::gen(r, 0), static_cast<unsigned long>(i));
         }(),
-        doctest::Contains("a sum reached 51 terms, above the limit of 50 (raise it with --max-terms)"), ResourceLimitError);
+        doctest::Contains("a sum reached 51 terms, above the limit of 50 (raise it with --max-terms)"),
+        ResourceLimitError);
     CHECK(sum.length() <= 51);  // refused at the first result above the bound, not later
 }
 
@@ -62,12 +64,15 @@ TEST_CASE("a product is refused before it is formed when its bytes would exceed 
         FAIL("the product was formed");
     } catch (const BudgetExceeded& e) {
         CHECK(e.resource() == BudgetExceeded::Resource::memory);
-        CHECK_MESSAGE(std::string(e.what()).find("a product of a 1500-term and a 1500-term polynomial could take ") == 0, e.what());
+        CHECK_MESSAGE(
+            std::string(e.what()).find("a product of a 1500-term and a 1500-term polynomial could take ") == 0,
+            e.what());
         CHECK_MESSAGE(std::string(e.what()).find("(raise it with --max-memory-mb)") != std::string::npos, e.what());
     }
     CHECK(resident_memory() < before + headroom);  // nothing of the size was allocated
     // with room for it, the same product is formed: the estimate is an upper bound, not a guess
-    auto roomy = make_ring(names(40), std::make_shared<const Budget>(BudgetLimits{.max_bytes = resident_memory() + (512u << 20)}));
+    auto roomy = make_ring(names(40),
+                           std::make_shared<const Budget>(BudgetLimits{.max_bytes = resident_memory() + (512u << 20)}));
     const Poly c = wide(roomy, 300, 600, 0) * wide(roomy, 300, 600, 7);
     CHECK(c.length() > 300);
     CHECK(c.length() <= 90000);
@@ -79,8 +84,8 @@ TEST_CASE("the estimate of a product counts the variables and the coefficient si
     CHECK(few == 16);          // one exponent word (3 fields of 8 bits) and one coefficient word
     CHECK(many == 8 * 8 + 8);  // 61 fields of 8 bits: 8 words
     CHECK(big == 8 + 8 + 16 + 8 * 100);
-    CHECK(bytes_per_term(2, 1000, 10) == 8 + 8);       // 16-bit fields: still one word
-    CHECK(bytes_per_term(8, 1000, 10) == 3 * 8 + 8);   // 9 fields of 16 bits: 3 words
+    CHECK(bytes_per_term(2, 1000, 10) == 8 + 8);      // 16-bit fields: still one word
+    CHECK(bytes_per_term(8, 1000, 10) == 3 * 8 + 8);  // 9 fields of 16 bits: 3 words
     CHECK(monomials_up_to(6, 1000) == doctest::Approx(1418299634202451.0).epsilon(1e-12));  // binomial(1006, 6)
     CHECK(monomials_up_to(3, 2) == 10);
 }
@@ -96,8 +101,10 @@ TEST_CASE("the time budget stops an exact computation between operations, naming
         FAIL("no refusal");
     } catch (const BudgetExceeded& e) {
         CHECK(e.resource() == BudgetExceeded::Resource::time);
-        CHECK_MESSAGE(std::string(e.what()).find("Hamilton-Jacobi term S_2 (2 of 3): the exact phase has run ") == 0, e.what());
-        CHECK_MESSAGE(std::string(e.what()).find("above the time budget of 1e-09 s (raise it with --max-seconds)") != std::string::npos,
+        CHECK_MESSAGE(std::string(e.what()).find("Hamilton-Jacobi term S_2 (2 of 3): the exact phase has run ") == 0,
+                      e.what());
+        CHECK_MESSAGE(std::string(e.what()).find("above the time budget of 1e-09 s (raise it with --max-seconds)") !=
+                          std::string::npos,
                       e.what());
     }
 }

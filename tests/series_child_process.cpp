@@ -64,7 +64,8 @@ TEST_CASE("child process: 100 MB of output is kept as its last 64 KiB") {
 TEST_CASE("child process: past its time-out its whole group is killed, what it started included, and reaped") {
     const fs::path pids = fs::temp_directory_path() / ("pgi-child-pids-" + std::to_string(::getpid()));
     const auto start = std::chrono::steady_clock::now();
-    ChildResult r = run_child({"sh", "-c", "sleep 30 & echo $! > '" + pids.string() + "'; sleep 30"}, {.timeout = std::chrono::milliseconds(300)});
+    ChildResult r = run_child({"sh", "-c", "sleep 30 & echo $! > '" + pids.string() + "'; sleep 30"},
+                              {.timeout = std::chrono::milliseconds(300)});
     const auto took = std::chrono::steady_clock::now() - start;
     CHECK(took < std::chrono::seconds(10));
     CHECK(r.failure == "stopped after 300 ms");

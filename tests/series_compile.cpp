@@ -26,7 +26,9 @@ std::vector<Poly> random_outputs(const RingPtr& r, std::size_t k, std::mt19937& 
     for (int terms : {1, 3, 5, 11, 30}) {
         Poly f(r);
         for (int t = 0; t < terms; ++t) {
-            Poly m = Poly::constant(r, Rational(coeff(gen), static_cast<unsigned long>(1 + std::abs(coeff(gen)))));  // not dyadic: rounded coefficients
+            Poly m = Poly::constant(
+                r, Rational(coeff(gen),
+                            static_cast<unsigned long>(1 + std::abs(coeff(gen)))));  // not dyadic: rounded coefficients
             for (std::size_t v = 0; v < k; ++v) m = m * pow(Poly::gen(r, v + 1), ex(gen));
             f += m;
         }
@@ -35,7 +37,9 @@ std::vector<Poly> random_outputs(const RingPtr& r, std::size_t k, std::mt19937& 
     return outputs;
 }
 
-std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
+std::uint64_t bits(double v) {
+    return std::bit_cast<std::uint64_t>(v);
+}
 
 // f (40 random terms in x, y, z), a lone output on other monomials, and seven outputs on f's monomials (other
 // coefficients, and a constant): two groups of four and a lone output.
@@ -49,7 +53,8 @@ std::vector<Poly> grouped_outputs(const RingPtr& r, std::mt19937& gen) {
         f += m;
     }
     std::vector<Poly> outputs{f, pow(Poly::gen(r, 0), 9) + pow(Poly::gen(r, 1), 11)};
-    for (long c : {2, -3, 5, 7, -11, 13, -17}) outputs.push_back(Poly::constant(r, Rational(c, 8)) * f + Poly::constant(r, Rational(c)));
+    for (long c : {2, -3, 5, 7, -11, 13, -17})
+        outputs.push_back(Poly::constant(r, Rational(c, 8)) * f + Poly::constant(r, Rational(c)));
     return outputs;
 }
 
@@ -109,7 +114,8 @@ TEST_CASE("compile: monomials are made as products of two (an addition chain), n
     CHECK(powers.num_monomials() == 1 + 3 + 9);
     // a polynomial in squares (the rigid body's S_dt): every monomial of degree 2j is a product of two of
     // lower degree, one product each (9 of them); one input at a time would add intermediate ones (x y^2, ...)
-    const CompiledMap squares = CompiledMap::build({f("x^2 + y^2 + z^2 + x^2*y^2 + y^2*z^2 + x^2*z^2 + x^4*y^2 + x^2*y^2*z^2 + x^4*z^4")}, {0, 1, 2});
+    const CompiledMap squares = CompiledMap::build(
+        {f("x^2 + y^2 + z^2 + x^2*y^2 + y^2*z^2 + x^2*z^2 + x^4*y^2 + x^2*y^2*z^2 + x^4*z^4")}, {0, 1, 2});
     CHECK(squares.num_monomials() == 1 + 3 + 9);
     const double in[3] = {0.5, -2, 4};
     double out = 0;
@@ -117,7 +123,8 @@ TEST_CASE("compile: monomials are made as products of two (an addition chain), n
     CHECK(out == 0.25 + 4 + 16 + 1 + 64 + 4 + 0.25 + 16 + 0.0625 * 256);  // powers of two: exact in any order
 }
 
-TEST_CASE("compile: outputs sharing their monomials are evaluated four at a time, with eval_batch's bits and exact values") {
+TEST_CASE(
+    "compile: outputs sharing their monomials are evaluated four at a time, with eval_batch's bits and exact values") {
     const auto r = make_ring({"x", "y", "z"});
     std::mt19937 gen(5);
     const std::vector<Poly> outputs = grouped_outputs(r, gen);
@@ -163,13 +170,15 @@ TEST_CASE("compile: outputs sharing their monomials are evaluated four at a time
     }
 }
 
-TEST_CASE("compile: groups summed as one AVX2 vector of four give the SSE2 pairs' bits; automatic takes fours where they pay") {
+TEST_CASE(
+    "compile: groups summed as one AVX2 vector of four give the SSE2 pairs' bits; automatic takes fours where they "
+    "pay") {
     const auto r = make_ring({"x", "y", "z"}), r4 = make_ring({"unused", "a", "b", "c"});
     std::mt19937 gen(8);
     CompiledMap grouped = CompiledMap::build(grouped_outputs(r, gen), {0, 1, 2});
     CompiledMap rows = CompiledMap::build(random_outputs(r4, 3, gen), {3, 1, 2});
-    CHECK(grouped.fours_pay());      // two full groups over most of the map's terms
-    CHECK_FALSE(rows.fours_pay());   // no groups: nothing saved
+    CHECK(grouped.fours_pay());     // two full groups over most of the map's terms
+    CHECK_FALSE(rows.fours_pay());  // no groups: nothing saved
     CHECK(grouped.groups_in_fours() == (processor_has_avx2() && grouped.fours_pay()));
     CHECK_FALSE(rows.groups_in_fours());
     if (!processor_has_avx2()) {
@@ -182,8 +191,8 @@ TEST_CASE("compile: groups summed as one AVX2 vector of four give the SSE2 pairs
     std::vector<double> pairs(O), fours(O);
     for (int point = 0; point < 300; ++point) {
         double x[3] = {input(gen), input(gen), input(gen)};
-        if (point == 1) x[0] = -0.0, x[1] = 0.0;                                    // signed zeros
-        if (point == 2) x[0] = 1e70;                                                // infinite monomials beside finite ones
+        if (point == 1) x[0] = -0.0, x[1] = 0.0;  // signed zeros
+        if (point == 2) x[0] = 1e70;              // infinite monomials beside finite ones
         if (point == 3) x[2] = std::numeric_limits<double>::quiet_NaN();
         grouped.set_group_vectors(GroupVectors::sse2);
         REQUIRE_FALSE(grouped.groups_in_fours());

@@ -25,7 +25,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
+std::uint64_t bits(double v) {
+    return std::bit_cast<std::uint64_t>(v);
+}
 
 // A fresh directory for this process's kept libraries (so no test reads another run's).
 NativeOptions test_options(const std::string& name) {
@@ -75,7 +77,9 @@ std::string native_code_error(CompiledMap& map, const NativeOptions& o) {
 
 }  // namespace
 
-TEST_CASE("native: every output is the interpreter's, bit for bit, on random maps with rows and groups, in SSE2 and AVX2 code, and each map's width its own") {
+TEST_CASE(
+    "native: every output is the interpreter's, bit for bit, on random maps with rows and groups, in SSE2 and AVX2 "
+    "code, and each map's width its own") {
     const auto r = make_ring({"unused", "a", "b", "c"});
     for (const NativeVectors vectors : {NativeVectors::sse2, NativeVectors::avx2, NativeVectors::automatic}) {
         CAPTURE(static_cast<int>(vectors));
@@ -96,9 +100,11 @@ TEST_CASE("native: every output is the interpreter's, bit for bit, on random map
         // pairs; automatic decides map by map, as the interpreter does, so one library can hold both
         for (const CompiledMap& m : maps) {
             const std::string source = native_source(m, "f", vectors);
-            const bool fours = vectors == NativeVectors::avx2 || (vectors == NativeVectors::automatic && m.groups_in_fours());
+            const bool fours =
+                vectors == NativeVectors::avx2 || (vectors == NativeVectors::automatic && m.groups_in_fours());
             CHECK((source.find("target(\"avx2\")") != std::string::npos) == fours);
-            if (&m != &maps.back()) CHECK((source.find("pgi_v4{") != std::string::npos) == fours);  // (the last has no group)
+            if (&m != &maps.back())
+                CHECK((source.find("pgi_v4{") != std::string::npos) == fours);  // (the last has no group)
         }
         const std::vector<CompiledMap> interpreted = maps;
         std::vector<CompiledMap*> pointers;
@@ -114,7 +120,8 @@ TEST_CASE("native: every output is the interpreter's, bit for bit, on random map
             const std::size_t entry = library.find("void pgi_map_" + std::to_string(i) + "(const double*");
             REQUIRE(entry != std::string::npos);
             const std::size_t line = library.rfind('\n', entry) + 1;
-            const bool fours = vectors == NativeVectors::avx2 || (vectors == NativeVectors::automatic && interpreted[i].groups_in_fours());
+            const bool fours = vectors == NativeVectors::avx2 ||
+                               (vectors == NativeVectors::automatic && interpreted[i].groups_in_fours());
             CHECK((library.substr(line, entry - line).find("avx2") != std::string::npos) == fours);
         }
         std::size_t compared = 0;
@@ -125,8 +132,8 @@ TEST_CASE("native: every output is the interpreter's, bit for bit, on random map
             std::vector<double> a(O), b(O);
             for (int point = 0; point < 200; ++point) {
                 double x[3] = {input(gen), input(gen), input(gen)};
-                if (point == 1) x[0] = -0.0, x[1] = 0.0;                                       // signed zeros
-                if (point == 2) x[2] = 1e120;                                                   // overflowing monomials
+                if (point == 1) x[0] = -0.0, x[1] = 0.0;  // signed zeros
+                if (point == 2) x[2] = 1e120;             // overflowing monomials
                 if (point == 3) x[1] = std::numeric_limits<double>::quiet_NaN();
                 interpreted[i].eval(x, a.data());
                 maps[i].eval(x, b.data());
@@ -213,17 +220,21 @@ TEST_CASE("native: the compiler's command is split into words as the shell split
     }
 }
 
-TEST_CASE("native: the temporaries of a build killed before it ended are removed once stale, a running build's are not, even past the size bound") {
+TEST_CASE(
+    "native: the temporaries of a build killed before it ended are removed once stale, a running build's are not, even "
+    "past the size bound") {
     const auto r = make_ring({"x"});
     CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 4)}, {0});
     NativeOptions o = test_options("stale");
     o.timeout = std::chrono::seconds(60);
     o.cache_limit_bytes = 1;  // the size bound takes every kept library but the new one, and no running build's file
     fs::create_directories(o.cache_dir);
-    const fs::path stale = fs::path(o.cache_dir) / "0123456789abcdef.1-2.cpp", running = fs::path(o.cache_dir) / "0123456789abcdef.3-4.so";
+    const fs::path stale = fs::path(o.cache_dir) / "0123456789abcdef.1-2.cpp",
+                   running = fs::path(o.cache_dir) / "0123456789abcdef.3-4.so";
     std::ofstream(stale) << "killed";
     std::ofstream(running) << "being written";
-    fs::last_write_time(stale, fs::file_time_type::clock::now() - std::chrono::minutes(3));  // older than 60 s and a minute
+    fs::last_write_time(stale,
+                        fs::file_time_type::clock::now() - std::chrono::minutes(3));  // older than 60 s and a minute
     REQUIRE(attach_native_code({&map}, o) == 1);
     CHECK_FALSE(fs::exists(stale));
     CHECK(fs::exists(running));
@@ -259,7 +270,9 @@ TEST_CASE("native: the step with jit takes the interpreted step's trajectory bit
     fs::remove_all(cache);
 }
 
-TEST_CASE("native: a map written in pieces (above 2000 terms and monomials, past the default limit) keeps the interpreter's bits") {
+TEST_CASE(
+    "native: a map written in pieces (above 2000 terms and monomials, past the default limit) keeps the interpreter's "
+    "bits") {
     const auto r = make_ring({"a", "b", "c", "d"});
     std::mt19937 gen(8);
     std::uniform_int_distribution<long> coeff(-99, 99);
@@ -312,14 +325,16 @@ TEST_CASE("native: past the cache's limit the oldest kept libraries go, the newe
     CHECK(kept[1].stem() == kept[2].stem());
     const double x = 2;
     double y1 = 0, y2 = 0;
-    first.eval(&x, &y1);   // still loaded, though its file is gone
+    first.eval(&x, &y1);  // still loaded, though its file is gone
     second.eval(&x, &y2);
     CHECK(y1 == 4);
     CHECK(y2 == 8);
     fs::remove_all(o.cache_dir);
 }
 
-TEST_CASE("native: a cache directory named by PGI_JIT_CACHE that cannot be used is an error naming it, not a silent fallback") {
+TEST_CASE(
+    "native: a cache directory named by PGI_JIT_CACHE that cannot be used is an error naming it, not a silent "
+    "fallback") {
     const auto r = make_ring({"x"});
     CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
     const fs::path file = fs::temp_directory_path() / ("pgi-native-test-file-" + std::to_string(::getpid()));
@@ -344,7 +359,8 @@ namespace {
 std::string fake_compiler(const fs::path& dir, const std::string& name, const std::string& body) {
     fs::create_directories(dir);
     const fs::path p = dir / name;
-    std::ofstream(p) << "#!/bin/sh\nwhile [ $# -gt 1 ]; do [ \"$1\" = -o ] && out=$2; shift; done\nsrc=$1\n" << body << "\n";
+    std::ofstream(p) << "#!/bin/sh\nwhile [ $# -gt 1 ]; do [ \"$1\" = -o ] && out=$2; shift; done\nsrc=$1\n"
+                     << body << "\n";
     fs::permissions(p, fs::perms::owner_all);
     return p.string();
 }
@@ -352,7 +368,8 @@ std::string fake_compiler(const fs::path& dir, const std::string& name, const st
 // A fresh directory for the fake compilers and planted files of one test, removed with them.
 struct Scratch {
     fs::path path;
-    explicit Scratch(const std::string& name) : path(fs::temp_directory_path() / ("pgi-native-scratch-" + std::to_string(::getpid()) + "-" + name)) {
+    explicit Scratch(const std::string& name)
+        : path(fs::temp_directory_path() / ("pgi-native-scratch-" + std::to_string(::getpid()) + "-" + name)) {
         fs::remove_all(path);
         fs::create_directories(path);
     }
@@ -372,9 +389,10 @@ TEST_CASE("native: a compiler that exits 0 without a usable library is refused b
     // each once left its output in the cache under the kept name, and every later run failed until it was cleaned
     const Scratch scratch("bad-compilers");
     const auto r = make_ring({"x"});
-    for (const auto& [body, why] : {std::pair<std::string, std::string>{"exit 0", "wrote no library"},
-                                    {"echo garbage > \"$out\"", "not a loadable library"},
-                                    {"echo 'int unrelated;' | c++ -shared -fPIC -x c++ - -o \"$out\"", "without the function pgi_map_0"}}) {
+    for (const auto& [body, why] :
+         {std::pair<std::string, std::string>{"exit 0", "wrote no library"},
+          {"echo garbage > \"$out\"", "not a loadable library"},
+          {"echo 'int unrelated;' | c++ -shared -fPIC -x c++ - -o \"$out\"", "without the function pgi_map_0"}}) {
         CAPTURE(body);
         CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
         NativeOptions o = test_options("bad-compiler");
@@ -395,7 +413,8 @@ TEST_CASE("native: the compiler's diagnostics become one bounded line, terminal 
     NativeOptions o = test_options("noisy");
     // 100 MB of diagnostics, an escape sequence and a NUL at the end
     o.compiler = fake_compiler(scratch.path, "cc",
-                               "head -c 100000000 /dev/zero | tr '\\000' 'x'\nprintf '\\nerror: \\033[31mred\\000 after a NUL\\033[0m\\n' >&2\nexit 1");
+                               "head -c 100000000 /dev/zero | tr '\\000' 'x'\nprintf '\\nerror: \\033[31mred\\000 "
+                               "after a NUL\\033[0m\\n' >&2\nexit 1");
     const std::string what = native_code_error(map, o);
     CHECK(what.size() < 2000);
     CHECK(what.find('\x1b') == std::string::npos);
@@ -415,14 +434,17 @@ TEST_CASE("native: a library planted under a kept name, without pgi's digest or 
         if (name.size() > 3 && name.substr(name.size() - 3) == ".so") key = name.substr(0, name.size() - 3);
     REQUIRE(key.size() == 16);
     // a library with the right symbol whose constructor leaves a mark when it is loaded
-    const fs::path marker = scratch.path / "LOADED", evil_source = scratch.path / "evil.cpp", evil = scratch.path / "evil.so";
-    std::ofstream(evil_source) << "#include <cstdio>\n__attribute__((constructor)) static void mark() { std::fopen(\"" << marker.string()
-                               << "\", \"w\"); }\nextern \"C\" void pgi_map_0(const double*, double* out) { out[0] = 666; }\n";
+    const fs::path marker = scratch.path / "LOADED", evil_source = scratch.path / "evil.cpp",
+                   evil = scratch.path / "evil.so";
+    std::ofstream(evil_source)
+        << "#include <cstdio>\n__attribute__((constructor)) static void mark() { std::fopen(\"" << marker.string()
+        << "\", \"w\"); }\nextern \"C\" void pgi_map_0(const double*, double* out) { out[0] = 666; }\n";
     REQUIRE(std::system(("c++ -shared -fPIC -o '" + evil.string() + "' '" + evil_source.string() + "'").c_str()) == 0);
     const fs::path library = fs::path(o.cache_dir) / (key + ".so"), digest = fs::path(o.cache_dir) / (key + ".hash");
     for (const bool keep_digest : {false, true}) {
         CAPTURE(keep_digest);
-        // put in place by a rename, as a planter would (writing over it would change the library this process has mapped)
+        // put in place by a rename, as a planter would (writing over it would change the library this process has
+        // mapped)
         fs::copy_file(evil, library.string() + ".planting", fs::copy_options::overwrite_existing);
         fs::rename(library.string() + ".planting", library);  // pgi's digest (if kept) is the real library's
         if (!keep_digest) fs::remove(digest);
@@ -484,10 +506,12 @@ TEST_CASE("native: under umask 000 the cache, its parents and its files are priv
     ::umask(previous);
     REQUIRE(attached == 1);
     const auto mode = [](const fs::path& p) { return fs::status(p).permissions(); };
-    for (const fs::path& d : {scratch.path / "made", scratch.path / "made" / "by", fs::path(o.cache_dir)}) CHECK(mode(d) == fs::perms::owner_all);
+    for (const fs::path& d : {scratch.path / "made", scratch.path / "made" / "by", fs::path(o.cache_dir)})
+        CHECK(mode(d) == fs::perms::owner_all);
     for (const auto& e : fs::directory_iterator(o.cache_dir)) {
         CAPTURE(e.path());
-        CHECK(mode(e.path()) == (e.path().extension() == ".so" ? fs::perms::owner_all : fs::perms::owner_read | fs::perms::owner_write));
+        CHECK(mode(e.path()) ==
+              (e.path().extension() == ".so" ? fs::perms::owner_all : fs::perms::owner_read | fs::perms::owner_write));
     }
 }
 
@@ -496,8 +520,9 @@ TEST_CASE("native: trimming the cache removes only pgi's own files, never the us
     NativeOptions o = test_options("shared");
     fs::create_directories(o.cache_dir);
     fs::permissions(o.cache_dir, fs::perms::owner_all);
-    const std::vector<std::string> user_files{"thesis.final.tex", "data.2024.csv", "notes.txt", "big.bin", "0123456789abcdef.txt",
-                                              "0123456789abcdef.old.so", "0123456789ABCDEF.so"};
+    const std::vector<std::string> user_files{
+        "thesis.final.tex",     "data.2024.csv",           "notes.txt",          "big.bin",
+        "0123456789abcdef.txt", "0123456789abcdef.old.so", "0123456789ABCDEF.so"};
     for (const std::string& name : user_files) {
         std::ofstream(fs::path(o.cache_dir) / name) << std::string(name == "big.bin" ? 3 << 20 : 10, 'u');
         fs::last_write_time(fs::path(o.cache_dir) / name, fs::file_time_type::clock::now() - std::chrono::hours(24));

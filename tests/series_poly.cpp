@@ -11,7 +11,9 @@ using namespace pgi;
 
 namespace {
 
-RingPtr xyz() { return make_ring({"x", "y", "z"}); }
+RingPtr xyz() {
+    return make_ring({"x", "y", "z"});
+}
 
 // A random polynomial with small rational coefficients (fixed seed: reproducible).
 Poly random_poly(const RingPtr& r, std::mt19937& gen, int terms, int max_exp) {
@@ -46,35 +48,50 @@ TEST_CASE("poly: a name that prefixes another is read whole (x1 versus x10)") {
 
 TEST_CASE("poly: malformed polynomials get a message naming the problem") {
     auto r = xyz();
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x + w"), "malformed polynomial 'x + w': unknown variable 'w' at position 5", ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "(x + y"), "malformed polynomial '(x + y': unbalanced parentheses: '(' at position 1 not closed",
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x + w"), "malformed polynomial 'x + w': unknown variable 'w' at position 5",
                          ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x)"), "malformed polynomial 'x)': unbalanced parentheses: ')' without '(' at position 2",
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "(x + y"),
+                         "malformed polynomial '(x + y': unbalanced parentheses: '(' at position 1 not closed",
                          ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "1/0"), "malformed polynomial '1/0': division by zero at position 3", ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x/(y - y)"), "malformed polynomial 'x/(y - y)': division by zero at position 3", ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x/y"),
-                         "malformed polynomial 'x/y': division by the variable 'y' at position 3 (only constants may divide)", ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x/(x+1)"), "malformed polynomial 'x/(x+1)': division by the non-constant 'x + 1' at position 3",
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x)"),
+                         "malformed polynomial 'x)': unbalanced parentheses: ')' without '(' at position 2",
                          ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x^100000"), "malformed polynomial 'x^100000': exponent 100000 exceeds the limit 1000 (at position 3)",
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "1/0"), "malformed polynomial '1/0': division by zero at position 3",
                          ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "1.5*x"),
-                         "malformed polynomial '1.5*x': unexpected character '.' at position 2 (write decimal coefficients as "
-                         "fractions, e.g. 3/2)",
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x/(y - y)"),
+                         "malformed polynomial 'x/(y - y)': division by zero at position 3", ParseError);
+    CHECK_THROWS_WITH_AS(
+        Poly::parse(r, "x/y"),
+        "malformed polynomial 'x/y': division by the variable 'y' at position 3 (only constants may divide)",
+        ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x/(x+1)"),
+                         "malformed polynomial 'x/(x+1)': division by the non-constant 'x + 1' at position 3",
                          ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x +"), "malformed polynomial 'x +': syntax error at the end: expected a number, a variable or '('", ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "x y"), "malformed polynomial 'x y': syntax error at position 3: expected an operator", ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x^100000"),
+                         "malformed polynomial 'x^100000': exponent 100000 exceeds the limit 1000 (at position 3)",
+                         ParseError);
+    CHECK_THROWS_WITH_AS(
+        Poly::parse(r, "1.5*x"),
+        "malformed polynomial '1.5*x': unexpected character '.' at position 2 (write decimal coefficients as "
+        "fractions, e.g. 3/2)",
+        ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x +"),
+                         "malformed polynomial 'x +': syntax error at the end: expected a number, a variable or '('",
+                         ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x y"),
+                         "malformed polynomial 'x y': syntax error at position 3: expected an operator", ParseError);
     CHECK_THROWS_WITH_AS(Poly::parse(r, "  "), "malformed polynomial '  ': empty", ParseError);
     CHECK_THROWS_AS(Poly::parse(r, "x^-1"), ParseError);
 }
 
 TEST_CASE("poly: regression (fuzzer timeout): nested and chained powers are bounded like single ones") {
     auto r = xyz();
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "77^777^7^777^777"), "malformed polynomial '77^777^7^777^777': chained exponents at position 7: write (a^b)^c",
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "77^777^7^777^777"),
+                         "malformed polynomial '77^777^7^777^777': chained exponents at position 7: write (a^b)^c",
                          ParseError);
     CHECK_THROWS_WITH_AS(Poly::parse(r, "((x+y)^100)^100"),
-                         "malformed polynomial '((x+y)^100)^100': exponent 100 inside groups raised to the power 100 exceeds the limit 1000 (at position 13)",
+                         "malformed polynomial '((x+y)^100)^100': exponent 100 inside groups raised to the power 100 "
+                         "exceeds the limit 1000 (at position 13)",
                          ParseError);
     CHECK_THROWS_AS(Poly::parse(r, "(((x)^10)^10)^11"), ParseError);
     CHECK(Poly::parse(r, "((x)^10)^10") == pow(Poly::gen(r, 0), 100));
@@ -103,7 +120,9 @@ TEST_CASE("poly: sum over one denominator equals adding one by one, in canonical
         Poly expected(r);
         for (int i = 0; i < 1 + trial % 9; ++i) {
             // contents with different denominators and signs, some pieces cancelling others
-            Poly p = (i % 4 == 3) ? -pieces.back() : random_poly(r, gen, 1 + i % 5, 3) * Poly::constant(r, Rational(i % 2 ? -7 : 3, 2 + i));
+            Poly p = (i % 4 == 3)
+                         ? -pieces.back()
+                         : random_poly(r, gen, 1 + i % 5, 3) * Poly::constant(r, Rational(i % 2 ? -7 : 3, 2 + i));
             expected += p;
             pieces.push_back(std::move(p));
         }
@@ -143,7 +162,8 @@ TEST_CASE("poly: homogeneous parts in a subset of variables add up to the polyno
 
 TEST_CASE("poly: mixing rings is refused") {
     auto r = xyz(), s = xyz();
-    CHECK_THROWS_WITH_AS(Poly::gen(r, 0) * Poly::gen(s, 0), "pgi::mul: operands belong to different rings", std::invalid_argument);
+    CHECK_THROWS_WITH_AS(Poly::gen(r, 0) * Poly::gen(s, 0), "pgi::mul: operands belong to different rings",
+                         std::invalid_argument);
 }
 
 TEST_CASE("poly: value semantics (copies are deep, moves leave a valid empty poly)") {
@@ -217,7 +237,8 @@ TEST_CASE("compile: CompiledMap agrees with exact evaluation, in double and in l
         for (std::size_t o = 0; o < 3; ++o) {
             const auto [exact, size] = exact_value(outputs[o], x);
             // each term has at most 12 + 12 roundings (monomial products, coefficient, sum): gamma_24
-            const double err_double = error_of(static_cast<long double>(y[o]), exact), err_long = error_of(yl[o], exact);
+            const double err_double = error_of(static_cast<long double>(y[o]), exact),
+                         err_long = error_of(yl[o], exact);
             CHECK(err_double <= 24 * 0x1p-53 * size);
             CHECK(err_long <= 24 * 0x1p-64 * size);
             total_double += err_double;
@@ -233,16 +254,18 @@ TEST_CASE("compile: CompiledMap agrees with exact evaluation, in double and in l
 TEST_CASE("a power is estimated before it is expanded and refused with its position") {
     auto r = make_ring({"x1", "x2", "x3", "x4", "x5", "x6"}, 1000);
     // (x1+...+x6)^10 has binomial(15, 5) = 3003 terms: above 1000, refused before FLINT expands it
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^10"),
-                         "polynomial '(x1+x2+x3+x4+x5+x6)^10': expanding the '^' at position 20: the power 10 of a 6-term "
-                         "polynomial could reach 3003 terms, above the limit of 1000 (raise it with --max-terms)",
-                         ResourceLimitError);
+    CHECK_THROWS_WITH_AS(
+        Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^10"),
+        "polynomial '(x1+x2+x3+x4+x5+x6)^10': expanding the '^' at position 20: the power 10 of a 6-term "
+        "polynomial could reach 3003 terms, above the limit of 1000 (raise it with --max-terms)",
+        ResourceLimitError);
     CHECK(Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^5").length() == 252);  // binomial(10, 5): within the budget
     // the same for a product: 126 * 126 terms, at most binomial(14, 6) = 3003 monomials of degree 8
-    CHECK_THROWS_WITH_AS(Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^4 * (x1+x2+x3+x4+x5+x6)^4"),
-                         doctest::Contains("expanding the '*' at position 23: a product of a 126-term and a 126-term polynomial "
-                                           "could reach 3003 terms"),
-                         ResourceLimitError);
+    CHECK_THROWS_WITH_AS(
+        Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^4 * (x1+x2+x3+x4+x5+x6)^4"),
+        doctest::Contains("expanding the '*' at position 23: a product of a 126-term and a 126-term polynomial "
+                          "could reach 3003 terms"),
+        ResourceLimitError);
 }
 
 // issue 11.4
@@ -255,13 +278,18 @@ TEST_CASE("nesting is bounded (parentheses, signs, divisions), with the position
         for (int i = 0; i < n; ++i) s += close;
         return s;
     };
-    const std::string deep = "nesting deeper than " + std::to_string(max_parse_depth) + " (parentheses and signs) at position ";
-    CHECK_THROWS_WITH_AS(Poly::parse(r, nested("1/(", "x", ")", 100000)), doctest::Contains((deep + "603").c_str()), ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, nested("(", "x", ")", 10000)), doctest::Contains((deep + "201").c_str()), ParseError);
-    CHECK_THROWS_WITH_AS(Poly::parse(r, nested("-", "x", "", 100000)), doctest::Contains((deep + "201").c_str()), ParseError);
+    const std::string deep =
+        "nesting deeper than " + std::to_string(max_parse_depth) + " (parentheses and signs) at position ";
+    CHECK_THROWS_WITH_AS(Poly::parse(r, nested("1/(", "x", ")", 100000)), doctest::Contains((deep + "603").c_str()),
+                         ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, nested("(", "x", ")", 10000)), doctest::Contains((deep + "201").c_str()),
+                         ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, nested("-", "x", "", 100000)), doctest::Contains((deep + "201").c_str()),
+                         ParseError);
     // the message quotes only the start of a long text
     CHECK_THROWS_WITH_AS(Poly::parse(r, nested("(", "x", ")", 10000)),
-                         doctest::Contains(("malformed polynomial '" + std::string(60, '(') + "...'").c_str()), ParseError);
+                         doctest::Contains(("malformed polynomial '" + std::string(60, '(') + "...'").c_str()),
+                         ParseError);
     // depth up to the bound is fine, and means what it says
     CHECK(Poly::parse(r, nested("1/(", "2", ")", 60)) == Poly::constant(r, Rational(2)));  // 1/(1/2) = 2, 30 times
     CHECK(Poly::parse(r, nested("-", "x", "", 199)) == -Poly::gen(r, 0));
@@ -276,10 +304,14 @@ TEST_CASE("poly: the reader agrees with FLINT's own parser on random expressions
         auto pick = [&](int n) { return std::uniform_int_distribution<int>(0, n - 1)(gen); };
         auto atom = [&]() -> std::string {
             switch (pick(depth > 0 ? 4 : 3)) {
-                case 0: return std::to_string(pick(20));
-                case 1: return std::string(1, "xyz"[pick(3)]);
-                case 2: return std::to_string(pick(9) + 1) + "/" + std::to_string(pick(9) + 1);
-                default: return "(" + expression(depth - 1) + ")";
+                case 0:
+                    return std::to_string(pick(20));
+                case 1:
+                    return std::string(1, "xyz"[pick(3)]);
+                case 2:
+                    return std::to_string(pick(9) + 1) + "/" + std::to_string(pick(9) + 1);
+                default:
+                    return "(" + expression(depth - 1) + ")";
             }
         };
         std::string s = pick(4) == 0 ? "-" : "";
@@ -311,7 +343,8 @@ TEST_CASE("compile: every coefficient is the correctly rounded double of its exa
     const auto integer = [&](unsigned bits) {
         Rational z(0);
         for (unsigned b = 0; b < bits; b += 20)
-            z = z * Rational(1L << std::min(20u, bits - b)) + Rational(static_cast<long>(gen() >> (64 - std::min(20u, bits - b))));
+            z = z * Rational(1L << std::min(20u, bits - b)) +
+                Rational(static_cast<long>(gen() >> (64 - std::min(20u, bits - b))));
         return z + Rational(1);
     };
     std::uniform_int_distribution<unsigned> bits(1, 100);

@@ -96,8 +96,10 @@ TEST_CASE("local storage: every operation gives dense storage's polynomial, stor
         CHECK(masked_degree(fd, mask) == masked_degree(fl, mask));
         std::vector<Poly> images_d, images_l;  // x_v -> a small random polynomial, or x_v itself
         for (std::size_t v = 0; v < 9; ++v) {
-            images_d.push_back(v % 3 == 0 ? random_sparse(R.dense, 200 + seed + unsigned(v), 2) : Poly::gen(R.dense, v));
-            images_l.push_back(v % 3 == 0 ? random_sparse(R.local, 200 + seed + unsigned(v), 2) : Poly::gen(R.local, v));
+            images_d.push_back(v % 3 == 0 ? random_sparse(R.dense, 200 + seed + unsigned(v), 2)
+                                          : Poly::gen(R.dense, v));
+            images_l.push_back(v % 3 == 0 ? random_sparse(R.local, 200 + seed + unsigned(v), 2)
+                                          : Poly::gen(R.local, v));
         }
         same(substitute(fd, images_d), substitute(fl, images_l));
         CHECK((fd + gd == gd + fd));
@@ -112,7 +114,9 @@ TEST_CASE("local storage: high degrees keep FLINT's room for overflow when moved
     // a term of degree 128..255 fills 8 bits: moved into a larger context it needs 9 (FLINT keeps each field's top
     // bit zero and reads a set one as an overflow), and products and sums of such terms must still be dense storage's
     const Twins R(70);
-    const auto both = [&](const std::string& text) { return std::pair{Poly::parse(R.dense, text), Poly::parse(R.local, text)}; };
+    const auto both = [&](const std::string& text) {
+        return std::pair{Poly::parse(R.dense, text), Poly::parse(R.local, text)};
+    };
     for (const char* a : {"x1^130*x2^70 + x3", "x5^127 + x6^128", "x1^255 - 3*x70^200*x2"}) {
         CAPTURE(a);
         const auto [fd, fl] = both(a);
@@ -125,12 +129,14 @@ TEST_CASE("local storage: high degrees keep FLINT's room for overflow when moved
         same(derivative(fd * gd, 1), derivative(fl * gl, 1));
         // moved to all 70 variables, where 8 bits a field (eight fields a word) is what FLINT's rounding leaves
         std::vector<Poly> gens_d, gens_l;
-        for (std::size_t v = 0; v < 70; ++v) gens_d.push_back(Poly::gen(R.dense, v)), gens_l.push_back(Poly::gen(R.local, v));
+        for (std::size_t v = 0; v < 70; ++v)
+            gens_d.push_back(Poly::gen(R.dense, v)), gens_l.push_back(Poly::gen(R.local, v));
         const Poly all_d = sum(gens_d, R.dense), all_l = sum(gens_l, R.local);
         for (const Poly* p : {&fl, &gl}) {
             const Poly q = *p + all_l;
             REQUIRE(q.variables().size() == 70);
-            CHECK(FLINT_BIT_COUNT(static_cast<ulong>(q.total_degree())) < q.get()->zpoly->bits);  // the top bit stays free
+            CHECK(FLINT_BIT_COUNT(static_cast<ulong>(q.total_degree())) <
+                  q.get()->zpoly->bits);  // the top bit stays free
         }
         same(fd + all_d, fl + all_l);
         same((fd + all_d) * (gd - all_d), (fl + all_l) * (gl - all_l));
@@ -140,7 +146,9 @@ TEST_CASE("local storage: high degrees keep FLINT's room for overflow when moved
 TEST_CASE("local storage: whatever cancels gives its variables back") {
     const Twins R(4);
     const auto x = [&](std::size_t v) { return Poly::gen(R.local, v); };
-    const auto over = [](const Poly& f) { return std::vector<std::uint32_t>(f.variables().begin(), f.variables().end()); };
+    const auto over = [](const Poly& f) {
+        return std::vector<std::uint32_t>(f.variables().begin(), f.variables().end());
+    };
     using V = std::vector<std::uint32_t>;
     Poly f = x(0) + x(1);
     CHECK(over(f) == V{0, 1});
@@ -223,16 +231,19 @@ TEST_CASE("local storage: a lattice's Hamilton-Jacobi terms and steps are dense 
     const std::size_t n = 12;
     const auto names = numbered("x", n);
     std::vector<std::tuple<int, int, std::string>> brackets;
-    for (std::size_t i = 0; i < n; ++i) brackets.emplace_back(int(i), int((i + 1) % n), names[i] + "*" + names[(i + 1) % n]);
+    for (std::size_t i = 0; i < n; ++i)
+        brackets.emplace_back(int(i), int((i + 1) % n), names[i] + "*" + names[(i + 1) % n]);
     const PoissonStructure pd = test::structure(names, brackets, PolyStorage::dense);
     const PoissonStructure pl = test::structure(names, brackets, PolyStorage::local);
     const Poly Hd = pd.phase_space().parse("x1 + x2 + x3 + x4 + x5 + x6 + x7 + x8 + x9 + x10 + x11 + x12 + x3*x7");
     const Poly Hl = pl.phase_space().parse("x1 + x2 + x3 + x4 + x5 + x6 + x7 + x8 + x9 + x10 + x11 + x12 + x3*x7");
     same(Hd, Hl);
-    const Realisation rd = build_realisation(pd, RealisationChoice::automatic, 3), rl = build_realisation(pl, RealisationChoice::automatic, 3);
+    const Realisation rd = build_realisation(pd, RealisationChoice::automatic, 3),
+                      rl = build_realisation(pl, RealisationChoice::automatic, 3);
     for (std::size_t i = 0; i < n; ++i)
         for (std::size_t m = 0; m < rd.alpha[i].order(); ++m) same(rd.alpha[i][m], rl.alpha[i][m]);
-    const auto Sd = hamilton_jacobi_terms(pd.phase_space(), rd, Hd, 4), Sl = hamilton_jacobi_terms(pl.phase_space(), rl, Hl, 4);
+    const auto Sd = hamilton_jacobi_terms(pd.phase_space(), rd, Hd, 4),
+               Sl = hamilton_jacobi_terms(pl.phase_space(), rl, Hl, 4);
     for (std::size_t j = 0; j < Sd.size(); ++j) same(Sd[j], Sl[j]);
     StepOptions opt;
     opt.k = 4;

@@ -17,7 +17,8 @@ TEST_CASE("rational: parses integers, fractions and decimals exactly") {
 
 TEST_CASE("rational: malformed numbers are refused with the text in the message") {
     CHECK_THROWS_WITH_AS(Rational::parse("1/0"), "'1/0' is not a number (zero denominator)", std::invalid_argument);
-    CHECK_THROWS_WITH_AS(Rational::parse("abc"), "'abc' is not a number (expected an integer, a decimal or a fraction a/b)",
+    CHECK_THROWS_WITH_AS(Rational::parse("abc"),
+                         "'abc' is not a number (expected an integer, a decimal or a fraction a/b)",
                          std::invalid_argument);
     CHECK_THROWS_AS(Rational::parse(""), std::invalid_argument);
     CHECK_THROWS_AS(Rational::parse("1..2"), std::invalid_argument);

@@ -9,7 +9,9 @@ using namespace pgi;
 namespace {
 
 // The p-graded series of f in the ring (x, p), truncated after degree N - 1.
-Series in_p(const Poly& f, std::size_t N) { return Series::graded(f, {false, true}, N); }
+Series in_p(const Poly& f, std::size_t N) {
+    return Series::graded(f, {false, true}, N);
+}
 
 }  // namespace
 
@@ -69,19 +71,23 @@ TEST_CASE("series: inverse_near_identity inverts id + u to its order, stops wher
     for (std::size_t i = 0; i < 2; ++i) CHECK(uv[i] + v[i] == Series(r, N));
     CHECK_FALSE(v[0][N - 1].is_zero());
     // told to stop after order 3, the result is the same series truncated there
-    const auto w = inverse_near_identity(u, {0, 1}, N, [](const std::vector<Series>& s) { return s.front().order() == 4; });
+    const auto w =
+        inverse_near_identity(u, {0, 1}, N, [](const std::vector<Series>& s) { return s.front().order() == 4; });
     for (std::size_t i = 0; i < 2; ++i) CHECK(w[i] == v[i].truncated(4));
     u[1][0] = Poly::parse(r, "x");
     CHECK_THROWS_AS(inverse_near_identity(u, {0, 1}, N), std::invalid_argument);
 }
 
-TEST_CASE("series: ComposeByOrder completed order by order equals compose of the finished images, and refuses to rewrite a read order") {
+TEST_CASE(
+    "series: ComposeByOrder completed order by order equals compose of the finished images, and refuses to rewrite a "
+    "read order") {
     auto r = make_ring({"x", "y", "p"});
     const std::size_t N = 5;
     // images of x and y whose coefficient m is given only once the compositions through m - 1 were read
     const char* ix[] = {"x", "p*y", "x^2 - p", "3*y*p^2", "x*y"};
     const char* iy[] = {"y + 1", "0", "x*p", "y^2", "p^3 - x"};
-    std::vector<Poly> fs{Poly::parse(r, "x^3*y - 2*x*p + y^2"), Poly::parse(r, "p*x*y^2 + 1/3"), Poly::parse(r, "y^4 + x")};
+    std::vector<Poly> fs{Poly::parse(r, "x^3*y - 2*x*p + y^2"), Poly::parse(r, "p*x*y^2 + 1/3"),
+                         Poly::parse(r, "y^4 + x")};
     std::vector<std::optional<Series>> empty(3), full(3);
     empty[0] = Series(r, N), empty[1] = Series(r, N), full[0] = Series(r, N), full[1] = Series(r, N);
     for (std::size_t m = 0; m < N; ++m) (*full[0])[m] = Poly::parse(r, ix[m]), (*full[1])[m] = Poly::parse(r, iy[m]);
@@ -103,12 +109,14 @@ TEST_CASE("series: ComposeByOrder completed order by order equals compose of the
         if (m < fs.size()) CHECK(appended.append(fs[m]) == m);
         appended.set_image(0, m, Poly::parse(r, ix[m]));
         appended.set_image(1, m, Poly::parse(r, iy[m]));
-        for (std::size_t i = 0; i < std::min(m + 1, fs.size()); ++i) CHECK(appended.coefficient(i, m) == expected[i][m]);
+        for (std::size_t i = 0; i < std::min(m + 1, fs.size()); ++i)
+            CHECK(appended.coefficient(i, m) == expected[i][m]);
     }
     CHECK_THROWS_AS(appended.append(Poly(make_ring({"x", "y", "p"}))), std::invalid_argument);  // another ring
 }
 
-TEST_CASE("series: compose of random polynomials is graded substitution, with kept variables and images of every degree") {
+TEST_CASE(
+    "series: compose of random polynomials is graded substitution, with kept variables and images of every degree") {
     // Identity test (FLINT style): for f in x, y, z and images of x and y graded by their degree in p,
     // compose(f, images, N) = the p-graded parts of f(gx, gy, z) below N; z is kept.
     auto r = make_ring({"x", "y", "z", "p"});

@@ -32,12 +32,17 @@ inline PoissonStructure structure(std::vector<std::string> coords,
     return PoissonStructure(M, pi);
 }
 
-inline std::string scene_path(const std::string& name) { return std::string(PGI_SCENES_DIR) + "/" + name + ".toml"; }
-inline Scene bundled(const std::string& name) { return load_scene(scene_path(name)); }
+inline std::string scene_path(const std::string& name) {
+    return std::string(PGI_SCENES_DIR) + "/" + name + ".toml";
+}
+inline Scene bundled(const std::string& name) {
+    return load_scene(scene_path(name));
+}
 
 inline const std::vector<std::string>& bundled_names() {
-    static const std::vector<std::string> names{"rigid_body", "lotka_volterra", "harmonic_oscillator", "henon_heiles",
-                                                "plane_quadratic", "nambu", "volterra_chain", "kahan_lotka_volterra"};
+    static const std::vector<std::string> names{"rigid_body",     "lotka_volterra",      "harmonic_oscillator",
+                                                "henon_heiles",   "plane_quadratic",     "nambu",
+                                                "volterra_chain", "kahan_lotka_volterra"};
     return names;
 }
 

@@ -46,7 +46,8 @@ struct Ran {
 // Runs a shell command line (pgi's path is "$PGI") with stdout and stderr to files in dir.
 Ran shell(const fs::path& dir, const std::string& line) {
     const fs::path out = dir / "stdout", err = dir / "stderr";
-    const std::string cmd = "PGI='" + std::string(PGI_BINARY) + "'; " + line + " >'" + out.string() + "' 2>'" + err.string() + "'";
+    const std::string cmd =
+        "PGI='" + std::string(PGI_BINARY) + "'; " + line + " >'" + out.string() + "' 2>'" + err.string() + "'";
     const int status = std::system(cmd.c_str());
     Ran r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, test::slurp(err)};
     fs::remove(out), fs::remove(err);
@@ -80,7 +81,8 @@ std::vector<pid_t> running_in_group(pid_t pgid) {
         if (paren == std::string::npos) continue;
         char state = 0;
         long ppid = 0, pgrp = 0;
-        if (std::sscanf(line.c_str() + paren + 2, "%c %ld %ld", &state, &ppid, &pgrp) == 3 && pgrp == pgid && state != 'Z')
+        if (std::sscanf(line.c_str() + paren + 2, "%c %ld %ld", &state, &ppid, &pgrp) == 3 && pgrp == pgid &&
+            state != 'Z')
             found.push_back(pid_t(std::stol(name)));
     }
     return found;
@@ -88,20 +90,23 @@ std::vector<pid_t> running_in_group(pid_t pgid) {
 
 }  // namespace
 
-TEST_CASE("--plot: backquotes, system(), macros and quotes in a scene's name, its file name or the plot directory are text, never run") {
+TEST_CASE(
+    "--plot: backquotes, system(), macros and quotes in a scene's name, its file name or the plot directory are text, "
+    "never run") {
     if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
         MESSAGE("gnuplot is not installed: not tested");
         return;
     }
     const Sandbox box("plot-injection");
     const std::string mark = (box.path / "PWNED").string();
-    const std::string name = "\"body `touch " + mark + "1` system('touch " + mark + "2') @x $(touch " + mark + "3) it''s \\\" ' . system(\\\"touch " + mark + "6\\\") . ' @title\"";
+    const std::string name = "\"body `touch " + mark + "1` system('touch " + mark + "2') @x $(touch " + mark +
+                             "3) it''s \\\" ' . system(\\\"touch " + mark + "6\\\") . ' @title\"";
     const fs::path scene = box.path / "s`touch PWNED4`'.toml";  // a relative name: a file name holds no slash
     std::ofstream(scene) << harmonic(name);
     const fs::path figures = box.path / "figs `touch PWNED5` $(touch PWNED5) '";
     fs::create_directories(figures);
-    const Ran r = shell(box.path, "cd " + sh_quote(box.path.string()) + " && \"$PGI\" integrate " + sh_quote(scene.string()) + " --t-end 2 --plot " +
-                                      sh_quote(figures.string()));
+    const Ran r = shell(box.path, "cd " + sh_quote(box.path.string()) + " && \"$PGI\" integrate " +
+                                      sh_quote(scene.string()) + " --t-end 2 --plot " + sh_quote(figures.string()));
     CHECK_MESSAGE(r.exit_code == 0, r.err);
     for (int i = 1; i <= 6; ++i) CHECK_FALSE(fs::exists(mark + std::to_string(i)));
     std::size_t drawn = 0;
@@ -114,13 +119,16 @@ TEST_CASE("--plot: backquotes, system(), macros and quotes in a scene's name, it
     CHECK(svg.find("`touch") != std::string::npos);
 }
 
-TEST_CASE("--jit: SIGTERM or SIGINT while the compiler runs kills its process group, removes the temporaries, exits 143 or 130") {
+TEST_CASE(
+    "--jit: SIGTERM or SIGINT while the compiler runs kills its process group, removes the temporaries, exits 143 or "
+    "130") {
     for (const int sig : {SIGTERM, SIGINT}) {
         CAPTURE(sig);
         const Sandbox box("jit-signal");
-        const fs::path cache = box.path / "cache", pid_file = box.path / "compiler.pid", compiler = box.path / "slow-cc";
-        std::ofstream(compiler) << "#!/bin/sh\necho $$ > '" << pid_file.string() << ".tmp'\nmv '" << pid_file.string() << ".tmp' '"
-                                << pid_file.string() << "'\nsleep 30\n";
+        const fs::path cache = box.path / "cache", pid_file = box.path / "compiler.pid",
+                       compiler = box.path / "slow-cc";
+        std::ofstream(compiler) << "#!/bin/sh\necho $$ > '" << pid_file.string() << ".tmp'\nmv '" << pid_file.string()
+                                << ".tmp' '" << pid_file.string() << "'\nsleep 30\n";
         fs::permissions(compiler, fs::perms::owner_all);
         const std::string scene = test::scene_path("harmonic_oscillator");
         const std::string cache_env = "PGI_JIT_CACHE=" + cache.string(), cxx_env = "PGI_CXX=" + compiler.string();
@@ -161,7 +169,8 @@ TEST_CASE("--jit: SIGTERM or SIGINT while the compiler runs kills its process gr
     }
 }
 
-TEST_CASE("--jit as an unprivileged user: a cache directory another user prepared is refused (exit 7), the fallback too") {
+TEST_CASE(
+    "--jit as an unprivileged user: a cache directory another user prepared is refused (exit 7), the fallback too") {
     if (::geteuid() != 0) {
         MESSAGE("not root: cannot switch users, not tested");
         return;
@@ -174,10 +183,12 @@ TEST_CASE("--jit as an unprivileged user: a cache directory another user prepare
     REQUIRE(nobody != nullptr);
     const std::string uid = std::to_string(nobody->pw_uid);
     const Sandbox box("jit-foreign");
-    fs::permissions(box.path, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+    fs::permissions(box.path, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                  fs::perms::others_read | fs::perms::others_exec);
     const fs::path scene = box.path / "s.toml";
     std::ofstream(scene) << test::slurp(test::scene_path("harmonic_oscillator"));
-    fs::permissions(scene, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
+    fs::permissions(scene,
+                    fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
     // prepared by root for the victim: world-writable, with a library planted under a name the victim may compute
     const fs::path planted = box.path / "shared-cache";
     fs::create_directories(planted);
@@ -187,17 +198,23 @@ TEST_CASE("--jit as an unprivileged user: a cache directory another user prepare
     fs::create_directories(tmp / ("pgi-jit-" + uid));
     ::chmod(tmp.c_str(), 01777);
     fs::permissions(tmp / ("pgi-jit-" + uid), fs::perms::all);
-    const std::string as_nobody = "cd '" + box.path.string() + "' && setpriv --reuid=nobody --regid=nogroup --clear-groups env -u PGI_CXX -u CXX -u XDG_CACHE_HOME ";
+    const std::string as_nobody =
+        "cd '" + box.path.string() +
+        "' && setpriv --reuid=nobody --regid=nogroup --clear-groups env -u PGI_CXX -u CXX -u XDG_CACHE_HOME ";
     const std::string run = " \"$PGI\" integrate s.toml --jit --t-end 1";
     const Ran named = shell(box.path, as_nobody + "PGI_JIT_CACHE='" + planted.string() + "' HOME=/nonexistent" + run);
     CHECK(named.exit_code == 7);
-    CHECK_MESSAGE(named.err.find(planted.string() + ": it is owned by uid 0, not by the effective user (uid " + uid + ")") != std::string::npos, named.err);
-    const Ran fallback = shell(box.path, as_nobody + "-u PGI_JIT_CACHE HOME=/nonexistent TMPDIR='" + tmp.string() + "'" + run);
+    CHECK_MESSAGE(named.err.find(planted.string() + ": it is owned by uid 0, not by the effective user (uid " + uid +
+                                 ")") != std::string::npos,
+                  named.err);
+    const Ran fallback =
+        shell(box.path, as_nobody + "-u PGI_JIT_CACHE HOME=/nonexistent TMPDIR='" + tmp.string() + "'" + run);
     CHECK(fallback.exit_code == 7);
     CHECK_MESSAGE(fallback.err.find("pgi-jit-" + uid + ": it is owned by uid 0") != std::string::npos, fallback.err);
     // the victim's own fallback, made by pgi: 0700, and used
     fs::remove_all(tmp / ("pgi-jit-" + uid));
-    const Ran own = shell(box.path, as_nobody + "-u PGI_JIT_CACHE HOME=/nonexistent TMPDIR='" + tmp.string() + "'" + run);
+    const Ran own =
+        shell(box.path, as_nobody + "-u PGI_JIT_CACHE HOME=/nonexistent TMPDIR='" + tmp.string() + "'" + run);
     CHECK_MESSAGE(own.exit_code == 0, own.err);
     struct stat st {};
     REQUIRE(::stat((tmp / ("pgi-jit-" + uid)).c_str(), &st) == 0);

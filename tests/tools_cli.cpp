@@ -69,7 +69,8 @@ struct TempScene {
 // A fresh empty directory, removed with what is in it.
 struct TempDir {
     fs::path path;
-    explicit TempDir(const std::string& tag) : path(fs::temp_directory_path() / ("pgi_test_dir_" + tag + "_" + std::to_string(::getpid()))) {
+    explicit TempDir(const std::string& tag)
+        : path(fs::temp_directory_path() / ("pgi_test_dir_" + tag + "_" + std::to_string(::getpid()))) {
         fs::remove_all(path);
         fs::create_directories(path);
     }
@@ -129,8 +130,10 @@ TEST_CASE("cli: an unreadable file and bad flags exit 2") {
     CHECK(x0nan.out.empty());
     // options belong to the subcommands that read them: terms reads neither dt nor x0, run prints text only
     for (std::vector<std::string> args : {std::vector<std::string>{"terms", rb, "--dt", "1/10"},
-                                          {"terms", rb, "--x0", "1,2,3"}, {"magnus", rb, "--order", "3"},
-                                          {"run", rb, "--json"}, {"report", rb, "--json"}}) {
+                                          {"terms", rb, "--x0", "1,2,3"},
+                                          {"magnus", rb, "--order", "3"},
+                                          {"run", rb, "--json"},
+                                          {"report", rb, "--json"}}) {
         Run r = pgi_run(args);
         CHECK(r.exit_code == 2);
         CHECK(r.out.empty());
@@ -144,10 +147,12 @@ TEST_CASE("cli: an unreadable file and bad flags exit 2") {
 }
 
 TEST_CASE("cli: --version names the version and the allocator the program runs on") {
-    // mimalloc (and its version) unless the build turned it off (PGI_MIMALLOC, sanitizers): a link that lost it shows here
+    // mimalloc (and its version) unless the build turned it off (PGI_MIMALLOC, sanitizers): a link that lost it shows
+    // here
     Run v = pgi_run({"--version"});
     CHECK(v.exit_code == 0);
-    CHECK_MESSAGE(v.out.starts_with("pgi " + std::string(pgi::version()) + " (allocator: " + PGI_PROGRAM_ALLOCATOR), v.out);
+    CHECK_MESSAGE(v.out.starts_with("pgi " + std::string(pgi::version()) + " (allocator: " + PGI_PROGRAM_ALLOCATOR),
+                  v.out);
     CHECK(v.out.ends_with(")\n"));
 }
 
@@ -210,7 +215,8 @@ TEST_CASE("cli: step --json gives the state after one step, the Newton iteration
     CHECK(j["newton_iterations"].get<int>() <= 2);
     CHECK(j["residual"].get<double>() < 1e-12);
     // the Casimir x1 x2 x3 = 1 is kept by the step
-    CHECK(j["x"][0].get<double>() * j["x"][1].get<double>() * j["x"][2].get<double>() == doctest::Approx(1.0).epsilon(1e-14));
+    CHECK(j["x"][0].get<double>() * j["x"][1].get<double>() * j["x"][2].get<double>() ==
+          doctest::Approx(1.0).epsilon(1e-14));
     Run nan = pgi_run({"step", lv, "--x0", "1,inf,2", "--json"});
     CHECK(nan.exit_code == 2);
     CHECK(nan.out.empty());
@@ -238,7 +244,8 @@ TEST_CASE("cli: a run that ends with the energy off by more than a tenth says so
 // issue 11.9
 TEST_CASE("cli: integrate --json --csv writes the summary and the trajectory") {
     const fs::path csv = fs::temp_directory_path() / ("pgi_test_" + std::to_string(::getpid()) + ".csv");
-    Run r = pgi_run({"integrate", test::scene_path("nambu"), "--t-end", "10", "--csv", csv.string(), "--every", "50", "--json"});
+    Run r = pgi_run(
+        {"integrate", test::scene_path("nambu"), "--t-end", "10", "--csv", csv.string(), "--every", "50", "--json"});
     REQUIRE(r.exit_code == 0);
     auto j = nlohmann::json::parse(r.out);
     CHECK(j["steps"] == 200);
@@ -247,7 +254,8 @@ TEST_CASE("cli: integrate --json --csv writes the summary and the trajectory") {
     CHECK(j["energy_error_max"].get<double>() < 1e-6);
     CHECK(j["newton_iterations_mean"].get<double>() <= 2.0);
     // issue 11.9: was wall_seconds >= 0, which cannot fail; the per-step time is the wall time over the steps
-    CHECK(j["ns_per_step"].get<double>() == doctest::Approx(j["wall_seconds"].get<double>() / 200 * 1e9).epsilon(1e-12));
+    CHECK(j["ns_per_step"].get<double>() ==
+          doctest::Approx(j["wall_seconds"].get<double>() / 200 * 1e9).epsilon(1e-12));
     CHECK(j["status"] == "ok");
     std::string text = slurp(csv);
     CHECK(text.rfind("t,x1,x2,x3,H,C1\n", 0) == 0);
@@ -255,7 +263,9 @@ TEST_CASE("cli: integrate --json --csv writes the summary and the trajectory") {
     fs::remove(csv);
 }
 
-TEST_CASE("cli: a step that does not converge stops the run with exit 3, naming step, t and residual; the CSV is kept, marked") {
+TEST_CASE(
+    "cli: a step that does not converge stops the run with exit 3, naming step, t and residual; the CSV is kept, "
+    "marked") {
     const fs::path csv = fs::temp_directory_path() / ("pgi_test_fail_" + std::to_string(::getpid()) + ".csv");
     Run r = pgi_run({"integrate", test::scene_path("rigid_body"), "--dt", "5", "--order", "2", "--csv", csv.string()});
     CHECK(r.exit_code == 3);
@@ -274,7 +284,8 @@ TEST_CASE("cli: an output path in a missing directory exits 2 and writes nothing
     Run r = pgi_run({"integrate", test::scene_path("rigid_body"), "--csv", "/nonexistent-dir/out.csv"});
     CHECK(r.exit_code == 2);
     CHECK(r.out.empty());
-    CHECK(r.err.find("/nonexistent-dir/out.csv: cannot write: directory '/nonexistent-dir' does not exist") != std::string::npos);
+    CHECK(r.err.find("/nonexistent-dir/out.csv: cannot write: directory '/nonexistent-dir' does not exist") !=
+          std::string::npos);
     CHECK_FALSE(fs::exists("/nonexistent-dir/out.csv"));
 }
 
@@ -282,7 +293,8 @@ TEST_CASE("cli: step and integrate need x0 and t_end, and say which is missing")
     const fs::path scene = fs::temp_directory_path() / ("pgi_test_norun_" + std::to_string(::getpid()) + ".toml");
     {
         std::ofstream out(scene);
-        out << "name = \"no run\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = \"q^2/2 + p^2/2\"\n";
+        out << "name = \"no run\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = "
+               "\"q^2/2 + p^2/2\"\n";
     }
     Run step = pgi_run({"step", scene.string(), "--json"});
     CHECK(step.exit_code == 2);
@@ -309,7 +321,8 @@ TEST_CASE("cli: magnus --json prints M_0..M_m of the scene's [magnus] h; without
     CHECK(M.parse(j["magnus"][5].get<std::string>()) == Rational(1, 400) * pow(s.H, 5));
     Run missing = pgi_run({"magnus", test::scene_path("rigid_body")});
     CHECK(missing.exit_code == 2);
-    CHECK(missing.err == "pgi: " + test::scene_path("rigid_body") + ": magnus.h: missing: the scene has no [magnus] h\n");
+    CHECK(missing.err ==
+          "pgi: " + test::scene_path("rigid_body") + ": magnus.h: missing: the scene has no [magnus] h\n");
 }
 
 TEST_CASE("cli: modified --json prints H_0..H_m of the order-k scheme") {
@@ -317,7 +330,8 @@ TEST_CASE("cli: modified --json prints H_0..H_m of the order-k scheme") {
     REQUIRE(r.exit_code == 0);
     auto j = nlohmann::json::parse(r.out);
     CHECK(j["order"] == 1);
-    CHECK(j["modified"] == nlohmann::json({"1/2*q^2 + 1/2*p^2", "0", "-1/24*q^2 - 1/24*p^2", "0", "1/160*q^2 + 1/160*p^2"}));
+    CHECK(j["modified"] ==
+          nlohmann::json({"1/2*q^2 + 1/2*p^2", "0", "-1/24*q^2 - 1/24*p^2", "0", "1/160*q^2 + 1/160*p^2"}));
 }
 
 TEST_CASE("cli: report writes Markdown, JSON and LaTeX atomically, and the LaTeX compiles with pdflatex") {
@@ -328,7 +342,8 @@ TEST_CASE("cli: report writes Markdown, JSON and LaTeX atomically, and the LaTeX
     REQUIRE(md.exit_code == 0);
     CHECK(md.out.empty());
     const std::string text = slurp(dir / "r.md");
-    for (const char* section : {"# free rigid body", "## Poisson structure", "## Integrator", "## Modified Hamiltonian", "## Numerical check"})
+    for (const char* section : {"# free rigid body", "## Poisson structure", "## Integrator", "## Modified Hamiltonian",
+                                "## Numerical check"})
         CHECK_MESSAGE(text.find(section) != std::string::npos, section);
     CHECK(text.find("- `H_2 = -1/64*x1^2*x2^2 - 1/24*x1^2*x3^2 - 1/192*x2^2*x3^2`") != std::string::npos);
     Run js = pgi_run({"report", scene, "--format", "json"});
@@ -338,7 +353,8 @@ TEST_CASE("cli: report writes Markdown, JSON and LaTeX atomically, and the LaTeX
     CHECK(j["check"]["ok"] == true);
     Run tex = pgi_run({"report", scene, "--format", "latex", "--out", (dir / "r.tex").string()});
     REQUIRE(tex.exit_code == 0);
-    const int rc = std::system(("cd '" + dir.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error r.tex > r.log 2>&1").c_str());
+    const int rc = std::system(
+        ("cd '" + dir.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error r.tex > r.log 2>&1").c_str());
     CHECK_MESSAGE(rc == 0, slurp(dir / "r.log"));
     CHECK(fs::exists(dir / "r.pdf"));
     Run bad = pgi_run({"report", scene, "--out", "/nonexistent-dir/r.md"});
@@ -354,7 +370,8 @@ TEST_CASE("cli: resource guards stop the exact phase and oversized output before
     Run terms = pgi_run({"integrate", nambu, "--dt", "1/2", "--max-terms", "20000", "--json"});
     CHECK(terms.exit_code == 4);  // budget exceeded (the shared exit codes)
     CHECK(terms.out.empty());
-    CHECK_MESSAGE(terms.err.find("exact phase stopped: radial realisation, terms of degree ") != std::string::npos, terms.err);
+    CHECK_MESSAGE(terms.err.find("exact phase stopped: radial realisation, terms of degree ") != std::string::npos,
+                  terms.err);
     CHECK(terms.err.find("above the limit of 20000 (raise it with --max-terms)") != std::string::npos);
     const fs::path csv = fs::temp_directory_path() / ("pgi_test_big_" + std::to_string(::getpid()) + ".csv");
     Run big = pgi_run({"integrate", nambu, "--t-end", "1e6", "--csv", csv.string(), "--max-csv-mb", "10"});
@@ -367,7 +384,8 @@ TEST_CASE("cli: a coefficient beyond the double range is refused, not turned int
     const fs::path scene = fs::temp_directory_path() / ("pgi_test_huge_" + std::to_string(::getpid()) + ".toml");
     {
         std::ofstream out(scene);
-        out << "name = \"huge\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = \"10^400*q^2 + p^2\"\n"
+        out << "name = \"huge\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = "
+               "\"10^400*q^2 + p^2\"\n"
                "[run]\nx0 = [1.0, 0.0]\nt_end = 1\n";
     }
     Run r = pgi_run({"integrate", scene.string()});
@@ -397,7 +415,9 @@ TEST_CASE("the step count is computed in checked arithmetic and refused above --
     Run huge = pgi_run({"integrate", rb, "--t-end", "1e300", "--dt", "1e-300", "--json"});
     CHECK(huge.exit_code == 4);
     CHECK(huge.out.empty());
-    CHECK_MESSAGE(huge.err.find("above the step budget of 100000000 (raise max_steps / --max-steps") != std::string::npos, huge.err);
+    CHECK_MESSAGE(
+        huge.err.find("above the step budget of 100000000 (raise max_steps / --max-steps") != std::string::npos,
+        huge.err);
     Run run = pgi_run({"run", rb, "--t-end", "1e9"});  // 1e10 steps: refused before the check is printed
     CHECK(run.exit_code == 4);
     CHECK(run.out.empty());
@@ -420,9 +440,10 @@ TEST_CASE("the step count is computed in checked arithmetic and refused above --
     CHECK(j["t"].get<double>() == 3 * 0.1);
     CHECK(j["t_end"].get<double>() == 0.25);
     Run text = pgi_run({"integrate", rb, "--t-end", "0.25"});
-    CHECK_MESSAGE(text.out.find("t_end = 0.25 is not a whole number of steps: the last step ends at t = 0.30000000000000004") !=
-                      std::string::npos,
-                  text.out);
+    CHECK_MESSAGE(
+        text.out.find("t_end = 0.25 is not a whole number of steps: the last step ends at t = 0.30000000000000004") !=
+            std::string::npos,
+        text.out);
     // a t_end far below dt still takes one step, never zero
     Run tiny = pgi_run({"integrate", rb, "--t-end", "1e-300", "--json"});
     REQUIRE(tiny.exit_code == 0);
@@ -430,7 +451,9 @@ TEST_CASE("the step count is computed in checked arithmetic and refused above --
 }
 
 // issue 11.2
-TEST_CASE("a failed step stops the run: step, t, residual and a hint on stderr; --json gives status and the last good state") {
+TEST_CASE(
+    "a failed step stops the run: step, t, residual and a hint on stderr; --json gives status and the last good "
+    "state") {
     const std::string rb = test::scene_path("rigid_body");
     Run r = pgi_run({"integrate", rb, "--dt", "5", "--order", "2", "--json"});
     CHECK(r.exit_code == 3);
@@ -441,13 +464,15 @@ TEST_CASE("a failed step stops the run: step, t, residual and a hint on stderr; 
     CHECK(j["status"] == "step_failed");
     CHECK(j["failed_step"].get<std::size_t>() == j["steps"].get<std::size_t>() + 1);
     CHECK(j["t"].get<double>() == 5.0 * j["steps"].get<double>());
-    CHECK(j["failure"].get<std::string>() == r.err.substr(r.err.find(": step ") + 2, r.err.size() - r.err.find(": step ") - 3));
+    CHECK(j["failure"].get<std::string>() ==
+          r.err.substr(r.err.find(": step ") + 2, r.err.size() - r.err.find(": step ") - 3));
     // dt = 5 fails within a few steps; the last good state is a state of the run: on the Casimir's sphere
     const auto x = j["x"].get<std::vector<double>>();
     CHECK(j["steps"].get<std::size_t>() < 10);
     CHECK(std::abs(x[0] * x[0] + x[1] * x[1] + x[2] * x[2] - 1.0) < 1e-13);
     // an invariant that is not finite stops the run (57dddde printed energy error 0 and exited 0)
-    Run inf = pgi_run({"integrate", test::scene_path("harmonic_oscillator"), "--x0", "1e200,0", "--t-end", "1", "--json"});
+    Run inf =
+        pgi_run({"integrate", test::scene_path("harmonic_oscillator"), "--x0", "1e200,0", "--t-end", "1", "--json"});
     CHECK(inf.exit_code == 3);
     CHECK_MESSAGE(inf.err.find("the invariant H = inf at x0 is not finite") != std::string::npos, inf.err);
     CHECK(nlohmann::json::parse(inf.out)["status"] == "step_failed");
@@ -460,7 +485,8 @@ TEST_CASE("a failed step stops the run: step, t, residual and a hint on stderr; 
 TEST_CASE("every numeric option is one finite number in its range; lists are strict") {
     const std::string rb = test::scene_path("rigid_body"), nambu = test::scene_path("nambu");
     const std::vector<std::pair<std::vector<std::string>, std::string>> cases{
-        {{"integrate", nambu, "--max-csv-mb", "nan", "--csv", "/tmp/pgi_never.csv"}, "--max-csv-mb: 'nan' is not a number above 0"},
+        {{"integrate", nambu, "--max-csv-mb", "nan", "--csv", "/tmp/pgi_never.csv"},
+         "--max-csv-mb: 'nan' is not a number above 0"},
         {{"integrate", nambu, "--max-csv-mb", "inf"}, "--max-csv-mb: 'inf'"},
         {{"realisation", rb, "--degree", "1e9"}, "--degree: '1e9' is not a whole number from 0 to 100"},
         {{"realisation", rb, "--degree", "-1"}, "--degree: '-1' is not a whole number from 0 to 100"},
@@ -496,10 +522,11 @@ TEST_CASE("every numeric option is one finite number in its range; lists are str
 TEST_CASE("a Casimir through 0 has its error measured against the size of its terms, not against |C(x0)|") {
     // C = x1^2 + x2^2 + x3^2 - 1 at a point of the unit sphere: C(x0) = -1.1e-16 in double, the size of its
     // terms 2; 57dddde divided the round-off drift by |C(x0)| and reported about 2
-    TempScene scene("casimir_zero", "name = \"rigid body, C through 0\"\ncoordinates = [\"x1\", \"x2\", \"x3\"]\n[brackets]\n"
-                                    "\"x1,x2\" = \"-x3\"\n\"x2,x3\" = \"-x1\"\n\"x3,x1\" = \"-x2\"\n[hamiltonian]\n"
-                                    "H = \"1/4*x1^2 + 1/2*x2^2 + 3/4*x3^2\"\ncasimirs = [\"x1^2 + x2^2 + x3^2 - 1\"]\n"
-                                    "[run]\nx0 = [0.3, 0.4, 0.8660254037844386]\nt_end = 100\n");
+    TempScene scene("casimir_zero",
+                    "name = \"rigid body, C through 0\"\ncoordinates = [\"x1\", \"x2\", \"x3\"]\n[brackets]\n"
+                    "\"x1,x2\" = \"-x3\"\n\"x2,x3\" = \"-x1\"\n\"x3,x1\" = \"-x2\"\n[hamiltonian]\n"
+                    "H = \"1/4*x1^2 + 1/2*x2^2 + 3/4*x3^2\"\ncasimirs = [\"x1^2 + x2^2 + x3^2 - 1\"]\n"
+                    "[run]\nx0 = [0.3, 0.4, 0.8660254037844386]\nt_end = 100\n");
     Run r = pgi_run({"integrate", scene.path.string(), "--json"});
     REQUIRE(r.exit_code == 0);
     // 1000 steps of a method that keeps C to round-off: a few eps of the terms' size, far below 1e-14
@@ -521,8 +548,8 @@ TEST_CASE("output paths are checked before the run; temporaries are exclusive an
     const fs::path fifo = dir.path / "fifo.csv";
     REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
     // (a device node is tested through check_output_path alone: a broken pgi run as root would replace /dev/null)
-    CHECK_THROWS_WITH_AS(check_output_path("/dev/null"), doctest::Contains("not a regular file (a device or special file)"),
-                         std::invalid_argument);
+    CHECK_THROWS_WITH_AS(check_output_path("/dev/null"),
+                         doctest::Contains("not a regular file (a device or special file)"), std::invalid_argument);
     for (const std::string& target : std::vector<std::string>{fifo.string(), dir.path.string()}) {
         CAPTURE(target);
         Run r = pgi_run({"integrate", rb, "--csv", target});
@@ -573,16 +600,22 @@ TEST_CASE("output paths are checked before the run; temporaries are exclusive an
 
 // issue 11.8
 TEST_CASE("names with control characters are refused; what can be checked is checked before anything is printed") {
-    TempScene name("ctl_name", "name = \"a\\u001b[2Jb\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = \"q^2\"\n");
+    TempScene name("ctl_name",
+                   "name = \"a\\u001b[2Jb\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = "
+                   "\"1\"\n[hamiltonian]\nH = \"q^2\"\n");
     Run r = pgi_run({"check", name.path.string()});
     CHECK(r.exit_code == 2);
     CHECK(r.out.empty());
     CHECK_MESSAGE(r.err.find(": name: contains a control character: 'a\\x1b[2Jb'") != std::string::npos, r.err);
     CHECK(r.err.find('\x1b') == std::string::npos);  // never echoed raw to the terminal
-    TempScene coord("ctl_coord", "name = \"n\"\ncoordinates = [\"q\\u0007\", \"p\"]\n[brackets]\n\"p,p\" = \"0\"\n[hamiltonian]\nH = \"p^2\"\n");
+    TempScene coord(
+        "ctl_coord",
+        "name = \"n\"\ncoordinates = [\"q\\u0007\", \"p\"]\n[brackets]\n\"p,p\" = \"0\"\n[hamiltonian]\nH = \"p^2\"\n");
     Run c = pgi_run({"check", coord.path.string()});
     CHECK(c.exit_code == 2);
-    CHECK_MESSAGE(c.err.find("coordinates[0]: the coordinate name 'q\\x07' contains a control character") != std::string::npos, c.err);
+    CHECK_MESSAGE(
+        c.err.find("coordinates[0]: the coordinate name 'q\\x07' contains a control character") != std::string::npos,
+        c.err);
     // 57dddde printed eleven lines of check and terms before finding the directory missing
     Run nodir = pgi_run({"run", test::scene_path("rigid_body"), "--csv", "nodir/x.csv"});
     CHECK(nodir.exit_code == 2);
@@ -591,14 +624,16 @@ TEST_CASE("names with control characters are refused; what can be checked is che
     // LaTeX: names that are not plain identifiers are set upright, never a double subscript (57dddde wrote
     // x_^{2} and x_{1}_{a}, which pdflatex refuses)
     TempDir dir("latex_names");
-    TempScene odd("latex_names", "name = \"a_b & c%\"\ncoordinates = [\"x_\", \"_y\", \"a_b_c\", \"x1_a\", \"x__2\"]\n"
-                                 "[brackets]\n\"x_,_y\" = \"a_b_c\"\n[hamiltonian]\nH = \"x_^2 + _y^2 + a_b_c + x1_a*x__2\"\n");
+    TempScene odd("latex_names",
+                  "name = \"a_b & c%\"\ncoordinates = [\"x_\", \"_y\", \"a_b_c\", \"x1_a\", \"x__2\"]\n"
+                  "[brackets]\n\"x_,_y\" = \"a_b_c\"\n[hamiltonian]\nH = \"x_^2 + _y^2 + a_b_c + x1_a*x__2\"\n");
     Run tex = pgi_run({"report", odd.path.string(), "--format", "latex", "--out", (dir.path / "r.tex").string()});
     REQUIRE(tex.exit_code == 0);
     const std::string text = slurp(dir.path / "r.tex");
     CHECK(text.find("\\mathrm{x\\_}^{2}") != std::string::npos);
     CHECK(text.find("\\mathrm{x1\\_a}") != std::string::npos);
-    const int rc = shell("cd '" + dir.path.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error r.tex > r.log 2>&1");
+    const int rc =
+        shell("cd '" + dir.path.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error r.tex > r.log 2>&1");
     CHECK_MESSAGE(rc == 0, slurp(dir.path / "r.log"));
 }
 
@@ -644,14 +679,17 @@ TEST_CASE("--plot: gnuplot failing after the run is an output failure (exit 6), 
     const fs::path fake = dir / "bin" / "gnuplot";
     std::ofstream(fake) << "#!/bin/sh\necho 'simulated failure' >&2\nexit 1\n";
     fs::permissions(fake, fs::perms::owner_all);
-    Run failed = pgi_run({"integrate", rb, "--t-end", "1", "--plot", dir.string()}, "PATH='" + (dir / "bin").string() + "':\"$PATH\"");
+    Run failed = pgi_run({"integrate", rb, "--t-end", "1", "--plot", dir.string()},
+                         "PATH='" + (dir / "bin").string() + "':\"$PATH\"");
     CHECK(failed.exit_code == 6);
     CHECK_MESSAGE(failed.err.find("--plot: gnuplot failed") != std::string::npos, failed.err);
     for (const auto& e : fs::directory_iterator(dir)) CHECK_MESSAGE(e.path().filename() == "bin", e.path());
     fs::remove_all(dir);
 }
 
-TEST_CASE("cli: integrate --jit (or integrator.jit) ends where the interpreted run ends, bit for bit; a missing compiler is exit 7") {
+TEST_CASE(
+    "cli: integrate --jit (or integrator.jit) ends where the interpreted run ends, bit for bit; a missing compiler is "
+    "exit 7") {
     TempDir cache("jit_cache");
     const std::string env = "PGI_JIT_CACHE='" + cache.path.string() + "'";
     const std::string lv = test::scene_path("lotka_volterra");

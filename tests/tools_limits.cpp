@@ -44,7 +44,9 @@ Shell shell(const std::string& command) {
     return r;
 }
 
-std::string pgi() { return std::string("'") + PGI_BINARY + "'"; }
+std::string pgi() {
+    return std::string("'") + PGI_BINARY + "'";
+}
 
 // A scene file in the temporary directory, removed with the object.
 class TempScene {
@@ -78,9 +80,11 @@ std::string volterra(std::size_t n, std::size_t k) {
     std::string s = "name = \"Volterra lattice\"\n" + coordinates(n) + "[brackets]\n";
     for (std::size_t i = 1; i <= n; ++i) {
         const std::size_t j = i % n + 1;
-        s += "\"x" + std::to_string(i) + ",x" + std::to_string(j) + "\" = \"x" + std::to_string(i) + "*x" + std::to_string(j) + "\"\n";
+        s += "\"x" + std::to_string(i) + ",x" + std::to_string(j) + "\" = \"x" + std::to_string(i) + "*x" +
+             std::to_string(j) + "\"\n";
     }
-    s += "[hamiltonian]\nH = \"" + sum_of(n) + "\"\n[integrator]\norder = " + std::to_string(k) + "\ndt = \"1/20\"\n[run]\nx0 = [";
+    s += "[hamiltonian]\nH = \"" + sum_of(n) + "\"\n[integrator]\norder = " + std::to_string(k) +
+         "\ndt = \"1/20\"\n[run]\nx0 = [";
     for (std::size_t i = 1; i <= n; ++i) s += (i > 1 ? ", 1." : "1.") + std::to_string(i);
     return s + "]\nt_end = 1\n";
 }
@@ -100,9 +104,10 @@ TEST_CASE("under a memory cap pgi ends with exit 4 or 5 and a message, never an 
     // the default budget (3/4 of the cap) refuses it before expanding: exit 4
     Shell budget = shell(cap);
     CHECK_MESSAGE(budget.exit_code == 4, budget.out);
-    CHECK_MESSAGE(budget.out.find("hamiltonian.H: polynomial '(x1+x2+x3+x4+x5+x6)^60': expanding the '^' at position 20: the "
-                                  "power 60 of a 6-term polynomial could take ") != std::string::npos,
-                  budget.out);
+    CHECK_MESSAGE(
+        budget.out.find("hamiltonian.H: polynomial '(x1+x2+x3+x4+x5+x6)^60': expanding the '^' at position 20: the "
+                        "power 60 of a 6-term polynomial could take ") != std::string::npos,
+        budget.out);
     CHECK(budget.out.find("above the memory budget of 220 MB (raise it with --max-memory-mb)") != std::string::npos);
     // a budget above the cap lets FLINT run out of memory: exit 5 and a message, not SIGABRT (134)
     Shell oom = shell(cap + " --max-memory-mb 100000");
@@ -142,10 +147,11 @@ TEST_CASE("a huge power in a scene is refused at once with exit 4, naming the ke
     TempScene big("power1000", power_scene(std::string(1, '(').append(sum_of(6)).append(")^1000")));
     Shell r = shell(pgi() + " check " + big.path());
     CHECK_MESSAGE(r.exit_code == 4, r.out);
-    CHECK_MESSAGE(r.out.find("hamiltonian.H: polynomial '(x1+x2+x3+x4+x5+x6)^1000': expanding the '^' at position 20: the "
-                             "power 1000 of a 6-term polynomial could reach 8459043543951 terms, above the limit of 20000000") !=
-                      std::string::npos,
-                  r.out);
+    CHECK_MESSAGE(
+        r.out.find("hamiltonian.H: polynomial '(x1+x2+x3+x4+x5+x6)^1000': expanding the '^' at position 20: the "
+                   "power 1000 of a 6-term polynomial could reach 8459043543951 terms, above the limit of 20000000") !=
+            std::string::npos,
+        r.out);
     CHECK_MESSAGE(r.out.find(big.path()) == r.out.rfind(big.path()), r.out);  // the file named once
     TempScene deep("deep", power_scene(std::string(100000, '-') + "x1"));
     Shell d = shell(pgi() + " check " + deep.path());

@@ -57,7 +57,8 @@ std::optional<std::string> pdflatex_log(const std::string& tex, const std::strin
     const fs::path dir = fs::temp_directory_path() / ("pgi_latex_" + std::to_string(::getpid()) + "_" + name);
     fs::create_directories(dir);
     std::ofstream(dir / "report.tex") << tex;
-    const std::string cmd = "cd '" + dir.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error report.tex >/dev/null 2>&1";
+    const std::string cmd =
+        "cd '" + dir.string() + "' && pdflatex -interaction=nonstopmode -halt-on-error report.tex >/dev/null 2>&1";
     const int status = std::system(cmd.c_str());
     std::ifstream in(dir / "report.log");
     std::stringstream log;
@@ -101,7 +102,8 @@ TEST_CASE("latex_lines: breaks at + and - signs within the width, keeps every te
 
 TEST_CASE("LaTeX reports of the Volterra lattice (k = 6) and Henon-Heiles (through dt^6) fit the page under pdflatex") {
     // any overfull \hbox wider than 1pt is a line running into the margin
-    for (auto [name, order, upto] : {std::tuple{"volterra_chain", "6", std::size_t(6)}, std::tuple{"henon_heiles", "4", std::size_t(6)}}) {
+    for (auto [name, order, upto] :
+         {std::tuple{"volterra_chain", "6", std::size_t(6)}, std::tuple{"henon_heiles", "4", std::size_t(6)}}) {
         SceneOverrides o;
         o.order = order;
         Scene s = load_scene(test::scene_path(name), o);
@@ -157,8 +159,10 @@ TEST_CASE("RunPlot: a bad directory is refused before the run; a run draws four 
         std::ifstream in(f, std::ios::binary);
         std::string head(8, '\0');
         in.read(head.data(), 8);
-        if (f.extension() == ".png") CHECK(head.substr(1, 3) == "PNG");
-        else CHECK(head.find('<') != std::string::npos);
+        if (f.extension() == ".png")
+            CHECK(head.substr(1, 3) == "PNG");
+        else
+            CHECK(head.find('<') != std::string::npos);
     }
     std::size_t entries = 0;
     for (const auto& e : fs::directory_iterator(dir)) entries += e.is_regular_file();
@@ -167,7 +171,9 @@ TEST_CASE("RunPlot: a bad directory is refused before the run; a run draws four 
 }
 
 TEST_CASE("[splitting] A: refused when it is 0, H itself, or not a polynomial in the coordinates") {
-    const std::string head = "name = \"s\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = \"(q^2 + p^2)/2\"\n";
+    const std::string head =
+        "name = \"s\"\ncoordinates = [\"q\", \"p\"]\n[brackets]\n\"q,p\" = \"1\"\n[hamiltonian]\nH = \"(q^2 + "
+        "p^2)/2\"\n";
     for (const auto& [a, message] : {std::pair{"0", "splitting.A"}, std::pair{"p^2/2 + q^2/2", "splitting.A"},
                                      std::pair{"q^2 + r", "splitting.A"}}) {
         try {

@@ -49,8 +49,10 @@ private:
         while (!failed_ && p < pptr()) {
             const ssize_t n = ::write(fd_, p, static_cast<std::size_t>(pptr() - p));
             if (n < 0 && errno == EINTR) continue;
-            if (n <= 0) failed_ = true;
-            else p += n;
+            if (n <= 0)
+                failed_ = true;
+            else
+                p += n;
         }
         setp(buffer_, buffer_ + sizeof buffer_);
         return !failed_;
@@ -68,13 +70,16 @@ inline std::filesystem::path directory_of(const std::filesystem::path& target) {
 
 /// Installs the handler that removes the temporary files of unfinished AtomicFiles (and of native code) and kills
 /// running child processes on SIGINT and SIGTERM, then exits with 128 + the signal number (130, 143).
-inline void remove_temporaries_on_signals() { end_cleanly_on_signals(); }
+inline void remove_temporaries_on_signals() {
+    end_cleanly_on_signals();
+}
 
 /// Whether target can receive an output file, checked before any work: its directory exists and is
 /// writable, and the target is absent or a regular file (not a directory, FIFO or device) that is not
 /// one of the inputs (the same inode: --csv naming the scene file would overwrite it). Throws
 /// std::invalid_argument (bad input, exit 2) naming the path and the problem.
-inline void check_output_path(const std::filesystem::path& target, const std::vector<std::filesystem::path>& inputs = {}) {
+inline void check_output_path(const std::filesystem::path& target,
+                              const std::vector<std::filesystem::path>& inputs = {}) {
     const std::string name = target.string();
     const auto dir = detail::directory_of(target);
     if (name.empty() || target.filename().empty() || target.filename() == "." || target.filename() == "..")
@@ -88,7 +93,9 @@ inline void check_output_path(const std::filesystem::path& target, const std::ve
     if (::stat(target.c_str(), &t) != 0) return;  // absent (or a dangling link, which the rename replaces)
     if (!S_ISREG(t.st_mode))
         throw std::invalid_argument(name + ": cannot write: it exists and is not a regular file (" +
-                                    (S_ISDIR(t.st_mode) ? "a directory" : S_ISFIFO(t.st_mode) ? "a FIFO" : "a device or special file") +
+                                    (S_ISDIR(t.st_mode)    ? "a directory"
+                                     : S_ISFIFO(t.st_mode) ? "a FIFO"
+                                                           : "a device or special file") +
                                     ")");
     for (const auto& in : inputs) {
         struct stat s {};
@@ -109,7 +116,8 @@ public:
         temp_name += ".tmp.XXXXXX";
         std::string pattern = (detail::directory_of(target_) / temp_name).string();
         fd_ = ::mkostemp(pattern.data(), O_CLOEXEC);  // O_CREAT | O_EXCL: a link or any existing file is never followed
-        if (fd_ < 0) throw std::invalid_argument(target_.string() + ": cannot write the file (" + std::strerror(errno) + ")");
+        if (fd_ < 0)
+            throw std::invalid_argument(target_.string() + ": cannot write the file (" + std::strerror(errno) + ")");
         temp_ = pattern;
         const mode_t mask = ::umask(0);  // the permissions an ordinary new file would get (mkostemp gives 0600)
         ::umask(mask);
@@ -136,7 +144,8 @@ public:
         if (!written || !closed)
             throw OutputError(target_.string() + ": write failed (" + std::strerror(written ? errno : saved) + ")");
         if (::rename(temp_.c_str(), target_.c_str()) != 0)
-            throw OutputError(target_.string() + ": cannot rename the written file into place (" + std::strerror(errno) + ")");
+            throw OutputError(target_.string() + ": cannot rename the written file into place (" +
+                              std::strerror(errno) + ")");
         temp_file_->keep();
     }
 

@@ -34,27 +34,39 @@ json check_report(const Scene& scene) {
     const PhaseSpace& M = scene.phase_space();
     const auto& names = M.coordinates();
     const SchemeChecks& checks = scene.scheme->checks();
-    json r{{"scene", scene.name}, {"file", scene.file.string()}, {"coordinates", names},
-           {"class", to_string(checks.structure_class)}, {"skew", true}};
+    json r{{"scene", scene.name},
+           {"file", scene.file.string()},
+           {"coordinates", names},
+           {"class", to_string(checks.structure_class)},
+           {"skew", true}};
     json jacobi{{"holds", true}};
     if (!checks.jacobi_checked) jacobi = {{"holds", nullptr}, {"skipped", "--trust-jacobi"}};
     if (const auto& f = checks.jacobi)
-        jacobi = {{"holds", false}, {"triple", {names[f->i], names[f->j], names[f->k]}}, {"jacobiator", f->jacobiator.to_string()}};
+        jacobi = {{"holds", false},
+                  {"triple", {names[f->i], names[f->j], names[f->k]}},
+                  {"jacobiator", f->jacobiator.to_string()}};
     r["jacobi"] = jacobi;
     r["casimirs"] = json::array();
     for (std::size_t i = 0; i < scene.casimirs.size(); ++i) {
         const Poly& C = scene.casimirs[i];
         json c{{"C", C.to_string()}, {"holds", true}};
         if (const auto& f = checks.casimirs[i])
-            c = {{"C", C.to_string()}, {"holds", false}, {"component", names[f->component]}, {"value", f->value.to_string()}};
+            c = {{"C", C.to_string()},
+                 {"holds", false},
+                 {"component", names[f->component]},
+                 {"value", f->value.to_string()}};
         r["casimirs"].push_back(c);
     }
     if (checks.realisation_checked) {
-        json id{{"method", checks.realisation_method}, {"checked_below_degree", checks.realisation_checked_below_degree},
+        json id{{"method", checks.realisation_method},
+                {"checked_below_degree", checks.realisation_checked_below_degree},
                 {"holds", true}};
         if (const auto& d = checks.realisation) {
             id["holds"] = false;
-            id["failure"] = {{"identity", d->identity}, {"i", names[d->i]}, {"j", names[d->j]}, {"degree", d->degree},
+            id["failure"] = {{"identity", d->identity},
+                             {"i", names[d->i]},
+                             {"j", names[d->j]},
+                             {"degree", d->degree},
                              {"defect", d->defect.to_string()}};
         }
         r["realisation"] = id;
@@ -64,17 +76,23 @@ json check_report(const Scene& scene) {
 }
 
 json terms_report(const Scene& scene) {
-    return {{"coordinates", scene.phase_space().coordinates()}, {"class", to_string(scene.pi.structure_class())},
-            {"realisation", to_string(scene.scheme->realisation_form())}, {"order", scene.order},
+    return {{"coordinates", scene.phase_space().coordinates()},
+            {"class", to_string(scene.pi.structure_class())},
+            {"realisation", to_string(scene.scheme->realisation_form())},
+            {"order", scene.order},
             {"S", strings(scene.scheme->terms())}};
 }
 
 json realisation_report(const Scene& scene, std::size_t D) {
     Realisation real = scene.scheme->realisation(D);
     const PhaseSpace& M = scene.phase_space();
-    return {{"coordinates", M.coordinates()}, {"momenta", momenta_names(M)},
-            {"class", to_string(scene.pi.structure_class())}, {"realisation", real.method}, {"degree", D},
-            {"alpha", strings(sums(real.alpha))}, {"beta", strings(sums(real.beta))}};
+    return {{"coordinates", M.coordinates()},
+            {"momenta", momenta_names(M)},
+            {"class", to_string(scene.pi.structure_class())},
+            {"realisation", real.method},
+            {"degree", D},
+            {"alpha", strings(sums(real.alpha))},
+            {"beta", strings(sums(real.beta))}};
 }
 
 json magnus_report(const Scene& scene, std::size_t m) {
@@ -86,7 +104,8 @@ json magnus_report(const Scene& scene, std::size_t m) {
 }
 
 json modified_report(const Scene& scene, std::size_t m) {
-    return {{"coordinates", scene.phase_space().coordinates()}, {"order", scene.order},
+    return {{"coordinates", scene.phase_space().coordinates()},
+            {"order", scene.order},
             {"modified", strings(scene.scheme->modified_hamiltonian(m))}};
 }
 
@@ -103,10 +122,10 @@ std::string series_text(const json& r) {
 
 std::string check_text(const json& r) {
     auto verdict = [](bool b) { return b ? "hold" : "FAIL"; };
-    std::string out = fmt::format("scene: {} ({})\ncoordinates: {}\nclass: {}\nskew-symmetry: holds\n",
-                                  r["scene"].get<std::string>(), r["file"].get<std::string>(),
-                                  fmt::join(r["coordinates"].get<std::vector<std::string>>(), ", "),
-                                  r["class"].get<std::string>());
+    std::string out =
+        fmt::format("scene: {} ({})\ncoordinates: {}\nclass: {}\nskew-symmetry: holds\n", r["scene"].get<std::string>(),
+                    r["file"].get<std::string>(), fmt::join(r["coordinates"].get<std::vector<std::string>>(), ", "),
+                    r["class"].get<std::string>());
     const json& j = r["jacobi"];
     if (j.contains("skipped"))
         out += "Jacobi identity: not checked (--trust-jacobi)";
@@ -119,7 +138,8 @@ std::string check_text(const json& r) {
     for (const auto& c : r["casimirs"]) {
         out += fmt::format("Casimir {}: {}", c["C"].get<std::string>(), c["holds"] ? "holds" : "FAILS");
         if (!c["holds"])
-            out += fmt::format(" ((pi grad C)_{} = {})", c["component"].get<std::string>(), c["value"].get<std::string>());
+            out +=
+                fmt::format(" ((pi grad C)_{} = {})", c["component"].get<std::string>(), c["value"].get<std::string>());
         out += "\n";
     }
     if (r.contains("realisation")) {
@@ -127,9 +147,10 @@ std::string check_text(const json& r) {
         out += fmt::format("realisation {}: identities {} in every p-degree below {}", id["method"].get<std::string>(),
                            verdict(id["holds"]), id["checked_below_degree"].get<std::size_t>());
         if (!id["holds"])
-            out += fmt::format(" ({} fails at i = {}, j = {}, degree {}: {})", id["failure"]["identity"].get<std::string>(),
-                               id["failure"]["i"].get<std::string>(), id["failure"]["j"].get<std::string>(),
-                               id["failure"]["degree"].get<std::size_t>(), id["failure"]["defect"].get<std::string>());
+            out += fmt::format(" ({} fails at i = {}, j = {}, degree {}: {})",
+                               id["failure"]["identity"].get<std::string>(), id["failure"]["i"].get<std::string>(),
+                               id["failure"]["j"].get<std::string>(), id["failure"]["degree"].get<std::size_t>(),
+                               id["failure"]["defect"].get<std::string>());
         out += "\n";
     }
     return out;

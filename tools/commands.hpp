@@ -50,18 +50,19 @@ std::size_t step_count(const Scene& scene, std::size_t max_steps, std::size_t ev
 /// H, the Casimirs, then the extra polynomials, compiled over the coordinates: what runs watch.
 CompiledMap invariants(const Scene& scene, const std::vector<Poly>& extra = {});
 /// invariant_scales (scheme/trajectory.hpp) for the scene's Scheme at x: what relative_error divides by.
-std::vector<double> invariant_scales(const Scene& scene, const std::vector<double>& x, const std::vector<Poly>& extra = {});
+std::vector<double> invariant_scales(const Scene& scene, const std::vector<double>& x,
+                                     const std::vector<Poly>& extra = {});
 /// The message of a failed step: which step, from which t, why, the iterations, residual and last correction.
 std::string failure_message(const NewtonStepper& s, std::size_t step, StepStatus status);
 
 /// Where integrate writes its trajectory (optional) and how it reports progress.
 struct IntegrateOptions {
     std::optional<std::filesystem::path> csv;
-    std::size_t every = 1;            // one CSV row every this many steps
+    std::size_t every = 1;                      // one CSV row every this many steps
     std::size_t max_steps = default_max_steps;  // refuse (before any work) a run of more steps
-    double max_csv_mb = 1024;         // refuse (before running) a CSV that would be larger than this
-    bool progress = false;            // a progress line on stderr for runs longer than a second or two
-    std::optional<Poly> modified;     // also track this (a truncated modified Hamiltonian) along the run
+    double max_csv_mb = 1024;                   // refuse (before running) a CSV that would be larger than this
+    bool progress = false;                      // a progress line on stderr for runs longer than a second or two
+    std::optional<Poly> modified;               // also track this (a truncated modified Hamiltonian) along the run
     /// Called at every step n (0 = x0) at time t with the state and the watched values (H, the Casimirs,
     /// then the modified Hamiltonian when set): how --plot records a run.
     std::function<void(std::size_t n, double t, const Eigen::VectorXd& x, const std::vector<double>& values)> observe;

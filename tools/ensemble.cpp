@@ -18,16 +18,22 @@
 namespace pgi {
 
 void add_ensemble_options(CLI::App* cmd, EnsembleCommandOptions& o) {
-    auto* states = cmd->add_option("--states", o.states, "initial states, one per row: an NPY file (float64, (m, n)) or a CSV file");
-    auto* sample = cmd->add_option("--sample", o.sample, "grid | box | casimir: seeded initial states instead of --states")
-                       ->check(CLI::IsMember({"grid", "box", "casimir"}));
+    auto* states = cmd->add_option("--states", o.states,
+                                   "initial states, one per row: an NPY file (float64, (m, n)) or a CSV file");
+    auto* sample =
+        cmd->add_option("--sample", o.sample, "grid | box | casimir: seeded initial states instead of --states")
+            ->check(CLI::IsMember({"grid", "box", "casimir"}));
     states->excludes(sample);
-    cmd->add_option("--count", o.count, "how many states to sample (grid: g^n)")->needs(sample)->check(CLI::PositiveNumber);
+    cmd->add_option("--count", o.count, "how many states to sample (grid: g^n)")
+        ->needs(sample)
+        ->check(CLI::PositiveNumber);
     cmd->add_option("--seed", o.seed, "the sampler's seed (default 0)")->needs(sample);
     cmd->add_option("--box", o.box, "lo,hi or lo1,hi1,...,lon,hin: the sampler's box")->needs(sample);
     cmd->add_option("--threads", o.threads, "worker threads (default: every core)")->check(CLI::PositiveNumber);
-    cmd->add_option("--chunk", o.chunk, "trajectories per task (default: about 8 tasks per thread)")->check(CLI::PositiveNumber);
-    cmd->add_option("--batch", o.batch, "trajectories stepped together (default 16 below 40 coordinates, else 1: one at a time)")
+    cmd->add_option("--chunk", o.chunk, "trajectories per task (default: about 8 tasks per thread)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--batch", o.batch,
+                    "trajectories stepped together (default 16 below 40 coordinates, else 1: one at a time)")
         ->check(CLI::PositiveNumber);
     cmd->add_option("--out", o.out, "write PREFIX.x0.npy, PREFIX.x.npy, PREFIX.errors.npy and PREFIX.csv")->required();
 }
@@ -42,17 +48,18 @@ std::string names(const PhaseSpace& M, const std::string& prefix = "", const std
 
 RowMatrix initial_states(const Scene& scene, const EnsembleCommandOptions& o) {
     const std::size_t n = scene.phase_space().dim();
-    if (o.states.empty() && o.sample.empty()) throw InputError("ensemble", "give the initial states: --states FILE or --sample KIND");
+    if (o.states.empty() && o.sample.empty())
+        throw InputError("ensemble", "give the initial states: --states FILE or --sample KIND");
     if (!o.states.empty()) {
         if (o.x0_given) throw InputError("--x0", "is read only by --sample casimir (the level set through x0)");
         const std::filesystem::path p(o.states);
         const auto max_bytes = std::size_t(o.limits.max_output_mb * double(1 << 20));
-        RowMatrix X = p.extension() == ".npy" ? read_npy(p, max_bytes)
-                    : p.extension() == ".csv" ? read_csv_states(p, n, names(scene.phase_space()), max_bytes)
-                                              : throw InputError(o.states, "--states must be a .npy or .csv file");
+        RowMatrix X = p.extension() == ".npy"   ? read_npy(p, max_bytes)
+                      : p.extension() == ".csv" ? read_csv_states(p, n, names(scene.phase_space()), max_bytes)
+                                                : throw InputError(o.states, "--states must be a .npy or .csv file");
         if (std::size_t(X.cols()) != n)
-            throw InputError(o.states, "holds " + std::to_string(X.cols()) + " columns, the scene has " + std::to_string(n) +
-                                           " coordinates (" + names(scene.phase_space()) + ")");
+            throw InputError(o.states, "holds " + std::to_string(X.cols()) + " columns, the scene has " +
+                                           std::to_string(n) + " coordinates (" + names(scene.phase_space()) + ")");
         if (X.rows() == 0) throw InputError(o.states, "holds no states (no rows): nothing to integrate");
         return X;
     }
@@ -69,20 +76,24 @@ RowMatrix initial_states(const Scene& scene, const EnsembleCommandOptions& o) {
 
 std::string status_line(const EnsembleResult& r, std::size_t i) {
     const auto& e = r.members[i];
-    if (e.status == TrajectoryStatus::non_finite_start) return fmt::format("row {}: non_finite_start (the initial state is not finite)", i);
-    return fmt::format("row {}: {} at step {} (from t = {}), residual {:.3g}", i, to_string(e.status), e.failed_step, e.failed_t, e.residual);
+    if (e.status == TrajectoryStatus::non_finite_start)
+        return fmt::format("row {}: non_finite_start (the initial state is not finite)", i);
+    return fmt::format("row {}: {} at step {} (from t = {}), residual {:.3g}", i, to_string(e.status), e.failed_step,
+                       e.failed_t, e.residual);
 }
 
 void write_csv(std::ostream& out, const Scene& scene, const RowMatrix& X0, const EnsembleResult& r) {
     const auto& M = scene.phase_space();
-    out << "index,status,steps,failed_step,failed_t,residual,newton_iterations_mean,newton_iterations_max,energy_error,energy_warning";
+    out << "index,status,steps,failed_step,failed_t,residual,newton_iterations_mean,newton_iterations_max,energy_error,"
+           "energy_warning";
     for (std::size_t c = 0; c < scene.casimirs.size(); ++c) out << ",casimir_error_" << c + 1;
     out << "," << names(M, "", "_0") << "," << names(M) << "\n";
     for (std::size_t i = 0; i < r.members.size(); ++i) {
         const auto& e = r.members[i];
         const auto row = Eigen::Index(i);
-        out << fmt::format("{},{},{},{},{},{},{},{},{},{}", i, to_string(e.status), e.steps, e.failed_step, e.failed_t, e.residual,
-                           e.newton_iterations_mean, e.newton_iterations_max, r.energy_error(row), int(e.energy_warning));
+        out << fmt::format("{},{},{},{},{},{},{},{},{},{}", i, to_string(e.status), e.steps, e.failed_step, e.failed_t,
+                           e.residual, e.newton_iterations_mean, e.newton_iterations_max, r.energy_error(row),
+                           int(e.energy_warning));
         for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c) out << fmt::format(",{}", r.casimir_error(row, c));
         for (Eigen::Index c = 0; c < X0.cols(); ++c) out << fmt::format(",{}", X0(row, c));
         for (Eigen::Index c = 0; c < X0.cols(); ++c) out << fmt::format(",{}", r.x(row, c));
@@ -90,8 +101,8 @@ void write_csv(std::ostream& out, const Scene& scene, const RowMatrix& X0, const
     }
 }
 
-nlohmann::json summary(const Scene& scene, const EnsembleResult& r, const EnsembleCommandOptions& o, double dt, double t_end,
-                       double seconds, const std::vector<std::string>& files) {
+nlohmann::json summary(const Scene& scene, const EnsembleResult& r, const EnsembleCommandOptions& o, double dt,
+                       double t_end, double seconds, const std::vector<std::string>& files) {
     std::map<std::string, std::size_t> counts;
     double energy = 0, casimir = 0;
     std::size_t steps = 0, warnings = 0;
@@ -103,25 +114,38 @@ nlohmann::json summary(const Scene& scene, const EnsembleResult& r, const Ensemb
         energy = std::max(energy, r.energy_error(Eigen::Index(i)));
         if (r.casimir_error.cols()) casimir = std::max(casimir, r.casimir_error.row(Eigen::Index(i)).maxCoeff());
     }
-    nlohmann::json j{{"scene", scene.file.string()}, {"trajectories", r.members.size()}, {"status", counts}, {"threads", r.threads},
-                     {"dt", dt}, {"t_end", t_end}, {"steps", std::size_t(steps_to_reach(t_end, dt))}, {"order", scene.order},
-                     {"method_order", scene.scheme->method_order()}, {"energy_error_max", energy}, {"casimir_error_max", casimir},
+    nlohmann::json j{{"scene", scene.file.string()},
+                     {"trajectories", r.members.size()},
+                     {"status", counts},
+                     {"threads", r.threads},
+                     {"dt", dt},
+                     {"t_end", t_end},
+                     {"steps", std::size_t(steps_to_reach(t_end, dt))},
+                     {"order", scene.order},
+                     {"method_order", scene.scheme->method_order()},
+                     {"energy_error_max", energy},
+                     {"casimir_error_max", casimir},
                      {"energy_warnings", warnings},
-                     {"wall_seconds", seconds}, {"steps_per_second", seconds > 0 ? double(steps) / seconds : 0.0}, {"files", files}};
+                     {"wall_seconds", seconds},
+                     {"steps_per_second", seconds > 0 ? double(steps) / seconds : 0.0},
+                     {"files", files}};
     j["x_typical"] = std::vector<double>(r.x_typical.data(), r.x_typical.data() + r.x_typical.size());
     if (!o.sample.empty()) j["sample"] = {{"kind", o.sample}, {"count", o.count}, {"seed", o.seed}, {"box", o.box}};
     return j;
 }
 
 std::string summary_text(const nlohmann::json& j) {
-    std::string s = fmt::format("ensemble of {} trajectories x {} steps of dt = {} to t = {} (order {}, method order {}), {} threads:\n",
-                                j["trajectories"].get<std::size_t>(), j["steps"].get<std::size_t>(), j["dt"].get<double>(),
-                                j["t_end"].get<double>(), j["order"].get<std::size_t>(), j["method_order"].get<std::size_t>(),
-                                j["threads"].get<std::size_t>());
-    for (const auto& [status, count] : j["status"].items()) s += fmt::format("  {}: {}\n", status, count.get<std::size_t>());
+    std::string s = fmt::format(
+        "ensemble of {} trajectories x {} steps of dt = {} to t = {} (order {}, method order {}), {} threads:\n",
+        j["trajectories"].get<std::size_t>(), j["steps"].get<std::size_t>(), j["dt"].get<double>(),
+        j["t_end"].get<double>(), j["order"].get<std::size_t>(), j["method_order"].get<std::size_t>(),
+        j["threads"].get<std::size_t>());
+    for (const auto& [status, count] : j["status"].items())
+        s += fmt::format("  {}: {}\n", status, count.get<std::size_t>());
     s += fmt::format("  max relative energy error (ok trajectories): {:.3e}\n  max relative Casimir error: {:.3e}\n",
                      j["energy_error_max"].get<double>(), j["casimir_error_max"].get<double>());
-    s += fmt::format("  {:.3g} s, {:.3g} steps per second\n", j["wall_seconds"].get<double>(), j["steps_per_second"].get<double>());
+    s += fmt::format("  {:.3g} s, {:.3g} steps per second\n", j["wall_seconds"].get<double>(),
+                     j["steps_per_second"].get<double>());
     for (const auto& f : j["files"]) s += "  wrote " + f.get<std::string>() + "\n";
     return s;
 }
@@ -170,10 +194,11 @@ int ensemble_command(const Scene& scene, const EnsembleCommandOptions& o, bool j
     std::cout << (json ? j.dump(2) + "\n" : summary_text(j)) << std::flush;
     // NOTE: as `pgi integrate` says of one run (tools/run.cpp), never silently: exit 0 with H off by a tenth or more
     if (const std::size_t w = j["energy_warnings"]; w > 0)
-        std::cerr << fmt::format("pgi: {}: warning: {} of {} trajectories reached a relative energy error above {} (energy_warning in "
-                                 "{}): every step solved its equation, but at dt = {} order {} does not follow the flow of H there "
-                                 "(reduce dt or raise the order)\n",
-                                 scene.file.string(), w, r.members.size(), energy_warning_from, files[3], scene.dt, scene.order);
+        std::cerr << fmt::format(
+            "pgi: {}: warning: {} of {} trajectories reached a relative energy error above {} (energy_warning in "
+            "{}): every step solved its equation, but at dt = {} order {} does not follow the flow of H there "
+            "(reduce dt or raise the order)\n",
+            scene.file.string(), w, r.members.size(), energy_warning_from, files[3], scene.dt, scene.order);
     std::size_t failed = 0, first = 0;
     for (std::size_t i = r.members.size(); i-- > 0;)
         if (r.members[i].status != TrajectoryStatus::ok) ++failed, first = i;

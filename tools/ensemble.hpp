@@ -14,14 +14,14 @@ class App;
 namespace pgi {
 
 struct EnsembleCommandOptions {
-    std::string states;          // --states FILE (.npy or .csv)
-    std::string sample, box;     // --sample grid|box|casimir, --box lo,hi
-    std::size_t count = 0;       // --count N
-    std::uint64_t seed = 0;      // --seed S
+    std::string states;       // --states FILE (.npy or .csv)
+    std::string sample, box;  // --sample grid|box|casimir, --box lo,hi
+    std::size_t count = 0;    // --count N
+    std::uint64_t seed = 0;   // --seed S
     std::size_t threads = 0, chunk = 0, batch = 0;
-    std::string out;             // --out PREFIX
-    bool x0_given = false;       // --x0 was given (read only by --sample casimir)
-    RunLimits limits;            // --max-steps, --max-output-mb (also the bound on a --states file's size)
+    std::string out;        // --out PREFIX
+    bool x0_given = false;  // --x0 was given (read only by --sample casimir)
+    RunLimits limits;       // --max-steps, --max-output-mb (also the bound on a --states file's size)
 };
 
 /// --states, --sample, --count, --seed, --box, --threads, --chunk, --batch, --out on cmd.

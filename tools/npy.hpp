@@ -26,8 +26,10 @@ void write_npy(std::ostream& out, const Eigen::Ref<const RowMatrix>& a);
 /// a first line equal to header (the coordinates' names joined by commas) too. nan and inf are read as
 /// such. Throws InputError naming the file and line for a row of another length or a field not a number (its
 /// first 40 characters shown), and what read_input_file refuses (not a regular file, above max_bytes).
-RowMatrix read_csv_states(const std::filesystem::path& file, std::size_t columns, const std::string& header, std::size_t max_bytes);
+RowMatrix read_csv_states(const std::filesystem::path& file, std::size_t columns, const std::string& header,
+                          std::size_t max_bytes);
 /// read_csv_states' parser on the file's text (file names it in messages).
-RowMatrix parse_csv_states(const std::string& text, const std::string& file, std::size_t columns, const std::string& header);
+RowMatrix parse_csv_states(const std::string& text, const std::string& file, std::size_t columns,
+                           const std::string& header);
 
 }  // namespace pgi

@@ -11,7 +11,8 @@ namespace pgi {
 
 /// The double written in text (decimal, possibly with an exponent), finite, or nullopt-like NaN.
 inline double strict_double(const std::string& text) {
-    if (text.empty() || !(std::isdigit(static_cast<unsigned char>(text[0])) || text[0] == '.' || text[0] == '-' || text[0] == '+'))
+    if (text.empty() ||
+        !(std::isdigit(static_cast<unsigned char>(text[0])) || text[0] == '.' || text[0] == '-' || text[0] == '+'))
         return std::nan("");
     char* end = nullptr;
     const double v = std::strtod(text.c_str(), &end);
@@ -23,8 +24,8 @@ inline double strict_double(const std::string& text) {
 inline std::size_t whole_number(const std::string& option, const std::string& text, std::size_t lo, std::size_t hi) {
     const double v = strict_double(text);
     if (!(v >= double(lo) && v <= double(hi)) || v != std::floor(v))
-        throw std::invalid_argument(option + ": '" + text + "' is not a whole number from " + std::to_string(lo) + " to " +
-                                    std::to_string(hi));
+        throw std::invalid_argument(option + ": '" + text + "' is not a whole number from " + std::to_string(lo) +
+                                    " to " + std::to_string(hi));
     return static_cast<std::size_t>(v);
 }
 
@@ -32,7 +33,8 @@ inline std::size_t whole_number(const std::string& option, const std::string& te
 inline double positive_number(const std::string& option, const std::string& text, double hi) {
     const double v = strict_double(text);
     if (!(v > 0 && v <= hi))
-        throw std::invalid_argument(option + ": '" + text + "' is not a number above 0 and at most " + std::to_string(long(hi)));
+        throw std::invalid_argument(option + ": '" + text + "' is not a number above 0 and at most " +
+                                    std::to_string(long(hi)));
     return v;
 }
 

@@ -59,8 +59,10 @@ void read_numbers(Options& o) {
     if (!o.max_terms.empty()) o.overrides.max_terms = pgi::whole_number("--max-terms", o.max_terms, 1, max_count);
     if (!o.max_steps.empty()) o.integrate.max_steps = pgi::whole_number("--max-steps", o.max_steps, 1, max_count);
     o.ensemble.limits.max_steps = o.integrate.max_steps;
-    if (!o.max_output_mb.empty()) o.ensemble.limits.max_output_mb = pgi::positive_number("--max-output-mb", o.max_output_mb, 1e9);
-    if (!o.max_memory_mb.empty()) o.overrides.max_memory_mb = pgi::whole_number("--max-memory-mb", o.max_memory_mb, 1, std::size_t(1) << 40);
+    if (!o.max_output_mb.empty())
+        o.ensemble.limits.max_output_mb = pgi::positive_number("--max-output-mb", o.max_output_mb, 1e9);
+    if (!o.max_memory_mb.empty())
+        o.overrides.max_memory_mb = pgi::whole_number("--max-memory-mb", o.max_memory_mb, 1, std::size_t(1) << 40);
     if (!o.max_seconds.empty()) o.overrides.max_seconds = pgi::positive_number("--max-seconds", o.max_seconds, 1e9);
 }
 
@@ -78,21 +80,25 @@ enum : unsigned { json = 1, order = 2, dt = 4, realisation = 8, x0 = 16, t_end =
 void scene_options(CLI::App* cmd, Options& o, unsigned uses) {
     cmd->add_option("scene", o.scene, "scene file (TOML)")->required();
     if (uses & use::json) cmd->add_flag("--json", o.json, "print JSON");
-    if (uses & use::order) cmd->add_option("--order", o.overrides.order, "Hamilton-Jacobi order k (overrides integrator.order)");
+    if (uses & use::order)
+        cmd->add_option("--order", o.overrides.order, "Hamilton-Jacobi order k (overrides integrator.order)");
     if (uses & use::dt) cmd->add_option("--dt", o.overrides.dt, "time step, a decimal or a rational like 1/100");
-    if (uses & use::realisation) cmd->add_option("--realisation", o.overrides.realisation, "auto | closed-form | radial");
+    if (uses & use::realisation)
+        cmd->add_option("--realisation", o.overrides.realisation, "auto | closed-form | radial");
     if (uses & use::x0) cmd->add_option("--x0", o.overrides.x0, "initial state, comma-separated");
     if (uses & use::t_end) cmd->add_option("--t-end", o.overrides.t_end, "final time");
     if (uses & use::trust)
         cmd->add_flag("--trust-jacobi", o.overrides.trust_jacobi,
                       "do not check the Jacobi identity: you vouch for the structure (reported on stderr and in JSON)");
     if (uses & use::jit)
-        cmd->add_flag("--jit", o.overrides.jit,
-                      "the step's compiled maps as native code from the system C++ compiler: the same numbers, faster steps, "
-                      "0.1-3 s more set-up the first time (kept in ~/.cache/pgi/jit; integrator.jit)");
+        cmd->add_flag(
+            "--jit", o.overrides.jit,
+            "the step's compiled maps as native code from the system C++ compiler: the same numbers, faster steps, "
+            "0.1-3 s more set-up the first time (kept in ~/.cache/pgi/jit; integrator.jit)");
     cmd->add_option("--max-terms", o.max_terms, "bound on the terms of any product of the exact phase (default 2e7)");
-    cmd->add_option("--max-memory-mb", o.max_memory_mb,
-                    "memory budget of the exact phase in MB (default: half the physical memory, at most 3/4 of ulimit -v)");
+    cmd->add_option(
+        "--max-memory-mb", o.max_memory_mb,
+        "memory budget of the exact phase in MB (default: half the physical memory, at most 3/4 of ulimit -v)");
     cmd->add_option("--max-seconds", o.max_seconds, "time budget of the exact phase's algebra (default 60)");
     cmd->add_flag("--quiet", o.quiet, "no progress lines on stderr");
 }
@@ -102,8 +108,9 @@ void scene_options(CLI::App* cmd, Options& o, unsigned uses) {
 // and clearing it on the way out crashes; so an allocation failure inside them ends the process at once,
 // with a message and exit code 5 (out of memory). Nothing is being written to a file during the exact phase.
 [[noreturn]] void out_of_memory() {
-    static const char message[] = "pgi: out of memory: an allocation in the exact algebra failed within the memory budget "
-                                  "(lower --max-memory-mb or raise the memory limit, ulimit -v)\n";
+    static const char message[] =
+        "pgi: out of memory: an allocation in the exact algebra failed within the memory budget "
+        "(lower --max-memory-mb or raise the memory limit, ulimit -v)\n";
     [[maybe_unused]] auto n = ::write(2, message, sizeof message - 1);
     std::_Exit(5);
 }
@@ -122,15 +129,20 @@ void* checked_realloc(void* old, std::size_t n) {
     if (!p && n) out_of_memory();
     return p;
 }
-void* gmp_realloc(void* old, std::size_t, std::size_t n) { return checked_realloc(old, n); }
-void gmp_free(void* p, std::size_t) { std::free(p); }
+void* gmp_realloc(void* old, std::size_t, std::size_t n) {
+    return checked_realloc(old, n);
+}
+void gmp_free(void* p, std::size_t) {
+    std::free(p);
+}
 
 void throw_on_allocation_failure() {
     __flint_set_memory_functions(checked_malloc, checked_calloc, checked_realloc, std::free);
     mp_set_memory_functions(checked_malloc, gmp_realloc, gmp_free);
 }
 
-void emit(const Options& o, const nlohmann::json& report, const std::function<std::string(const nlohmann::json&)>& text) {
+void emit(const Options& o, const nlohmann::json& report,
+          const std::function<std::string(const nlohmann::json&)>& text) {
     if (o.json && o.overrides.trust_jacobi && report.is_object()) {
         nlohmann::json marked = report;
         marked["jacobi_checked"] = false;  // --trust-jacobi: the document says the structure was taken on trust
@@ -145,19 +157,23 @@ void check_before_work(const std::string& name, const Options& o, const pgi::Sce
     const bool runs = name == "integrate" || name == "run" || name == "report" || name == "section";
     if (!o.csv.empty()) {
         if (name == "run" && !(scene.x0 && scene.t_end))
-            throw pgi::SceneError(scene.file, "--csv", "the scene has no run to write (give [run] x0 and t_end, or --x0 and --t-end)");
+            throw pgi::SceneError(scene.file, "--csv",
+                                  "the scene has no run to write (give [run] x0 and t_end, or --x0 and --t-end)");
         pgi::check_output_path(o.csv, {scene.file});
     }
     if (!o.out.empty()) pgi::check_output_path(o.out, {scene.file});
-    if (runs && scene.t_end && (name == "integrate" || name == "section" || scene.x0)) pgi::step_count(scene, o.integrate.max_steps);
+    if (runs && scene.t_end && (name == "integrate" || name == "section" || scene.x0))
+        pgi::step_count(scene, o.integrate.max_steps);
 }
 
 int run_command(const std::string& name, Options o) {
-    if (!o.quiet && ::isatty(2)) o.overrides.progress = [](const std::string& line) { std::cerr << "pgi: " << line << std::endl; };
+    if (!o.quiet && ::isatty(2))
+        o.overrides.progress = [](const std::string& line) { std::cerr << "pgi: " << line << std::endl; };
     pgi::Scene scene = pgi::load_scene(o.scene, o.overrides);
     check_before_work(name, o, scene);
     if (o.overrides.trust_jacobi)
-        std::cerr << "pgi: " << o.scene << ": the Jacobi identity is not checked (--trust-jacobi: the structure is taken on trust)\n";
+        std::cerr << "pgi: " << o.scene
+                  << ": the Jacobi identity is not checked (--trust-jacobi: the structure is taken on trust)\n";
     if (name == "ensemble") {
         auto eo = o.ensemble;
         eo.x0_given = o.overrides.x0.has_value();
@@ -177,11 +193,15 @@ int run_command(const std::string& name, Options o) {
     if (name == "realisation") emit(o, pgi::realisation_report(scene, o.degree_value), pgi::realisation_text);
     if (name == "magnus") emit(o, pgi::magnus_report(scene, o.upto_value), pgi::series_text);
     if (name == "modified" && !o.splitting.empty())
-        emit(o, pgi::splitting_report(scene, pgi::parse_splitting_method(o.splitting), o.upto_value), pgi::splitting_text);
-    else if (name == "modified") emit(o, pgi::modified_report(scene, o.upto_value), pgi::series_text);
+        emit(o, pgi::splitting_report(scene, pgi::parse_splitting_method(o.splitting), o.upto_value),
+             pgi::splitting_text);
+    else if (name == "modified")
+        emit(o, pgi::modified_report(scene, o.upto_value), pgi::series_text);
     if (name == "report") {
         auto data = pgi::report_data(scene, o.upto_value);
-        std::string text = o.format == "json" ? data.dump(2) + "\n" : o.format == "latex" ? pgi::report_latex(data) : pgi::report_markdown(data);
+        std::string text = o.format == "json"    ? data.dump(2) + "\n"
+                           : o.format == "latex" ? pgi::report_latex(data)
+                                                 : pgi::report_markdown(data);
         if (o.out.empty()) {
             print(text);
         } else {
@@ -247,7 +267,8 @@ int main(int argc, char** argv) {
     throw_on_allocation_failure();
     CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
     app.require_subcommand(1);
-    app.set_version_flag("--version", "pgi " + std::string(pgi::version()) + " (allocator: " + pgi::program_allocator() + ")");
+    app.set_version_flag("--version",
+                         "pgi " + std::string(pgi::version()) + " (allocator: " + pgi::program_allocator() + ")");
     Options o;
     o.overrides.max_seconds = 60;  // the program's time budget of the exact phase (the library sets none)
     auto* check = app.add_subcommand("check", "class, Jacobi, Casimirs and realisation identities of a scene");
@@ -255,46 +276,62 @@ int main(int argc, char** argv) {
     auto* realisation = app.add_subcommand("realisation", "alpha and beta truncated at a p-degree");
     auto* step = app.add_subcommand("step", "one step from x0");
     auto* integrate = app.add_subcommand("integrate", "integrate from x0 to t_end");
-    auto* run = app.add_subcommand("run", "the main job: checks, S_1..S_k, and the integration when the scene has [run]");
+    auto* run =
+        app.add_subcommand("run", "the main job: checks, S_1..S_k, and the integration when the scene has [run]");
     auto* magnus = app.add_subcommand("magnus", "the Magnus series of the scene's [magnus] h");
     auto* modified = app.add_subcommand("modified", "the modified Hamiltonian of the order-k scheme");
-    auto* report = app.add_subcommand("report", "one document: structure, checks, S_1..S_k, modified Hamiltonian, a run");
-    auto* ensemble = app.add_subcommand("ensemble", "many initial states (a file or a sampler) integrated on every core");
+    auto* report =
+        app.add_subcommand("report", "one document: structure, checks, S_1..S_k, modified Hamiltonian, a run");
+    auto* ensemble =
+        app.add_subcommand("ensemble", "many initial states (a file or a sampler) integrated on every core");
     scene_options(check, o, use::trust | use::json | use::order | use::realisation);
     scene_options(terms, o, use::trust | use::json | use::order | use::realisation);
     scene_options(realisation, o, use::trust | use::json | use::realisation);
     scene_options(step, o, use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::jit);
-    scene_options(integrate, o, use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);
-    scene_options(run, o, use::trust | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);  // text only: its parts have --json
+    scene_options(integrate, o,
+                  use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);
+    scene_options(run, o,
+                  use::trust | use::order | use::dt | use::realisation | use::x0 | use::t_end |
+                      use::jit);  // text only: its parts have --json
     scene_options(magnus, o, use::trust | use::json);
     scene_options(modified, o, use::trust | use::json | use::order | use::realisation);
     scene_options(report, o, use::order | use::dt | use::realisation | use::x0 | use::t_end);  // --format json
-    auto* section = app.add_subcommand("section", "the crossings of an event polynomial along the run (a Poincare section)");
-    scene_options(section, o, use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);
+    auto* section =
+        app.add_subcommand("section", "the crossings of an event polynomial along the run (a Poincare section)");
+    scene_options(section, o,
+                  use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);
     section->add_option("--event", o.section.event, "the polynomial g whose zeros are reported")->required();
     section->add_option("--direction", o.section.direction, "1: g rising through 0, -1: falling, 0: both (default)")
         ->check(CLI::IsMember({-1, 0, 1}));
-    section->add_option("--max-crossings", o.section.max_crossings, "stop after this many crossings")->check(CLI::PositiveNumber);
+    section->add_option("--max-crossings", o.section.max_crossings, "stop after this many crossings")
+        ->check(CLI::PositiveNumber);
     section->add_option("--samples", o.section.samples, "sign tests per step on the dense output (default 1: the ends)")
         ->check(CLI::PositiveNumber);
     section->add_option("--csv", o.csv, "write the crossings (t, coordinates) to this CSV file");
-    scene_options(ensemble, o, use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);  // x0: --sample casimir
+    scene_options(ensemble, o,
+                  use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);  // x0: --sample casimir
     pgi::add_ensemble_options(ensemble, o.ensemble);
-    report->add_option("--format", o.format, "markdown | latex | json")->check(CLI::IsMember({"markdown", "latex", "json"}));
+    report->add_option("--format", o.format, "markdown | latex | json")
+        ->check(CLI::IsMember({"markdown", "latex", "json"}));
     report->add_option("--out", o.out, "write to this file (atomically) instead of stdout");
     report->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian, 0..64 (default 4)");
     magnus->add_option("--upto", o.upto, "last power of eps, 0..64 (default 4)");
     modified->add_option("--upto", o.upto, "last power of dt, 0..64 (default 4)");
-    modified->add_option("--splitting", o.splitting, "lie-trotter | strang | yoshida: the splitting method's for [splitting] H = A + B")
+    modified
+        ->add_option("--splitting", o.splitting,
+                     "lie-trotter | strang | yoshida: the splitting method's for [splitting] H = A + B")
         ->check(CLI::IsMember({"lie-trotter", "strang", "yoshida"}));
     ensemble->add_option("--max-output-mb", o.max_output_mb,
-                         "refuse an ensemble whose results (or --states file) would take more than this, before any work (default 1024)");
+                         "refuse an ensemble whose results (or --states file) would take more than this, before any "
+                         "work (default 1024)");
     for (auto* cmd : {integrate, run, section, report, ensemble})
-        cmd->add_option("--max-steps", o.max_steps, "refuse a run of more steps than this, before any work (default 1e8)");
+        cmd->add_option("--max-steps", o.max_steps,
+                        "refuse a run of more steps than this, before any work (default 1e8)");
     for (auto* cmd : {integrate, run}) {
         cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
         cmd->add_option("--every", o.every, "one CSV row every M steps");
-        cmd->add_option("--plot", o.plot, "draw the trajectory and the invariants' errors (SVG and PNG, by gnuplot) into this directory");
+        cmd->add_option("--plot", o.plot,
+                        "draw the trajectory and the invariants' errors (SVG and PNG, by gnuplot) into this directory");
         cmd->add_option("--max-csv-mb", o.max_csv_mb, "refuse a CSV larger than this (default 1024)");
     }
     realisation->add_option("--degree", o.degree, "total degree D in the momenta, 0..100")->required();
@@ -303,8 +340,9 @@ int main(int argc, char** argv) {
         for (const char* name : {"--csv", "--out"})  // given but empty is not "not given"
             for (auto* cmd : app.get_subcommands())
                 if (const auto* opt = cmd->get_option_no_throw(name);
-                    opt && opt->count() > 0 && std::any_of(opt->results().begin(), opt->results().end(),
-                                                           [](const std::string& r) { return r.empty(); })) {
+                    opt && opt->count() > 0 &&
+                    std::any_of(opt->results().begin(), opt->results().end(),
+                                [](const std::string& r) { return r.empty(); })) {
                     std::cerr << "pgi: " << name << ": an empty path\n";
                     return 2;
                 }

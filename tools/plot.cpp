@@ -23,15 +23,16 @@ namespace pgi {
 
 namespace fs = std::filesystem;
 
-RunSeries::RunSeries(std::size_t steps, std::size_t dim, std::vector<std::string> invariant_names, std::vector<double> scales,
-                     std::size_t bins)
+RunSeries::RunSeries(std::size_t steps, std::size_t dim, std::vector<std::string> invariant_names,
+                     std::vector<double> scales, std::size_t bins)
     : stride_(std::max<std::size_t>(1, (steps + bins) / bins)), dim_(dim), names_(std::move(invariant_names)),
       scales_(std::move(scales)) {}
 
 void RunSeries::record(std::size_t n, double t, const double* x, const std::vector<double>& invariants) {
     if (n == 0) initial_ = invariants;
     if (n % stride_ == 0 || bins_.empty()) {
-        bins_.push_back({t, std::vector<double>(x, x + dim_), std::vector<double>(names_.size(), 0.0), std::vector<double>(names_.size(), t)});
+        bins_.push_back({t, std::vector<double>(x, x + dim_), std::vector<double>(names_.size(), 0.0),
+                         std::vector<double>(names_.size(), t)});
     }
     Bin& b = bins_.back();
     for (std::size_t i = 0; i < names_.size() && i < invariants.size(); ++i) {
@@ -51,7 +52,9 @@ struct TempDir {
     fs::path path;
     TempDir() {
         std::string pattern = (fs::temp_directory_path() / "pgi-plot-XXXXXX").string();
-        if (!::mkdtemp(pattern.data())) throw OutputError(std::string("--plot: cannot create a temporary directory (") + std::strerror(errno) + ")");
+        if (!::mkdtemp(pattern.data()))
+            throw OutputError(std::string("--plot: cannot create a temporary directory (") + std::strerror(errno) +
+                              ")");
         path = pattern;
     }
     ~TempDir() {
@@ -74,7 +77,8 @@ bool on_path(const std::string& program) {
 // command) shown as \xNN.
 std::string quoted(const std::string& s) {
     std::string out = "'";
-    for (char c : printable(s)) out += c == '\'' ? std::string("'.pgi_q.'") : c == '@' ? std::string("'.pgi_at.'") : std::string(1, c);
+    for (char c : printable(s))
+        out += c == '\'' ? std::string("'.pgi_q.'") : c == '@' ? std::string("'.pgi_at.'") : std::string(1, c);
     return out + "'";
 }
 
@@ -85,8 +89,10 @@ constexpr const char* script_preamble = "pgi_q = \"\\047\"; pgi_at = \"\\100\"\n
 // gnuplot runs as every child does (series/child_process.hpp): no shell, its own process group, killed past a
 // minute or on a signal, its diagnostics bounded and sanitised.
 void run_gnuplot(const fs::path& script) {
-    const ChildResult run = run_child({"gnuplot", script.string()}, {.timeout = std::chrono::seconds(60), .output_limit = std::size_t(64) << 10});
-    if (run.failure.rfind("cannot be run", 0) == 0) throw OutputError("--plot: gnuplot is not installed (Debian: gnuplot-nox)");
+    const ChildResult run = run_child({"gnuplot", script.string()},
+                                      {.timeout = std::chrono::seconds(60), .output_limit = std::size_t(64) << 10});
+    if (run.failure.rfind("cannot be run", 0) == 0)
+        throw OutputError("--plot: gnuplot is not installed (Debian: gnuplot-nox)");
     if (!run.ok()) {
         const std::string output = output_tail(run.output);
         throw OutputError("--plot: gnuplot failed: " + run.failure + (output.empty() ? "" : ": " + output));
@@ -108,25 +114,32 @@ void publish(const fs::path& figure, const fs::path& target) {
 
 std::string trajectory_plot(const RunSeries& s, const std::vector<std::string>& coords, const std::string& data) {
     if (s.dim() == 2)
-        return fmt::format("set xlabel {}; set ylabel {}\nset title title.\": phase portrait\"\n"
-                           "plot {} using 2:3 with lines lw 1.5 lc rgb \"#377eb8\" title \"orbit\", "
-                           "{} every ::0::0 using 2:3 with points pt 7 ps 1.2 lc rgb \"#e41a1c\" title \"x0\"\n",
-                           quoted(coords[0]), quoted(coords[1]), quoted(data), quoted(data));
+        return fmt::format(
+            "set xlabel {}; set ylabel {}\nset title title.\": phase portrait\"\n"
+            "plot {} using 2:3 with lines lw 1.5 lc rgb \"#377eb8\" title \"orbit\", "
+            "{} every ::0::0 using 2:3 with points pt 7 ps 1.2 lc rgb \"#e41a1c\" title \"x0\"\n",
+            quoted(coords[0]), quoted(coords[1]), quoted(data), quoted(data));
     if (s.dim() == 3)
-        return fmt::format("set xlabel {}; set ylabel {}; set zlabel {}; set view 60, 35; set ticslevel 0\n"
-                           "set title title.\": phase portrait\"\n"
-                           "splot {} using 2:3:4 with lines lw 1.2 lc rgb \"#377eb8\" title \"orbit\", "
-                           "{} every ::0::0 using 2:3:4 with points pt 7 ps 1.2 lc rgb \"#e41a1c\" title \"x0\"\n",
-                           quoted(coords[0]), quoted(coords[1]), quoted(coords[2]), quoted(data), quoted(data));
-    std::string out = "set xlabel \"t\"; set ylabel \"coordinates\"\nset key outside right\nset title title.\": time series\"\nplot ";
+        return fmt::format(
+            "set xlabel {}; set ylabel {}; set zlabel {}; set view 60, 35; set ticslevel 0\n"
+            "set title title.\": phase portrait\"\n"
+            "splot {} using 2:3:4 with lines lw 1.2 lc rgb \"#377eb8\" title \"orbit\", "
+            "{} every ::0::0 using 2:3:4 with points pt 7 ps 1.2 lc rgb \"#e41a1c\" title \"x0\"\n",
+            quoted(coords[0]), quoted(coords[1]), quoted(coords[2]), quoted(data), quoted(data));
+    std::string out =
+        "set xlabel \"t\"; set ylabel \"coordinates\"\nset key outside right\nset title title.\": time series\"\nplot ";
     for (std::size_t i = 0; i < s.dim(); ++i)
-        out += fmt::format("{}{} using 1:{} with lines lw 1.2 title {}", i ? ", " : "", quoted(data), i + 2, quoted(coords[i]));
+        out += fmt::format("{}{} using 1:{} with lines lw 1.2 title {}", i ? ", " : "", quoted(data), i + 2,
+                           quoted(coords[i]));
     return out + "\n";
 }
 
 std::string errors_plot(const RunSeries& s, double dt, const std::string& data, const std::vector<bool>& has_points) {
-    std::string out = fmt::format("set xrange [{:.17g}:{:.17g}]\n", dt, std::max(2 * dt, s.bins().empty() ? dt : s.bins().back().t)) + "set logscale xy; set format x \"1e%L\"; set format y \"1e%L\"\nset xlabel \"t\"; set ylabel \"relative error\"\n"
-                      "set key outside top center horizontal\nset title title.\": invariants (largest error per bin of steps)\"\n";
+    std::string out =
+        fmt::format("set xrange [{:.17g}:{:.17g}]\n", dt, std::max(2 * dt, s.bins().empty() ? dt : s.bins().back().t)) +
+        "set logscale xy; set format x \"1e%L\"; set format y \"1e%L\"\nset xlabel \"t\"; set ylabel \"relative "
+        "error\"\n"
+        "set key outside top center horizontal\nset title title.\": invariants (largest error per bin of steps)\"\n";
     std::vector<std::string> exact;
     std::string plot;
     const char* colors[] = {"#000000", "#e41a1c", "#377eb8", "#4daf4a", "#984ea3", "#ff7f00", "#a65628", "#f781bf"};
@@ -135,21 +148,24 @@ std::string errors_plot(const RunSeries& s, double dt, const std::string& data, 
             exact.push_back(s.invariant_names()[i]);
             continue;
         }
-        plot += fmt::format("{} index {} using 1:2 with lines lw {} lc rgb \"{}\" title {}, ", quoted(data), i, i == 0 ? 2.0 : 1.5,
-                            colors[i % 8], quoted(s.invariant_names()[i]));
+        plot += fmt::format("{} index {} using 1:2 with lines lw {} lc rgb \"{}\" title {}, ", quoted(data), i,
+                            i == 0 ? 2.0 : 1.5, colors[i % 8], quoted(s.invariant_names()[i]));
     }
     // Brouwer's law: round-off in a conserved quantity of a well-implemented integrator walks like u sqrt(n)
-    plot += fmt::format("2.0**-53 * sqrt(x / {:.17g}) with lines dt 2 lw 1.5 lc rgb \"#777777\" title \"round-off floor u sqrt(n), u = 2^-53\"",
-                        dt);
+    plot += fmt::format(
+        "2.0**-53 * sqrt(x / {:.17g}) with lines dt 2 lw 1.5 lc rgb \"#777777\" title \"round-off floor u sqrt(n), u = "
+        "2^-53\"",
+        dt);
     if (!exact.empty())
-        out += fmt::format("set label 1 {} at graph 0.02, graph 0.04\n", quoted("exactly conserved (error 0): " + fmt::format("{}", fmt::join(exact, ", "))));
+        out += fmt::format("set label 1 {} at graph 0.02, graph 0.04\n",
+                           quoted("exactly conserved (error 0): " + fmt::format("{}", fmt::join(exact, ", "))));
     return out + "plot " + plot + "\n";
 }
 
 }  // namespace
 
-std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string>& coords, double dt, const std::string& title,
-                               const fs::path& dir, const std::string& name) {
+std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string>& coords, double dt,
+                               const std::string& title, const fs::path& dir, const std::string& name) {
     TempDir tmp;
     const fs::path traj = tmp.path / "trajectory.dat", errs = tmp.path / "errors.dat";
     {
@@ -167,7 +183,8 @@ std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string
             out << "# " << printable(s.invariant_names()[i]) << "\n";
             for (const auto& b : s.bins())
                 if (b.error[i] > 0 && b.error_t[i] > 0) {  // log axes: zero errors (and t = 0) cannot be drawn
-                    out << fmt::format("{:.17g} {:.17g}\n", b.error_t[i], std::isfinite(b.error[i]) ? b.error[i] : 1e300);
+                    out << fmt::format("{:.17g} {:.17g}\n", b.error_t[i],
+                                       std::isfinite(b.error[i]) ? b.error[i] : 1e300);
                     has_points[i] = true;
                 }
             if (!has_points[i]) out << "1 NaN\n";  // an empty block would shift the indices
@@ -179,10 +196,12 @@ std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string
     std::vector<std::pair<fs::path, fs::path>> figures;  // (in the private directory, target)
     for (const auto& [figure, body] : {std::pair{std::string("trajectory"), trajectory_plot(s, coords, traj.string())},
                                        std::pair{std::string("errors"), errors_plot(s, dt, errs.string(), has_points)}})
-        for (const auto& [ext, terminal] : {std::pair{"svg", "svg size 900,560 font \"sans,12\" background \"white\" noenhanced"},
-                                            std::pair{"png", "pngcairo size 900,560 font \"sans,11\" noenhanced"}}) {
+        for (const auto& [ext, terminal] :
+             {std::pair{"svg", "svg size 900,560 font \"sans,12\" background \"white\" noenhanced"},
+              std::pair{"png", "pngcairo size 900,560 font \"sans,11\" noenhanced"}}) {
             const fs::path out = tmp.path / fmt::format("{}.{}", figure, ext);
-            script += fmt::format("reset\nset grid\nset terminal {}\nset output {}\n{}set output\n", terminal, quoted(out.string()), body);
+            script += fmt::format("reset\nset grid\nset terminal {}\nset output {}\n{}set output\n", terminal,
+                                  quoted(out.string()), body);
             figures.push_back({out, dir / fmt::format("{}-{}.{}", name, figure, ext)});
         }
     {
@@ -199,22 +218,26 @@ std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string
 
 RunPlot::RunPlot(const Scene& scene, fs::path dir) : scene_(scene), dir_(std::move(dir)) {
     if (!fs::is_directory(dir_))
-        throw SceneError(scene.file, "--plot", "'" + dir_.string() + "' is not an existing directory (create it first)");
+        throw SceneError(scene.file, "--plot",
+                         "'" + dir_.string() + "' is not an existing directory (create it first)");
     {  // a real file, not access(): root passes access() on read-only file systems and /proc
         const fs::path probe = dir_ / (".pgi_plot_probe" + std::to_string(::getpid()));
-        const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);  // never through a link
+        const int fd =
+            ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);  // never through a link
         const bool writable = fd >= 0;
         if (writable) ::close(fd), ::unlink(probe.c_str());
         if (!writable) throw SceneError(scene.file, "--plot", "cannot write into '" + dir_.string() + "'");
     }
     if (!on_path("gnuplot")) throw SceneError(scene.file, "--plot", "gnuplot is not installed (Debian: gnuplot-nox)");
-    if (!scene.x0 || !scene.t_end) throw SceneError(scene.file, "--plot", "nothing to plot: the scene has no [run] x0 and t_end");
+    if (!scene.x0 || !scene.t_end)
+        throw SceneError(scene.file, "--plot", "nothing to plot: the scene has no [run] x0 and t_end");
     // Htilde through dt^{method order}: the first power whose term is not zero for the order-k scheme
     modified_upto_ = 2 * ((scene.order + 1) / 2);
     try {
         modified_ = sum_powers(scene.scheme->modified_hamiltonian(modified_upto_), Rational::from_double(scene.dt));
     } catch (const ResourceLimitError& e) {
-        std::cerr << "pgi: " << scene.file.string() << ": --plot: no modified Hamiltonian in the figure (" << e.what() << ")\n";
+        std::cerr << "pgi: " << scene.file.string() << ": --plot: no modified Hamiltonian in the figure (" << e.what()
+                  << ")\n";
     }
 }
 
@@ -237,8 +260,9 @@ void RunPlot::attach(IntegrateOptions& options) {
 
 std::vector<fs::path> RunPlot::write() const {
     if (!series_) throw std::logic_error("RunPlot::write before attach");
-    const std::string title = fmt::format("{} (order {}, dt = {})", scene_.name.empty() ? scene_.file.stem().string() : scene_.name,
-                                          scene_.order, scene_.dt);
+    const std::string title =
+        fmt::format("{} (order {}, dt = {})", scene_.name.empty() ? scene_.file.stem().string() : scene_.name,
+                    scene_.order, scene_.dt);
     return draw_run(*series_, scene_.phase_space().coordinates(), scene_.dt, title, dir_, scene_.file.stem().string());
 }
 

@@ -41,8 +41,9 @@ private:
 /// targets and renamed into place. coordinates names the state's components (LaTeX-free), dt the step
 /// (the round-off floor u sqrt(t/dt)). Returns the files written. Throws std::runtime_error when gnuplot
 /// fails or is missing.
-std::vector<std::filesystem::path> draw_run(const RunSeries& series, const std::vector<std::string>& coordinates, double dt,
-                                            const std::string& title, const std::filesystem::path& dir, const std::string& name);
+std::vector<std::filesystem::path> draw_run(const RunSeries& series, const std::vector<std::string>& coordinates,
+                                            double dt, const std::string& title, const std::filesystem::path& dir,
+                                            const std::string& name);
 
 /// pgi run/integrate --plot DIR: checks DIR and gnuplot before the run (SceneError: exit 2), adds the
 /// modified Hamiltonian through dt^{method order} to what the run watches, records the run, draws it.

@@ -23,16 +23,22 @@ const std::vector<double>& require_x0(const Scene& scene) {
     return *scene.x0;
 }
 
-Eigen::VectorXd to_vector(const std::vector<double>& v) { return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())); }
-std::vector<double> to_std(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
+Eigen::VectorXd to_vector(const std::vector<double>& v) {
+    return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size()));
+}
+std::vector<double> to_std(const Eigen::VectorXd& v) {
+    return {v.data(), v.data() + v.size()};
+}
 
 NewtonStepper build_stepper(const Scene& scene) {
-    NewtonStepper s = scene.scheme->stepper(scene.dt, to_vector(require_x0(scene)));  // the scheme carries k, realisation, jit
+    NewtonStepper s =
+        scene.scheme->stepper(scene.dt, to_vector(require_x0(scene)));  // the scheme carries k, realisation, jit
     // NOTE: said on stderr, never silently: past the series' range the step is not Poisson to round-off.
     if (s.info().truncation_estimate > 1e-15)
-        std::cerr << fmt::format("pgi: {}: warning: the {} realisation truncated at p-degree {} leaves terms of relative size "
-                                 "{:.1e} at x0: the step is Poisson only to that accuracy (reduce dt)\n",
-                                 scene.file.string(), s.info().method, s.info().degree, s.info().truncation_estimate);
+        std::cerr << fmt::format(
+            "pgi: {}: warning: the {} realisation truncated at p-degree {} leaves terms of relative size "
+            "{:.1e} at x0: the step is Poisson only to that accuracy (reduce dt)\n",
+            scene.file.string(), s.info().method, s.info().degree, s.info().truncation_estimate);
     return s;
 }
 
@@ -41,15 +47,21 @@ void warn_energy_drift(const Scene& scene, double energy_error, json& r) {
     const bool drifted = energy_drifted(energy_error);
     r["energy_warning"] = drifted;
     if (!drifted) return;
-    std::cerr << fmt::format("pgi: {}: warning: the relative energy error reached {:.2e} (above {}): every step solved its "
-                             "equation, but at dt = {} order {} does not follow the flow of H (reduce dt or raise the order)\n",
-                             scene.file.string(), energy_error, energy_warning_from, scene.dt, scene.order);
+    std::cerr << fmt::format(
+        "pgi: {}: warning: the relative energy error reached {:.2e} (above {}): every step solved its "
+        "equation, but at dt = {} order {} does not follow the flow of H (reduce dt or raise the order)\n",
+        scene.file.string(), energy_error, energy_warning_from, scene.dt, scene.order);
 }
 
 json stepper_info(const Scene& scene, const NewtonStepper& s) {
-    return {{"order", scene.order}, {"realisation", s.info().method}, {"degree", s.info().degree}, {"exact_realisation", s.info().exact_realisation},
-            {"truncation_estimate", s.info().truncation_estimate}, {"method_order", s.order()},
-            {"predictor_order", s.info().predictor_order}, {"native_maps", s.info().native_maps},
+    return {{"order", scene.order},
+            {"realisation", s.info().method},
+            {"degree", s.info().degree},
+            {"exact_realisation", s.info().exact_realisation},
+            {"truncation_estimate", s.info().truncation_estimate},
+            {"method_order", s.order()},
+            {"predictor_order", s.info().predictor_order},
+            {"native_maps", s.info().native_maps},
             {"hessian_terms", s.info().hessian_terms}};
 }
 
@@ -66,7 +78,8 @@ public:
         if (now - start_ < std::chrono::milliseconds(1500) || now - last_ < std::chrono::milliseconds(250)) return;
         last_ = now;
         shown_ = true;
-        std::cerr << fmt::format("\rpgi: step {} of {} ({:.0f}%)", n, total_, 100.0 * double(n) / double(total_)) << std::flush;
+        std::cerr << fmt::format("\rpgi: step {} of {} ({:.0f}%)", n, total_, 100.0 * double(n) / double(total_))
+                  << std::flush;
     }
 
 private:
@@ -77,7 +90,9 @@ private:
 
 }  // namespace
 
-CompiledMap invariants(const Scene& scene, const std::vector<Poly>& extra) { return scene.scheme->invariants(extra); }
+CompiledMap invariants(const Scene& scene, const std::vector<Poly>& extra) {
+    return scene.scheme->invariants(extra);
+}
 
 std::vector<double> invariant_scales(const Scene& scene, const std::vector<double>& x, const std::vector<Poly>& extra) {
     return invariant_scales(*scene.scheme, x, extra);
@@ -120,13 +135,21 @@ json step_report(const Scene& scene) {
     if (status == StepStatus::ok && !(x + increment).allFinite()) status = StepStatus::non_finite;
     if (status != StepStatus::ok) {
         const std::string message = failure_message(s, 1, status);
-        throw NumericalFailure(message, {{"status", "step_failed"}, {"failure", message}, {"steps", 0}, {"t", 0.0},
-                                         {"x", require_x0(scene)}, {"dt", scene.dt}});
+        throw NumericalFailure(message, {{"status", "step_failed"},
+                                         {"failure", message},
+                                         {"steps", 0},
+                                         {"t", 0.0},
+                                         {"x", require_x0(scene)},
+                                         {"dt", scene.dt}});
     }
     const int iterations = s.last_iterations();
     const double correction = s.last_correction();
-    json r{{"status", "ok"}, {"x", to_std(x + increment)}, {"newton_iterations", iterations},
-           {"residual", s.residual_at_solution(x)}, {"correction", correction}, {"dt", scene.dt}};
+    json r{{"status", "ok"},
+           {"x", to_std(x + increment)},
+           {"newton_iterations", iterations},
+           {"residual", s.residual_at_solution(x)},
+           {"correction", correction},
+           {"dt", scene.dt}};
     r.update(stepper_info(scene, s));
     return r;
 }
@@ -137,12 +160,14 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     std::optional<AtomicFile> csv;
     if (options.csv) {
         // at most 25 characters a number: refuse before running rather than fill the disk
-        const double rows = double(N / options.every + 2), columns = double(2 + scene.phase_space().dim() + scene.casimirs.size());
+        const double rows = double(N / options.every + 2),
+                     columns = double(2 + scene.phase_space().dim() + scene.casimirs.size());
         const double mb = rows * columns * 25 / 1e6;
         if (!(mb <= options.max_csv_mb))
-            throw BudgetError(fmt::format("{}: --csv: the trajectory would take about {:.3g} MB ({:.0f} rows of {:.0f} columns), "
-                                          "above the limit of {:.3g} MB: raise --every or --max-csv-mb",
-                                          scene.file.string(), mb, rows, columns, options.max_csv_mb));
+            throw BudgetError(
+                fmt::format("{}: --csv: the trajectory would take about {:.3g} MB ({:.0f} rows of {:.0f} columns), "
+                            "above the limit of {:.3g} MB: raise --every or --max-csv-mb",
+                            scene.file.string(), mb, rows, columns, options.max_csv_mb));
         csv.emplace(*options.csv, std::vector<std::filesystem::path>{scene.file});
     }
     const auto built = Clock::now();
@@ -165,7 +190,8 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
         if (csv && (p.step % options.every == 0 || p.step == N)) {
             csv->stream() << fmt::format("{:.17g}", p.t);
             for (Eigen::Index i = 0; i < p.x.size(); ++i) csv->stream() << fmt::format(",{:.17g}", p.x[i]);
-            for (std::size_t i = 0; i < 1 + scene.casimirs.size(); ++i) csv->stream() << fmt::format(",{:.17g}", loop.values()[i]);
+            for (std::size_t i = 0; i < 1 + scene.casimirs.size(); ++i)
+                csv->stream() << fmt::format(",{:.17g}", loop.values()[i]);
             csv->stream() << "\n";
         }
         progress.update(p.step);
@@ -174,18 +200,27 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     const double wall = std::chrono::duration<double>(Clock::now() - start).count();
     const std::vector<double>& worst = loop.error_max();
     std::vector<double> casimir_errors(worst.begin() + 1, worst.begin() + 1 + long(scene.casimirs.size()));
-    json r{{"status", "ok"}, {"steps", end.steps}, {"t", double(end.steps) * scene.dt}, {"x", to_std(x)},
-           {"energy_error_max", worst[0]}, {"casimir_error_max", casimir_errors},
+    json r{{"status", "ok"},
+           {"steps", end.steps},
+           {"t", double(end.steps) * scene.dt},
+           {"x", to_std(x)},
+           {"energy_error_max", worst[0]},
+           {"casimir_error_max", casimir_errors},
            {"casimir_drift_per_step", casimir_drift(loop, scene.casimirs.size())},
-           {"newton_iterations_mean", end.mean_iterations}, {"wall_seconds", wall}, {"build_seconds", build_seconds},
-           {"ns_per_step", wall / double(std::max<std::size_t>(end.steps, 1)) * 1e9}, {"dt", scene.dt},
+           {"newton_iterations_mean", end.mean_iterations},
+           {"wall_seconds", wall},
+           {"build_seconds", build_seconds},
+           {"ns_per_step", wall / double(std::max<std::size_t>(end.steps, 1)) * 1e9},
+           {"dt", scene.dt},
            {"t_end", *scene.t_end}};
     if (options.modified) r["modified_energy_error_max"] = worst.back();
     r.update(stepper_info(scene, s));
     if (end.ok()) warn_energy_drift(scene, worst[0], r);
     if (!end.ok()) {
         std::string message = loop.failure_message(s, end);
-        if (end.started) message += fmt::format(" (the last good state is step {}, t = {:.17g})", end.steps, double(end.steps) * s.dt());
+        if (end.started)
+            message +=
+                fmt::format(" (the last good state is step {}, t = {:.17g})", end.steps, double(end.steps) * s.dt());
         if (csv) {
             csv->stream() << "# INCOMPLETE: " << message << "\n";
             csv->commit();
@@ -202,9 +237,10 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
 }
 
 std::string step_text(const json& r) {
-    std::string out = fmt::format("one step of dt = {} (order {}, method order {}, {} realisation, degree {}):\n",
-                                  r["dt"].get<double>(), r["order"].get<std::size_t>(), r["method_order"].get<std::size_t>(),
-                                  r["realisation"].get<std::string>(), r["degree"].get<std::size_t>());
+    std::string out =
+        fmt::format("one step of dt = {} (order {}, method order {}, {} realisation, degree {}):\n",
+                    r["dt"].get<double>(), r["order"].get<std::size_t>(), r["method_order"].get<std::size_t>(),
+                    r["realisation"].get<std::string>(), r["degree"].get<std::size_t>());
     out += fmt::format("  x = ({:.17g})\n", fmt::join(r["x"].get<std::vector<double>>(), ", "));
     out += fmt::format("  Newton iterations: {}; residual at the solution {:.3g}; last correction {:.3g}\n",
                        r["newton_iterations"].get<int>(), r["residual"].get<double>(), r["correction"].get<double>());
@@ -215,14 +251,14 @@ std::string integrate_text(const json& r) {
     std::string out = fmt::format(
         "integrated {} steps of dt = {} to t = {} (order {}, method order {}, {} realisation, degree {}):\n",
         r["steps"].get<std::size_t>(), r["dt"].get<double>(), r["t"].get<double>(), r["order"].get<std::size_t>(),
-        r["method_order"].get<std::size_t>(), r["realisation"].get<std::string>(),
-        r["degree"].get<std::size_t>());
+        r["method_order"].get<std::size_t>(), r["realisation"].get<std::string>(), r["degree"].get<std::size_t>());
     if (r["t"].get<double>() != r["t_end"].get<double>())
         out += fmt::format("  (t_end = {} is not a whole number of steps: the last step ends at t = {:.17g})\n",
                            r["t_end"].get<double>(), r["t"].get<double>());
     out += fmt::format("  x(t) = ({:.17g})\n", fmt::join(r["x"].get<std::vector<double>>(), ", "));
     out += fmt::format("  max relative energy error: {:.3e}\n", r["energy_error_max"].get<double>());
-    for (const auto& c : r["casimir_error_max"]) out += fmt::format("  max relative Casimir error: {:.3e}\n", c.get<double>());
+    for (const auto& c : r["casimir_error_max"])
+        out += fmt::format("  max relative Casimir error: {:.3e}\n", c.get<double>());
     out += fmt::format("  Newton iterations per step: {:.3f}; {:.0f} ns per step; exact phase {:.3f} s\n",
                        r["newton_iterations_mean"].get<double>(), r["ns_per_step"].get<double>(),
                        r["build_seconds"].get<double>());

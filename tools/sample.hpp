@@ -13,9 +13,9 @@ enum class SampleKind { grid, box, casimir };
 
 struct SampleSpec {
     SampleKind kind = SampleKind::box;
-    std::size_t count = 0;                 // rows (grid: g^n, g points per coordinate)
-    std::uint64_t seed = 0;                // box, casimir: the mt19937_64's seed
-    std::vector<double> lo, hi;            // the box, one bound per coordinate
+    std::size_t count = 0;                   // rows (grid: g^n, g points per coordinate)
+    std::uint64_t seed = 0;                  // box, casimir: the mt19937_64's seed
+    std::vector<double> lo, hi;              // the box, one bound per coordinate
     std::optional<Eigen::VectorXd> through;  // casimir: the level set through this state
 };
 

@@ -25,15 +25,18 @@ json section_report(const Scene& scene, const SectionOptions& options) {
     if (options.csv) file.emplace(*options.csv);
     const auto start = std::chrono::steady_clock::now();
     Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
-    const std::size_t N = step_count(scene, options.max_steps, options.samples);  // refused above the budgets, before any work
+    const std::size_t N =
+        step_count(scene, options.max_steps, options.samples);  // refused above the budgets, before any work
     NewtonStepper stepper = scene.scheme->stepper(scene.dt, x);
     EventDetector detector(std::move(events), DenseOutput::build(scene.pi, scene.H, stepper.order()), options.samples);
     json crossings = json::array();
     RunLoop loop(*scene.scheme);  // the run loop of pgi integrate, with the events and no other observer
-    const RunEnd run = loop.run(stepper, x, N, [](const RunPoint&) { return false; }, &detector, [&](const Crossing& c) {
-        crossings.push_back({{"t", c.t}, {"x", std::vector<double>(c.x.data(), c.x.data() + c.x.size())}});
-        return options.max_crossings && crossings.size() >= *options.max_crossings;
-    });
+    const RunEnd run = loop.run(
+        stepper, x, N, [](const RunPoint&) { return false; }, &detector,
+        [&](const Crossing& c) {
+            crossings.push_back({{"t", c.t}, {"x", std::vector<double>(c.x.data(), c.x.data() + c.x.size())}});
+            return options.max_crossings && crossings.size() >= *options.max_crossings;
+        });
     if (!run.ok()) throw NumericalFailure(loop.failure_message(stepper, run));
     if (file) {
         file->stream() << "t";
@@ -46,16 +49,22 @@ json section_report(const Scene& scene, const SectionOptions& options) {
         }
         file->commit();
     }
-    return {{"event", options.event}, {"direction", options.direction}, {"crossings", crossings},
-            {"count", crossings.size()}, {"steps", run.steps}, {"t", run.t},
-            {"order", scene.order}, {"method_order", stepper.order()}, {"dt", scene.dt},
+    return {{"event", options.event},
+            {"direction", options.direction},
+            {"crossings", crossings},
+            {"count", crossings.size()},
+            {"steps", run.steps},
+            {"t", run.t},
+            {"order", scene.order},
+            {"method_order", stepper.order()},
+            {"dt", scene.dt},
             {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()}};
 }
 
 std::string section_text(const json& r) {
-    std::string s = fmt::format("{} crossings of {} = 0 (direction {}) in {} steps to t = {}:\n", r["count"].get<std::size_t>(),
-                                r["event"].get<std::string>(), r["direction"].get<int>(), r["steps"].get<std::size_t>(),
-                                r["t"].get<double>());
+    std::string s = fmt::format("{} crossings of {} = 0 (direction {}) in {} steps to t = {}:\n",
+                                r["count"].get<std::size_t>(), r["event"].get<std::string>(), r["direction"].get<int>(),
+                                r["steps"].get<std::size_t>(), r["t"].get<double>());
     for (const auto& c : r["crossings"]) {
         s += fmt::format("  t = {:.17g}  x = (", c["t"].get<double>());
         bool first = true;

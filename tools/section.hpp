@@ -12,7 +12,7 @@
 namespace pgi {
 
 struct SectionOptions {
-    std::string event;                         // g, in the scene's coordinates
+    std::string event;                          // g, in the scene's coordinates
     int direction = 0;                          // +1 rising, -1 falling, 0 both
     std::optional<std::size_t> max_crossings;   // stop after this many
     std::size_t samples = 1;                    // sign tests per step (1: the ends only)

@@ -55,8 +55,8 @@ std::pair<double, double> splitting_drifts(const Scene& scene, const SplittingMo
         splitting_step(Ht.method, A, B, dt, x);
         const auto [e, m] = watched(x, dt);
         if (!std::isfinite(e) || !std::isfinite(m))
-            throw NumericalFailure(fmt::format("{} splitting: non-finite state at step {} (t = {:.17g})", to_string(Ht.method), n,
-                                               double(n) * dt));
+            throw NumericalFailure(fmt::format("{} splitting: non-finite state at step {} (t = {:.17g})",
+                                               to_string(Ht.method), n, double(n) * dt));
         worst_H = std::max(worst_H, relative_error(e, e0, scale));
         worst_m = std::max(worst_m, relative_error(m, m0, scale));
     }
@@ -73,8 +73,10 @@ std::size_t expected_order(SplittingMethod method, std::size_t m) {
 
 }  // namespace
 
-json splitting_report(const Scene& scene, SplittingMethod method, std::size_t m, const std::function<json(const Poly&)>& entry) {
-    if (!scene.splitting_A) throw SceneError(scene.file, "splitting.A", "missing: give [splitting] A = \"part of H\" (B = H - A)");
+json splitting_report(const Scene& scene, SplittingMethod method, std::size_t m,
+                      const std::function<json(const Poly&)>& entry) {
+    if (!scene.splitting_A)
+        throw SceneError(scene.file, "splitting.A", "missing: give [splitting] A = \"part of H\" (B = H - A)");
     const Poly& A = *scene.splitting_A;
     const Poly B = scene.H - A;
     const auto Ht = splitting_modified_hamiltonian(scene.pi, A, B, method, m);
@@ -84,14 +86,20 @@ json splitting_report(const Scene& scene, SplittingMethod method, std::size_t m,
         for (const auto& P : Hj) c.push_back(entry ? entry(P) : json(P.to_string()));
         terms.push_back(c);
     }
-    json r{{"coordinates", scene.phase_space().coordinates()}, {"splitting", to_string(method)},
-           {"method_order", method_order(method)}, {"A", A.to_string()}, {"B", B.to_string()}, {"modified", terms},
+    json r{{"coordinates", scene.phase_space().coordinates()},
+           {"splitting", to_string(method)},
+           {"method_order", method_order(method)},
+           {"A", A.to_string()},
+           {"B", B.to_string()},
+           {"modified", terms},
            {"basis", method == SplittingMethod::yoshida ? json{"1", "w", "w^2"} : json{"1"}}};
     if (method == SplittingMethod::yoshida) r["w"] = "1/(2 - 2^(1/3))";
     auto fa = PolynomialFlow::build(scene.pi, A), fb = PolynomialFlow::build(scene.pi, B);
     if (!fa || !fb) {
-        r["run"] = {{"skipped", fmt::format("the flow of {} is not polynomial in t (its vector field is not nilpotent): "
-                                            "the series is exact, but pgi cannot run the splitting to check it", fa ? "B" : "A")}};
+        r["run"] = {
+            {"skipped", fmt::format("the flow of {} is not polynomial in t (its vector field is not nilpotent): "
+                                    "the series is exact, but pgi cannot run the splitting to check it",
+                                    fa ? "B" : "A")}};
         return r;
     }
     if (!scene.x0 || !scene.t_end) {
@@ -102,36 +110,47 @@ json splitting_report(const Scene& scene, SplittingMethod method, std::size_t m,
     const auto N = static_cast<std::size_t>(std::ceil(*scene.t_end / scene.dt - 1e-9));
     const auto [h1, m1] = splitting_drifts(scene, Ht, *fa, *fb, scene.dt, N);
     const auto [h2, m2] = splitting_drifts(scene, Ht, *fa, *fb, scene.dt / 2, 2 * N);
-    r["run"] = {{"dt", scene.dt}, {"steps", N}, {"t", double(N) * scene.dt}, {"energy_error_max", h1},
-                {"modified_energy_error_max", m1}, {"energy_error_max_half_dt", h2}, {"modified_energy_error_max_half_dt", m2},
-                {"energy_order_measured", std::log2(h1 / h2)}, {"modified_order_measured", std::log2(m1 / m2)},
+    r["run"] = {{"dt", scene.dt},
+                {"steps", N},
+                {"t", double(N) * scene.dt},
+                {"energy_error_max", h1},
+                {"modified_energy_error_max", m1},
+                {"energy_error_max_half_dt", h2},
+                {"modified_energy_error_max_half_dt", m2},
+                {"energy_order_measured", std::log2(h1 / h2)},
+                {"modified_order_measured", std::log2(m1 / m2)},
                 {"modified_order_expected", expected_order(method, m)}};
     return r;
 }
 
 std::string splitting_text(const json& r) {
     const bool yoshida = r["basis"].size() > 1;
-    std::string out = fmt::format("modified Hamiltonian of the {} splitting (method order {}) of H = A + B,\n  A = {}\n  B = {}\n",
-                                  r["splitting"].get<std::string>(), r["method_order"].get<std::size_t>(),
-                                  r["A"].get<std::string>(), r["B"].get<std::string>());
+    std::string out =
+        fmt::format("modified Hamiltonian of the {} splitting (method order {}) of H = A + B,\n  A = {}\n  B = {}\n",
+                    r["splitting"].get<std::string>(), r["method_order"].get<std::size_t>(), r["A"].get<std::string>(),
+                    r["B"].get<std::string>());
     out += "Htilde = sum_j dt^j H_j";
     out += yoshida ? ", H_j = P_j0 + w P_j1 + w^2 P_j2 with w = 1/(2 - 2^(1/3)):\n" : ":\n";
     for (std::size_t j = 0; j < r["modified"].size(); ++j) {
         const auto& c = r["modified"][j];
         const bool zero = std::all_of(c.begin(), c.end(), [](const json& p) { return p.get<std::string>() == "0"; });
-        if (!yoshida || zero) out += fmt::format("H_{} = {}\n", j, c[0].get<std::string>());
+        if (!yoshida || zero)
+            out += fmt::format("H_{} = {}\n", j, c[0].get<std::string>());
         else
-            for (std::size_t k = 0; k < c.size(); ++k) out += fmt::format("P_{}{} = {}\n", j, k, c[k].get<std::string>());
+            for (std::size_t k = 0; k < c.size(); ++k)
+                out += fmt::format("P_{}{} = {}\n", j, k, c[k].get<std::string>());
     }
     const json& run = r["run"];
-    if (run.contains("skipped")) out += fmt::format("no numerical check: {}\n", run["skipped"].get<std::string>());
+    if (run.contains("skipped"))
+        out += fmt::format("no numerical check: {}\n", run["skipped"].get<std::string>());
     else
-        out += fmt::format("run of {} steps of dt = {} to t = {} with exact flows of A and B: max relative error of H {:.3e} "
-                           "(order {:.2f} measured at dt/2), of Htilde through dt^{} {:.3e} (order {:.2f}, expected {})\n",
-                           run["steps"].get<std::size_t>(), run["dt"].get<double>(), run["t"].get<double>(),
-                           run["energy_error_max"].get<double>(), run["energy_order_measured"].get<double>(),
-                           r["modified"].size() - 1, run["modified_energy_error_max"].get<double>(),
-                           run["modified_order_measured"].get<double>(), run["modified_order_expected"].get<std::size_t>());
+        out += fmt::format(
+            "run of {} steps of dt = {} to t = {} with exact flows of A and B: max relative error of H {:.3e} "
+            "(order {:.2f} measured at dt/2), of Htilde through dt^{} {:.3e} (order {:.2f}, expected {})\n",
+            run["steps"].get<std::size_t>(), run["dt"].get<double>(), run["t"].get<double>(),
+            run["energy_error_max"].get<double>(), run["energy_order_measured"].get<double>(), r["modified"].size() - 1,
+            run["modified_energy_error_max"].get<double>(), run["modified_order_measured"].get<double>(),
+            run["modified_order_expected"].get<std::size_t>());
     return out;
 }
 

@@ -16,7 +16,8 @@
 
 TEST_CASE("newton_step: no allocation in the hot loop, for every realisation form, interpreted and native") {
     // native code's libraries go to a directory of this run's, removed at the end (not the user's cache)
-    const std::filesystem::path cache = std::filesystem::temp_directory_path() / ("pgi-alloc-test-" + std::to_string(::getpid()));
+    const std::filesystem::path cache =
+        std::filesystem::temp_directory_path() / ("pgi-alloc-test-" + std::to_string(::getpid()));
     ::setenv("PGI_JIT_CACHE", cache.c_str(), 1);
     for (const std::string name : {"rigid_body", "lotka_volterra", "nambu", "henon_heiles", "volterra_chain"})
         for (const bool jit : {false, true}) {

@@ -1,5 +1,6 @@
 // libFuzzer target: the whole pipeline (tests/fuzz/pipeline.hpp), the polynomial reader and the ensemble's
-// states reader (NPY and CSV) on arbitrary bytes; tools/fuzz.sh runs it. A crash it finds goes to tests/fuzz/regressions/, replayed by the tests.
+// states reader (NPY and CSV) on arbitrary bytes; tools/fuzz.sh runs it. A crash it finds goes to
+// tests/fuzz/regressions/, replayed by the tests.
 #include "tests/fuzz/pipeline.hpp"
 
 #include <cstddef>

@@ -55,7 +55,8 @@ inline Outcome run_pipeline(std::string_view text) {
 
 // The polynomial reader alone, in a small ring with a small budget, on the same bytes.
 inline Outcome run_parser(std::string_view text) {
-    static const auto budget = std::make_shared<const Budget>(BudgetLimits{.max_terms = 20'000, .max_bytes = std::size_t{1} << 30, .max_seconds = 1e9});
+    static const auto budget = std::make_shared<const Budget>(
+        BudgetLimits{.max_terms = 20'000, .max_bytes = std::size_t{1} << 30, .max_seconds = 1e9});
     static const auto ring = make_ring({"x", "y", "z"}, budget);
     try {
         (void)Poly::parse(ring, text);

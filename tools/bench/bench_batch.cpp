@@ -32,27 +32,40 @@ double median_ns_per_point(F&& fn, std::size_t points) {
     return t[3];
 }
 
-void measure(const std::string& scene, const std::string& name, const pgi::CompiledMap& map, const std::vector<double>& center) {
+void measure(const std::string& scene, const std::string& name, const pgi::CompiledMap& map,
+             const std::vector<double>& center) {
     const std::size_t k = map.num_inputs(), O = map.num_outputs();
     std::mt19937 gen(1);
     std::uniform_real_distribution<double> jitter(0.9, 1.1);
     for (std::size_t m : {1, 4, 8, 16, 64, 256, 1024}) {
         std::vector<double> soa(k * m), aos(k * m), out(O * m), scratch;
         for (std::size_t j = 0; j < m; ++j)
-            for (std::size_t v = 0; v < k; ++v) soa[v * m + j] = aos[j * k + v] = center[v] * jitter(gen) + 0.01 * jitter(gen);
+            for (std::size_t v = 0; v < k; ++v)
+                soa[v * m + j] = aos[j * k + v] = center[v] * jitter(gen) + 0.01 * jitter(gen);
         double sink = 0;
-        const double single = median_ns_per_point([&] {
-            for (std::size_t j = 0; j < m; ++j) map.eval(aos.data() + j * k, out.data() + j * O);
-            sink += out[0];
-        }, m);
-        const double batch = median_ns_per_point([&] {
-            map.eval_batch(soa.data(), out.data(), m, scratch);
-            sink += out[0];
-        }, m);
-        std::cout << nlohmann::json{{"scene", scene}, {"map", name}, {"inputs", k}, {"outputs", O},
-                                    {"monomials", map.num_monomials()}, {"terms", map.num_terms()}, {"m", m},
-                                    {"single_ns_per_point", single}, {"batch_ns_per_point", batch},
-                                    {"single_over_batch", single / batch}, {"sink", sink != 0}}
+        const double single = median_ns_per_point(
+            [&] {
+                for (std::size_t j = 0; j < m; ++j) map.eval(aos.data() + j * k, out.data() + j * O);
+                sink += out[0];
+            },
+            m);
+        const double batch = median_ns_per_point(
+            [&] {
+                map.eval_batch(soa.data(), out.data(), m, scratch);
+                sink += out[0];
+            },
+            m);
+        std::cout << nlohmann::json{{"scene", scene},
+                                    {"map", name},
+                                    {"inputs", k},
+                                    {"outputs", O},
+                                    {"monomials", map.num_monomials()},
+                                    {"terms", map.num_terms()},
+                                    {"m", m},
+                                    {"single_ns_per_point", single},
+                                    {"batch_ns_per_point", batch},
+                                    {"single_over_batch", single / batch},
+                                    {"sink", sink != 0}}
                          .dump()
                   << std::endl;
     }
@@ -69,7 +82,8 @@ int main(int argc, char** argv) {
         const pgi::Scene s = pgi::load_scene(argv[a]);
         const pgi::PhaseSpace& M = s.phase_space();
         const std::vector<double> x0 = *s.x0;
-        measure(s.name, "vector field", pgi::CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), M.coordinate_vars()), x0);
+        measure(s.name, "vector field",
+                pgi::CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), M.coordinate_vars()), x0);
         const pgi::Scheme radial(s.pi, s.H, {}, 2, pgi::RealisationChoice::radial);
         std::vector<pgi::Poly> alpha;
         for (const auto& a_i : radial.realisation(6).alpha) alpha.push_back(a_i.sum());

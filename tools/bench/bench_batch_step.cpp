@@ -16,10 +16,13 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 // X[v m + j] stepped in place one state at a time; the seconds it took.
-double step_one_by_one(pgi::NewtonStepper stepper, std::vector<double>& X, std::size_t m, std::size_t n, std::size_t steps, double dt) {
+double step_one_by_one(pgi::NewtonStepper stepper, std::vector<double>& X, std::size_t m, std::size_t n,
+                       std::size_t steps, double dt) {
     Eigen::VectorXd x(static_cast<Eigen::Index>(n)), increment(static_cast<Eigen::Index>(n));
     const auto t0 = Clock::now();
     for (std::size_t j = 0; j < m; ++j) {
@@ -31,7 +34,8 @@ double step_one_by_one(pgi::NewtonStepper stepper, std::vector<double>& X, std::
 }
 
 // The same in batches of `lanes` (each lane's state advanced while its steps are ok).
-double step_in_batches(pgi::BatchStepper& batch, std::vector<double>& X, std::size_t m, std::size_t n, std::size_t steps, double dt) {
+double step_in_batches(pgi::BatchStepper& batch, std::vector<double>& X, std::size_t m, std::size_t n,
+                       std::size_t steps, double dt) {
     const std::size_t L = batch.lanes();
     std::vector<double> B(n * L), increments(n * L);
     std::vector<pgi::StepStatus> status(L);
@@ -78,13 +82,19 @@ int main(int argc, char** argv) {
         const double t_single = step_one_by_one(stepper, single, m, n, steps, s.dt);
         const double t_batch = step_in_batches(batch, batched, m, n, steps, s.dt);
         const double per = 1e9 / double(m * steps);
-        const char* name = batch.instructions() == pgi::LaneInstructions::avx2   ? "avx2"
-                         : batch.instructions() == pgi::LaneInstructions::sse2 ? "sse2"
-                                                                                 : "no lane form (state by state after a batched predictor)";
-        std::cout << nlohmann::json{{"scene", s.name}, {"k", s.scheme->order()},
-                                    {"m", m}, {"steps", steps}, {"lanes", name},
-                                    {"single_ns_per_step", t_single * per}, {"batch_ns_per_step", t_batch * per},
-                                    {"single_over_batch", t_single / t_batch}, {"same_bits", single == batched}}
+        const char* name = batch.instructions() == pgi::LaneInstructions::avx2 ? "avx2"
+                           : batch.instructions() == pgi::LaneInstructions::sse2
+                               ? "sse2"
+                               : "no lane form (state by state after a batched predictor)";
+        std::cout << nlohmann::json{{"scene", s.name},
+                                    {"k", s.scheme->order()},
+                                    {"m", m},
+                                    {"steps", steps},
+                                    {"lanes", name},
+                                    {"single_ns_per_step", t_single * per},
+                                    {"batch_ns_per_step", t_batch * per},
+                                    {"single_over_batch", t_single / t_batch},
+                                    {"same_bits", single == batched}}
                          .dump()
                   << std::endl;
     }

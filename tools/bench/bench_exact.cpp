@@ -1,6 +1,6 @@
 // Times pgi's exact phase on the workloads of tools/bench/bench_exact.py and bench_modified.py, prints JSON:
-// {"seconds": median wall time, "repetitions": R, "allocator": what the program allocates with (tools/program_allocator),
-// "result": [polynomials]} for one workload.
+// {"seconds": median wall time, "repetitions": R, "allocator": what the program allocates with
+// (tools/program_allocator), "result": [polynomials]} for one workload.
 #include "scheme/scheme.hpp"
 #include "scheme/scene.hpp"
 #include "tools/program_allocator.hpp"
@@ -52,7 +52,10 @@ int main(int argc, char** argv) {
         times.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
     }
     std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
-    std::cout << nlohmann::json{{"seconds", times[times.size() / 2]}, {"repetitions", times.size()}, {"allocator", pgi::program_allocator()},
-                                {"result", strings(result)}}.dump()
+    std::cout << nlohmann::json{{"seconds", times[times.size() / 2]},
+                                {"repetitions", times.size()},
+                                {"allocator", pgi::program_allocator()},
+                                {"result", strings(result)}}
+                     .dump()
               << "\n";
 }

@@ -3,8 +3,10 @@
 // system (F and J), and step time over one evaluation of the vector field pi grad H compiled the same way.
 // Also the alternatives to the Taylor predictor and to a fresh Jacobian per step (Alternatives below): the predictor's
 // miss, extrapolation's, the Jacobian's drift from step to step and one residual evaluation's time.
-// Prints one JSON object per line. Usage: pgi_bench_step SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER] [--jit] [--dt DT]
-// (--dt: instead of the scene's; --jit: the step's maps as native code, StepOptions::jit; its compilation is in build_seconds).
+// Prints one JSON object per line. Usage: pgi_bench_step SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER] [--jit]
+// [--dt DT]
+// (--dt: instead of the scene's; --jit: the step's maps as native code, StepOptions::jit; its compilation is in
+// build_seconds).
 #include "poisson/integrate.hpp"
 #include "scheme/scene.hpp"
 
@@ -65,7 +67,8 @@ Alternatives alternatives(pgi::NewtonStepper& st, const std::vector<Eigen::Vecto
         a.predictor_error = std::max(a.predictor_error, (predicted - xb).lpNorm<Eigen::Infinity>() / scale);
         for (std::size_t q = 1; q <= Q && q <= i; ++q) {
             Eigen::VectorXd e = Eigen::VectorXd::Zero(n);
-            for (std::size_t j = 1; j <= q; ++j) {  // node -j + 1 (xb_(i-j)), evaluated at 1: weight prod_(l != j) l / (l - j)
+            for (std::size_t j = 1; j <= q;
+                 ++j) {  // node -j + 1 (xb_(i-j)), evaluated at 1: weight prod_(l != j) l / (l - j)
                 double w = 1;
                 for (std::size_t l = 1; l <= q; ++l)
                     if (l != j) w *= double(l) / (double(l) - double(j));
@@ -74,7 +77,8 @@ Alternatives alternatives(pgi::NewtonStepper& st, const std::vector<Eigen::Vecto
             extrapolated[q] = std::max(extrapolated[q], (e - xb).lpNorm<Eigen::Infinity>() / scale);
         }
         const Eigen::MatrixXd J = st.newton_system(xb);
-        if (i > 0) drift += (J_before.partialPivLu().solve(J) - Eigen::MatrixXd::Identity(n, n)).lpNorm<Eigen::Infinity>();
+        if (i > 0)
+            drift += (J_before.partialPivLu().solve(J) - Eigen::MatrixXd::Identity(n, n)).lpNorm<Eigen::Infinity>();
         J_before = J;
         a.base_points.push_back(xb);
     }
@@ -82,7 +86,8 @@ Alternatives alternatives(pgi::NewtonStepper& st, const std::vector<Eigen::Vecto
     a.extrapolation_error = *best, a.extrapolation_points = std::size_t(best - extrapolated.begin());
     a.jacobian_drift = a.base_points.size() > 1 ? drift / double(a.base_points.size() - 1) : 0;
     const double target = 64 * std::numeric_limits<double>::epsilon() / 2;
-    a.kept_jacobian_iterations = a.predictor_error <= target ? 0 : std::ceil(std::log(target / a.predictor_error) / std::log(a.jacobian_drift));
+    a.kept_jacobian_iterations =
+        a.predictor_error <= target ? 0 : std::ceil(std::log(target / a.predictor_error) / std::log(a.jacobian_drift));
     return a;
 }
 
@@ -111,13 +116,20 @@ int main(int argc, char** argv) {
     const std::string ks = pos.size() > 1 ? pos[1] : "6";
     const auto colon = ks.find(':');
     const std::size_t k_min = colon == std::string::npos ? 1 : std::stoul(ks.substr(0, colon));
-    const std::size_t k_max = std::stoul(colon == std::string::npos ? ks : ks.substr(colon + 1)), steps = pos.size() > 2 ? std::stoul(pos[2]) : 20000;
+    const std::size_t k_max = std::stoul(colon == std::string::npos ? ks : ks.substr(colon + 1)),
+                      steps = pos.size() > 2 ? std::stoul(pos[2]) : 20000;
     const std::size_t predictor = pos.size() > 3 ? std::stoul(pos[3]) : 0;
     const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
     const auto field = pgi::CompiledMap::build(s.pi.hamiltonian_vector_field(s.H), s.phase_space().coordinate_vars());
     Eigen::VectorXd f(x0.size()), y = x0;
     double sink = 0;
-    const double field_ns = median_ns([&](std::size_t i) { y[0] = x0[0] + 1e-12 * double(i & 7); field.eval(y.data(), f.data()); sink += f[0]; }, 200000);
+    const double field_ns = median_ns(
+        [&](std::size_t i) {
+            y[0] = x0[0] + 1e-12 * double(i & 7);
+            field.eval(y.data(), f.data());
+            sink += f[0];
+        },
+        200000);
     for (std::size_t k = k_min; k <= k_max; ++k) {
         pgi::StepOptions opt;
         opt.k = k;
@@ -126,7 +138,7 @@ int main(int argc, char** argv) {
         opt.predictor_order = predictor;
         opt.jit = jit;
         auto t0 = Clock::now();
-        s.phase_space().ring()->budget().restart();  // each build has the whole time budget
+        s.phase_space().ring()->budget().restart();                         // each build has the whole time budget
         const pgi::Scheme scheme(s.pi, s.H, s.casimirs, k, s.realisation);  // the scene's problem at order k
         auto st = scheme.stepper(opt, x0);
         const double build_s = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -147,18 +159,37 @@ int main(int argc, char** argv) {
             std::cerr << "k = " << k << ": stepping again from the trajectory's first state failed\n";
             return 3;
         }
-        const double step_ns = median_ns([&](std::size_t i) { (void)st.step(states[i % states.size()], inc); sink += inc[0]; }, steps);
-        const double system_ns = median_ns([&](std::size_t i) { sink += st.newton_system(states[i % states.size()])(0, 0); }, steps);
+        const double step_ns = median_ns(
+            [&](std::size_t i) {
+                (void)st.step(states[i % states.size()], inc);
+                sink += inc[0];
+            },
+            steps);
+        const double system_ns =
+            median_ns([&](std::size_t i) { sink += st.newton_system(states[i % states.size()])(0, 0); }, steps);
         const std::size_t B = alt.base_points.size();
-        const double residual_ns = median_ns([&](std::size_t i) { sink += st.residual_at(states[i % B], alt.base_points[i % B]); }, steps);
-        std::cout << nlohmann::json{{"scene", s.name}, {"k", k}, {"method_order", st.order()}, {"dt", s.dt},
-                                    {"realisation", st.info().method}, {"native_maps", st.info().native_maps}, {"degree", st.info().degree}, {"predictor_order", st.info().predictor_order},
-                                    {"ns_per_step", step_ns}, {"newton_iterations_mean", summary.mean_iterations},
-                                    {"newton_system_ns", system_ns}, {"vector_field_ns", field_ns},
-                                    {"step_over_newton_system", step_ns / system_ns}, {"step_over_vector_field", step_ns / field_ns},
-                                    {"build_seconds", build_s}, {"residual_ns", residual_ns},
-                                    {"predictor_error", alt.predictor_error}, {"extrapolation_error", alt.extrapolation_error},
-                                    {"extrapolation_points", alt.extrapolation_points}, {"jacobian_drift", alt.jacobian_drift},
+        const double residual_ns =
+            median_ns([&](std::size_t i) { sink += st.residual_at(states[i % B], alt.base_points[i % B]); }, steps);
+        std::cout << nlohmann::json{{"scene", s.name},
+                                    {"k", k},
+                                    {"method_order", st.order()},
+                                    {"dt", s.dt},
+                                    {"realisation", st.info().method},
+                                    {"native_maps", st.info().native_maps},
+                                    {"degree", st.info().degree},
+                                    {"predictor_order", st.info().predictor_order},
+                                    {"ns_per_step", step_ns},
+                                    {"newton_iterations_mean", summary.mean_iterations},
+                                    {"newton_system_ns", system_ns},
+                                    {"vector_field_ns", field_ns},
+                                    {"step_over_newton_system", step_ns / system_ns},
+                                    {"step_over_vector_field", step_ns / field_ns},
+                                    {"build_seconds", build_s},
+                                    {"residual_ns", residual_ns},
+                                    {"predictor_error", alt.predictor_error},
+                                    {"extrapolation_error", alt.extrapolation_error},
+                                    {"extrapolation_points", alt.extrapolation_points},
+                                    {"jacobian_drift", alt.jacobian_drift},
                                     {"kept_jacobian_iterations", alt.kept_jacobian_iterations}}
                          .dump()
                   << std::endl;

@@ -10,9 +10,9 @@ namespace {
 
 // Symmetric functions of the moments of inertia that the coefficients are written in.
 struct Inertia {
-    double D;                   // I_1 I_2 I_3
-    double S1, S2, S3, S4;      // sum I_i^p
-    double X1, X2, X3, X4;      // sum I_i^-p
+    double D;                             // I_1 I_2 I_3
+    double S1, S2, S3, S4;                // sum I_i^p
+    double X1, X2, X3, X4;                // sum I_i^-p
     double P11, P12, P21, P13, P31, P22;  // P_pq = sum over i of (I_j^p + I_k^p) / I_i^q, {i, j, k} = {1, 2, 3}
 
     explicit Inertia(const Vec3& I) : D(I[0] * I[1] * I[2]) {
@@ -21,7 +21,8 @@ struct Inertia {
         X1 = pw(-1), X2 = pw(-2), X3 = pw(-3), X4 = pw(-4);
         auto P = [&](int p, int q) {
             double s = 0;
-            for (int i = 0; i < 3; ++i) s += (std::pow(I[(i + 1) % 3], p) + std::pow(I[(i + 2) % 3], p)) / std::pow(I[i], q);
+            for (int i = 0; i < 3; ++i)
+                s += (std::pow(I[(i + 1) % 3], p) + std::pow(I[(i + 2) % 3], p)) / std::pow(I[i], q);
             return s;
         };
         P11 = P(1, 1), P12 = P(1, 2), P21 = P(2, 1), P13 = P(1, 3), P31 = P(3, 1), P22 = P(2, 2);
@@ -31,9 +32,11 @@ struct Inertia {
 }  // namespace
 
 Dmv::Dmv(int order, const Vec3& inertia) : order_(order), I_(inertia) {
-    if (order < 2 || order > 10 || order % 2 != 0) throw std::invalid_argument("DMV: order must be 2, 4, 6, 8 or 10, not " + std::to_string(order));
+    if (order < 2 || order > 10 || order % 2 != 0)
+        throw std::invalid_argument("DMV: order must be 2, 4, 6, 8 or 10, not " + std::to_string(order));
     for (double v : inertia)
-        if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument("DMV: moments of inertia must be positive and finite");
+        if (!(v > 0) || !std::isfinite(v))
+            throw std::invalid_argument("DMV: moments of inertia must be positive and finite");
     const Inertia c(inertia);
     const double D = c.D, D2 = D * D, D3 = D2 * D, D4 = D2 * D2;
     // Hairer and Vilmart (2006), the modified moments of inertia through h^8: layer j holds the
@@ -42,10 +45,12 @@ Dmv::Dmv(int order, const Vec3& inertia) : order_(order), I_(inertia) {
     layers_[0].d = {-1 / (3 * D), c.S1 / (6 * D)};
     layers_[1].s = {(c.S2 / D - c.X1) / (30 * D), (1 - c.P11) / (30 * D), (3 * c.S1 / D + 2 * c.X2) / 60};
     layers_[1].d = {-c.S1 / D2 / 60, c.X1 / D / 10 - c.S2 / D2 / 60, -(9 + c.P11) / D / 60};
-    layers_[2].s = {(4 * D + 17 * c.S3 - 15 * D * c.P11) / (2520 * D3), (9 * c.S1 + 10 * D * c.X2 - 6 * c.P21) / (420 * D2),
+    layers_[2].s = {(4 * D + 17 * c.S3 - 15 * D * c.P11) / (2520 * D3),
+                    (9 * c.S1 + 10 * D * c.X2 - 6 * c.P21) / (420 * D2),
                     ((6 * c.P12 - 100 * c.X1) * D + 53 * c.S2) / (2520 * D2), (15 - D * c.X3 - 2 * c.P11) / (630 * D)};
     layers_[2].d = {(34 * D * c.X1 - 19 * c.S2) / (2520 * D3), (c.S3 + 2 * D * c.P11 - 85 * D) / (1260 * D3),
-                    (47 * c.S1 + 13 * c.P21 - 38 * D * c.X2) / (2520 * D2), (9 * D * c.X1 + D * c.P12 - 11 * c.S2) / (1260 * D2)};
+                    (47 * c.S1 + 13 * c.P21 - 38 * D * c.X2) / (2520 * D2),
+                    (9 * D * c.X1 + D * c.P12 - 11 * c.S2) / (1260 * D2)};
     layers_[3].s = {(62 * c.S4 - 94 * D * c.P21 + 66 * D2 * c.X2 + 81 * D * c.S1) / (45360 * D4),
                     (-77 * c.P31 + 75 * D * c.P12 + 214 * c.S2 - 240 * D * c.X1) / (22680 * D3),
                     (26 * D * c.P22 + 55 * c.S3 + 204 * D - 50 * D2 * c.X3 - 59 * D * c.P11) / (7560 * D3),
@@ -94,7 +99,8 @@ void Dmv::step(Vec3& m, double h) const {
     int sweeps = 0;
     for (double change = INFINITY; !(change <= tol * (std::abs(c[0]) + std::abs(c[1]) + std::abs(c[2]))); ++sweeps) {
         if (sweeps == 60 || (sweeps > 0 && !std::isfinite(change)))
-            throw std::runtime_error("DMV: the stage did not converge to round-off (step " + std::to_string(h) + " too large)");
+            throw std::runtime_error("DMV: the stage did not converge to round-off (step " + std::to_string(h) +
+                                     " too large)");
         const double alpha = 1 + c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
         change = 0;
         for (int i = 0; i < 3; ++i) {

@@ -23,9 +23,9 @@
 namespace {
 
 using namespace pgi::peers;
+using nlohmann::json;
 using pgi::bench::Dmv;
 using pgi::bench::Vec3;
-using nlohmann::json;
 
 // I_i from H(e_i) = 1 / (2 I_i), then the scene's field checked against m x (I^-1 m) at a few points.
 Vec3 rigid_body_inertia(const Problem& pr) {
@@ -46,13 +46,15 @@ Vec3 rigid_body_inertia(const Problem& pr) {
         const Vec3 g{m[1] * w[2] - m[2] * w[1], m[2] * w[0] - m[0] * w[2], m[0] * w[1] - m[1] * w[0]};
         for (int i = 0; i < 3; ++i)
             if (std::abs(f[i] - g[i]) > 1e-12 * (1 + std::abs(g[i])))
-                throw std::invalid_argument("dmv_bench: the scene's field is not m x (I^-1 m) with I read from H: not the free rigid body");
+                throw std::invalid_argument(
+                    "dmv_bench: the scene's field is not m x (I^-1 m) with I read from H: not the free rigid body");
     }
     return I;
 }
 
 Method dmv_method(int order, const Vec3& I) {
-    return {fmt::format("dmv{}", order), true, [order, I](const Problem& pr, const State& x0, double T, double h, Samples* samples) {
+    return {fmt::format("dmv{}", order), true,
+            [order, I](const Problem& pr, const State& x0, double T, double h, Samples* samples) {
                 const Dmv dmv(order, I);
                 Vec3 m{x0[0], x0[1], x0[2]};
                 pr.evaluations = 0;
@@ -84,15 +86,21 @@ struct Point {
 json at_target(const std::string& name, std::vector<Point> pts, double target) {
     std::sort(pts.begin(), pts.end(), [](const Point& a, const Point& b) { return a.steps < b.steps; });
     auto ns = [](const Point& p) { return 1e9 * p.seconds / double(std::max<std::size_t>(p.steps, 1)); };
-    json out{{"method", name}, {"ns_per_step", nullptr}, {"seconds", nullptr}, {"how", "not reached"}, {"steps", nullptr}};
+    json out{
+        {"method", name}, {"ns_per_step", nullptr}, {"seconds", nullptr}, {"how", "not reached"}, {"steps", nullptr}};
     if (!pts.empty() && pts[0].error <= target)
-        return out.update({{"seconds", pts[0].seconds}, {"how", "cheapest reaching"}, {"steps", pts[0].steps}, {"ns_per_step", ns(pts[0])}}), out;
+        return out.update({{"seconds", pts[0].seconds},
+                           {"how", "cheapest reaching"},
+                           {"steps", pts[0].steps},
+                           {"ns_per_step", ns(pts[0])}}),
+               out;
     for (std::size_t i = 0; i + 1 < pts.size(); ++i)
         if (pts[i].error > target && target >= pts[i + 1].error) {
             const double w = std::log(target / pts[i].error) / std::log(pts[i + 1].error / pts[i].error);
             out["seconds"] = std::exp(std::log(pts[i].seconds) + w * std::log(pts[i + 1].seconds / pts[i].seconds));
             out["how"] = "interpolated";
-            out["steps"] = std::llround(std::exp(std::log(double(pts[i].steps)) + w * std::log(double(pts[i + 1].steps) / double(pts[i].steps))));
+            out["steps"] = std::llround(std::exp(std::log(double(pts[i].steps)) +
+                                                 w * std::log(double(pts[i + 1].steps) / double(pts[i].steps))));
             out["ns_per_step"] = 0.5 * (ns(pts[i]) + ns(pts[i + 1]));
             return out;
         }
@@ -136,10 +144,17 @@ int main(int argc, char** argv) {
                 const Outcome o = best_of(m, pr, x0, T, v);
                 const double err = o.ok ? distance(o.x, ref) : std::nan("");
                 const bool usable = o.ok && err >= 100 * ref_accuracy;
-                std::cerr << fmt::format("{:8s} {}={:<10g} error {:9.2e}  {:9.5f} s  {:8d} steps{}\n", m.name, m.fixed_step ? "dt" : "tol", v,
-                                         err, o.seconds, o.steps, o.ok ? "" : "  FAILED: " + o.failure);
-                rows.push_back({{"method", m.name}, {m.fixed_step ? "dt" : "tol", v}, {"error", o.ok ? json(err) : json()}, {"seconds", o.seconds},
-                                {"steps", o.steps}, {"setup_seconds", o.setup_seconds}, {"usable", usable}, {"failure", o.failure}});
+                std::cerr << fmt::format("{:8s} {}={:<10g} error {:9.2e}  {:9.5f} s  {:8d} steps{}\n", m.name,
+                                         m.fixed_step ? "dt" : "tol", v, err, o.seconds, o.steps,
+                                         o.ok ? "" : "  FAILED: " + o.failure);
+                rows.push_back({{"method", m.name},
+                                {m.fixed_step ? "dt" : "tol", v},
+                                {"error", o.ok ? json(err) : json()},
+                                {"seconds", o.seconds},
+                                {"steps", o.steps},
+                                {"setup_seconds", o.setup_seconds},
+                                {"usable", usable},
+                                {"failure", o.failure}});
                 if (usable) pts.push_back({err, o.seconds, o.steps});
             }
             targets.push_back(at_target(m.name, pts, target));
@@ -161,10 +176,17 @@ int main(int argc, char** argv) {
         const std::string pgi_best = best(""), pgi_best_jit = best("-jit");
         const double ratio = pgi_best.empty() ? std::nan("") : seconds_of("dmv10") / seconds_of(pgi_best);
         const double ratio_jit = pgi_best_jit.empty() ? std::nan("") : seconds_of("dmv10") / seconds_of(pgi_best_jit);
-        json out{{"scene", scene.name}, {"t_end", T}, {"target", target}, {"inertia", I},
+        json out{{"scene", scene.name},
+                 {"t_end", T},
+                 {"target", target},
+                 {"inertia", I},
                  {"reference", {{"method", "Fehlberg 7(8), long double, tol 1e-18"}, {"accuracy", ref_accuracy}}},
-                 {"at_target", targets}, {"pgi_best", pgi_best}, {"ratio", std::isfinite(ratio) ? json(ratio) : json()},
-                 {"pgi_best_jit", pgi_best_jit}, {"ratio_jit", std::isfinite(ratio_jit) ? json(ratio_jit) : json()}, {"rows", rows}};
+                 {"at_target", targets},
+                 {"pgi_best", pgi_best},
+                 {"ratio", std::isfinite(ratio) ? json(ratio) : json()},
+                 {"pgi_best_jit", pgi_best_jit},
+                 {"ratio_jit", std::isfinite(ratio_jit) ? json(ratio_jit) : json()},
+                 {"rows", rows}};
         std::cout << out.dump(1) << "\n";
     } catch (const pgi::SceneError& e) {
         std::cerr << "dmv_bench: " << e.what() << "\n";

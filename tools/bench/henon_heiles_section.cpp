@@ -50,12 +50,15 @@ int main(int argc, char** argv) try {
     for (std::size_t o = 0; o < orbits; ++o) {
         Eigen::VectorXd x = starts[o];
         const double H0 = pgi::evaluate(s.H, std::vector<double>{x(0), x(1), x(2), x(3), 0, 0, 0, 0});
-        const auto run = loop.run(stepper, x, N, [](const pgi::RunPoint&) { return false; }, &detector, [&](const pgi::Crossing& c) {
-            csv += fmt::format("{},{},{},{}\n", o, c.t, c.x(1), c.x(3));
-            const double h = 0.5 * (c.x(2) * c.x(2) + c.x(3) * c.x(3) + c.x(1) * c.x(1)) - c.x(1) * c.x(1) * c.x(1) / 3;
-            energy_error = std::max(energy_error, std::abs(h - H0) / H0);
-            return false;
-        });
+        const auto run = loop.run(
+            stepper, x, N, [](const pgi::RunPoint&) { return false; }, &detector,
+            [&](const pgi::Crossing& c) {
+                csv += fmt::format("{},{},{},{}\n", o, c.t, c.x(1), c.x(3));
+                const double h =
+                    0.5 * (c.x(2) * c.x(2) + c.x(3) * c.x(3) + c.x(1) * c.x(1)) - c.x(1) * c.x(1) * c.x(1) / 3;
+                energy_error = std::max(energy_error, std::abs(h - H0) / H0);
+                return false;
+            });
         steps += run.steps;
         crossings += run.crossings;
         if (!run.ok()) ++failed;
@@ -69,11 +72,19 @@ int main(int argc, char** argv) try {
     }
     const double plain_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     std::ofstream(argv[2]) << csv;
-    std::cout << nlohmann::json{{"energy", E},         {"orbits", orbits},           {"t_end", T},
-                                {"order", s.order},    {"method_order", stepper.order()}, {"dt", s.dt},
-                                {"steps", steps},      {"crossings", crossings},     {"failed_orbits", failed},
-                                {"wall_seconds", seconds}, {"build_seconds", build_seconds},
-                                {"without_events_seconds", plain_seconds}, {"events_cost_ratio", seconds / plain_seconds},
+    std::cout << nlohmann::json{{"energy", E},
+                                {"orbits", orbits},
+                                {"t_end", T},
+                                {"order", s.order},
+                                {"method_order", stepper.order()},
+                                {"dt", s.dt},
+                                {"steps", steps},
+                                {"crossings", crossings},
+                                {"failed_orbits", failed},
+                                {"wall_seconds", seconds},
+                                {"build_seconds", build_seconds},
+                                {"without_events_seconds", plain_seconds},
+                                {"events_cost_ratio", seconds / plain_seconds},
                                 {"max_relative_energy_error_at_crossings", energy_error}}
                      .dump()
               << "\n";

@@ -24,11 +24,12 @@ int jac(double, const double y[], double* dfdy, double dfdt[], void* p) {
 }
 
 // value: the step (fixed) or the relative tolerance (adaptive, from a first step of the scene's dt)
-Outcome run_gsl(const gsl_odeiv2_step_type* type, bool fixed, const Problem& pr, const State& x0, double T, double value,
-                Samples* samples) {
+Outcome run_gsl(const gsl_odeiv2_step_type* type, bool fixed, const Problem& pr, const State& x0, double T,
+                double value, Samples* samples) {
     gsl_odeiv2_system sys{rhs, jac, pr.n, const_cast<Problem*>(&pr)};
     // the implicit steppers read the Jacobian: built here, outside the timed run (once per problem)
-    if (type == gsl_odeiv2_step_rk2imp || type == gsl_odeiv2_step_rk4imp || type == gsl_odeiv2_step_msbdf) pr.jacobian();
+    if (type == gsl_odeiv2_step_rk2imp || type == gsl_odeiv2_step_rk4imp || type == gsl_odeiv2_step_msbdf)
+        pr.jacobian();
     double h = fixed ? value : pr.scene.dt;
     const double eps_rel = fixed ? 1e-14 : value, eps_abs = absolute_tolerance(eps_rel, x0);
     // NOTE: GSL's implicit steppers (rk4imp, msbdf) work only through a driver, which owns step, control and evolve.
@@ -59,7 +60,8 @@ Outcome run_gsl(const gsl_odeiv2_step_type* type, bool fixed, const Problem& pr,
 }
 
 Method gsl(std::string name, const gsl_odeiv2_step_type* type, bool fixed) {
-    return {std::move(name), fixed, [type, fixed](const Problem& pr, const State& x0, double T, double value, Samples* s) {
+    return {std::move(name), fixed,
+            [type, fixed](const Problem& pr, const State& x0, double T, double value, Samples* s) {
                 return run_gsl(type, fixed, pr, x0, T, value, s);
             }};
 }

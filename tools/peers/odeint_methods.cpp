@@ -53,8 +53,9 @@ Method fixed_rk4() {
 Method dopri5() {
     return {"odeint-dopri5", false, [](const Problem& pr, const State& x0, double T, double tol, Samples* s) {
                 return run_odeint(pr, x0, s, [&](auto& sys, State& x, auto& obs) {
-                    odeint::integrate_adaptive(odeint::make_controlled(absolute_tolerance(tol, x0), tol, odeint::runge_kutta_dopri5<State>()),
-                                               sys, x, 0.0, T, pr.scene.dt, obs);
+                    odeint::integrate_adaptive(
+                        odeint::make_controlled(absolute_tolerance(tol, x0), tol, odeint::runge_kutta_dopri5<State>()),
+                        sys, x, 0.0, T, pr.scene.dt, obs);
                 });
             }};
 }
@@ -62,14 +63,17 @@ Method dopri5() {
 Method bulirsch_stoer() {
     return {"odeint-bs", false, [](const Problem& pr, const State& x0, double T, double tol, Samples* s) {
                 return run_odeint(pr, x0, s, [&](auto& sys, State& x, auto& obs) {
-                    odeint::integrate_adaptive(odeint::bulirsch_stoer<State>(absolute_tolerance(tol, x0), tol), sys, x, 0.0, T, pr.scene.dt, obs);
+                    odeint::integrate_adaptive(odeint::bulirsch_stoer<State>(absolute_tolerance(tol, x0), tol), sys, x,
+                                               0.0, T, pr.scene.dt, obs);
                 });
             }};
 }
 
 }  // namespace
 
-std::vector<Method> odeint_methods() { return {fixed_rk4(), dopri5(), bulirsch_stoer()}; }
+std::vector<Method> odeint_methods() {
+    return {fixed_rk4(), dopri5(), bulirsch_stoer()};
+}
 
 State reference_solution(const Problem& pr, const State& x0, double T, long double tol) {
     using LState = std::vector<long double>;
@@ -77,8 +81,9 @@ State reference_solution(const Problem& pr, const State& x0, double T, long doub
     auto system = [&](const LState& y, LState& dydt, long double) { pr.field.eval(y.data(), dydt.data(), scratch); };
     LState x(x0.begin(), x0.end());
     const auto abs_tol = static_cast<long double>(absolute_tolerance(1.0, x0)) * tol;
-    odeint::integrate_adaptive(odeint::make_controlled(abs_tol, tol, odeint::runge_kutta_fehlberg78<LState, long double>()), system, x,
-                               0.0L, static_cast<long double>(T), static_cast<long double>(pr.scene.dt));
+    odeint::integrate_adaptive(
+        odeint::make_controlled(abs_tol, tol, odeint::runge_kutta_fehlberg78<LState, long double>()), system, x, 0.0L,
+        static_cast<long double>(T), static_cast<long double>(pr.scene.dt));
     return State(x.begin(), x.end());
 }
 

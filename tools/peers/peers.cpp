@@ -2,7 +2,8 @@
 // part of the core library: only this program links the peers. The same compiled vector field (pi grad
 // H, and its Jacobian for the implicit peers) feeds every method, so the comparison measures the methods.
 //
-//   pgi_peers SCENE [--orders 2,4,6] [--realisations radial] [--jit] [--peers rk4imp,rk8pd,...] [--dts ...] [--tols ...]
+//   pgi_peers SCENE [--orders 2,4,6] [--realisations radial] [--jit] [--peers rk4imp,rk8pd,...] [--dts ...] [--tols
+//   ...]
 //                   [--order K] [--dt DT] [--x0 A,B,...] [--t-end T] [--watch POLY]...
 //                   [--csv FILE] [--plot FILE.svg] [--drift FILE] [--drift-t-end T2] [--long T3] [--suite]
 //
@@ -41,7 +42,8 @@ using nlohmann::json;
 
 // pgi at each order (with the scene's realisation, then with each extra one), then the peers named
 // (all of them if none is); an unknown name is an error.
-std::vector<Method> select_methods(const std::vector<std::size_t>& orders, const std::vector<pgi::RealisationChoice>& extra,
+std::vector<Method> select_methods(const std::vector<std::size_t>& orders,
+                                   const std::vector<pgi::RealisationChoice>& extra,
                                    const std::vector<std::string>& names, bool jit) {
     std::vector<Method> peers = gsl_methods(), chosen;
     for (auto& o : odeint_methods()) peers.push_back(std::move(o));
@@ -57,7 +59,8 @@ std::vector<Method> select_methods(const std::vector<std::size_t>& orders, const
     for (auto r : extra)
         for (std::size_t k : orders) chosen.push_back(pgi_method(k, r));
     for (auto& m : peers)
-        if (names.empty() || std::find(names.begin(), names.end(), m.name) != names.end()) chosen.push_back(std::move(m));
+        if (names.empty() || std::find(names.begin(), names.end(), m.name) != names.end())
+            chosen.push_back(std::move(m));
     return chosen;
 }
 
@@ -68,20 +71,32 @@ struct Ladders {
 };
 
 json outcome_json(const Outcome& o) {
-    return {{"seconds", o.seconds}, {"steps", o.steps}, {"evaluations", o.evaluations}, {"energy_error_max", o.energy_error},
-            {"casimir_error_max", o.casimir_error}, {"watched_final_over_initial", o.watched}, {"ok", o.ok},
-            {"failure", o.failure}, {"setup_seconds", o.setup_seconds}};
+    return {{"seconds", o.seconds},
+            {"steps", o.steps},
+            {"evaluations", o.evaluations},
+            {"energy_error_max", o.energy_error},
+            {"casimir_error_max", o.casimir_error},
+            {"watched_final_over_initial", o.watched},
+            {"ok", o.ok},
+            {"failure", o.failure},
+            {"setup_seconds", o.setup_seconds}};
 }
 
-void log_outcome(const std::string& label, const std::string& parameter, const Outcome& o, double error = std::nan("")) {
+void log_outcome(const std::string& label, const std::string& parameter, const Outcome& o,
+                 double error = std::nan("")) {
     const std::string err = std::isnan(error) ? "" : fmt::format("error {:9.2e}", error);
-    std::cerr << fmt::format("{:14s} {:>12s}: {:15s}  {:9.4f} s  {:9d} steps  energy {:8.1e}  Casimir {:8.1e}{}\n", label,
-                             parameter, err, o.seconds, o.steps, o.energy_error, o.casimir_error, o.ok ? "" : "  FAILED: " + o.failure);
+    std::cerr << fmt::format("{:14s} {:>12s}: {:15s}  {:9.4f} s  {:9d} steps  energy {:8.1e}  Casimir {:8.1e}{}\n",
+                             label, parameter, err, o.seconds, o.steps, o.energy_error, o.casimir_error,
+                             o.ok ? "" : "  FAILED: " + o.failure);
 }
 
-bool is_pgi(const Method& m) { return m.name.rfind("pgi-", 0) == 0; }
+bool is_pgi(const Method& m) {
+    return m.name.rfind("pgi-", 0) == 0;
+}
 
-std::string parameter(const Method& m, double value) { return fmt::format("{}={:g}", m.fixed_step ? "dt" : "tol", value); }
+std::string parameter(const Method& m, double value) {
+    return fmt::format("{}={:g}", m.fixed_step ? "dt" : "tol", value);
+}
 
 // Time a method needs for a given error, by log-log interpolation along its ladder (NaN if out of range).
 double time_at_error(const std::vector<json>& rows, const std::string& method, double error) {
@@ -120,14 +135,15 @@ json matched_error_ratios(const std::vector<json>& rows, const std::vector<Metho
     return out;
 }
 
-json work_precision(const Problem& pr, const std::vector<Method>& methods, const Ladders& ladders, const State& x0, double T,
-                    const std::string& csv_file) {
+json work_precision(const Problem& pr, const std::vector<Method>& methods, const Ladders& ladders, const State& x0,
+                    double T, const std::string& csv_file) {
     // the reference and its accuracy, estimated as its distance to the same method at a 10x looser tolerance
     const auto t0 = Clock::now();
     const State ref = reference_solution(pr, x0, T, 1e-18L);
     const double ref_accuracy = std::max(distance(ref, reference_solution(pr, x0, T, 1e-17L)), 1e-17);
-    std::cerr << fmt::format("reference: Fehlberg 7(8) in long double, relative tolerance 1e-18; accuracy {:.1e} ({:.2f} s)\n", ref_accuracy,
-                             std::chrono::duration<double>(Clock::now() - t0).count());
+    std::cerr << fmt::format(
+        "reference: Fehlberg 7(8) in long double, relative tolerance 1e-18; accuracy {:.1e} ({:.2f} s)\n", ref_accuracy,
+        std::chrono::duration<double>(Clock::now() - t0).count());
     std::vector<json> rows;
     for (const auto& m : methods)
         for (double v : ladders.of(m)) {
@@ -135,7 +151,9 @@ json work_precision(const Problem& pr, const std::vector<Method>& methods, const
             const double err = o.ok ? distance(o.x, ref) : std::nan("");
             log_outcome(m.name, parameter(m, v), o, err);
             json row = outcome_json(o);
-            row.update({{"method", m.name}, {"parameter", parameter(m, v)}, {"error", o.ok ? json(err) : json()},
+            row.update({{"method", m.name},
+                        {"parameter", parameter(m, v)},
+                        {"error", o.ok ? json(err) : json()},
                         {"usable", o.ok && err >= 100 * ref_accuracy}});
             rows.push_back(row);
         }
@@ -144,10 +162,11 @@ json work_precision(const Problem& pr, const std::vector<Method>& methods, const
         f.stream() << "method,parameter,error,seconds,steps,evaluations,energy_error,casimir_error,usable\n";
         for (const auto& r : rows)
             f.stream() << fmt::format("{},{},{:.6e},{:.6e},{},{},{:.6e},{:.6e},{}\n", r["method"].get<std::string>(),
-                                      r["parameter"].get<std::string>(), r["error"].is_null() ? std::nan("") : r["error"].get<double>(),
-                                      r["seconds"].get<double>(), r["steps"].get<std::size_t>(), r["evaluations"].get<std::size_t>(),
-                                      r["energy_error_max"].get<double>(), r["casimir_error_max"].get<double>(),
-                                      r["usable"].get<bool>() ? 1 : 0);
+                                      r["parameter"].get<std::string>(),
+                                      r["error"].is_null() ? std::nan("") : r["error"].get<double>(),
+                                      r["seconds"].get<double>(), r["steps"].get<std::size_t>(),
+                                      r["evaluations"].get<std::size_t>(), r["energy_error_max"].get<double>(),
+                                      r["casimir_error_max"].get<double>(), r["usable"].get<bool>() ? 1 : 0);
         f.commit();
     }
     return {{"t_end", T},
@@ -167,7 +186,8 @@ json drift(const Problem& pr, const std::vector<Method>& methods, const State& x
             const std::string label = m.fixed_step ? m.name : fmt::format("{}-{:g}", m.name, v);
             Samples samples;
             const Outcome o = m.run(pr, x0, T, v, &samples);
-            for (const auto& s : samples) f.stream() << fmt::format("{},{:.6e},{:.6e},{:.6e}\n", label, s[0], s[1], s[2]);
+            for (const auto& s : samples)
+                f.stream() << fmt::format("{},{:.6e},{:.6e},{:.6e}\n", label, s[0], s[1], s[2]);
             log_outcome(label, fmt::format("T={:g}", T), o);
             json row = outcome_json(o);
             row["method"] = label;
@@ -227,15 +247,17 @@ json suite(const Problem& pr, const std::vector<Method>& methods, const State& x
 void plot_work_precision(const std::string& csv, const std::string& svg, const std::string& title) {
     for (const auto* s : {&csv, &svg, &title})
         for (char c : *s)
-            if (std::string_view("'@`$\\\"").find(c) != std::string_view::npos || static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
-                throw std::invalid_argument("--plot: '" + pgi::printable(*s) + "' holds a character gnuplot or sh would interpret");
+            if (std::string_view("'@`$\\\"").find(c) != std::string_view::npos ||
+                static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+                throw std::invalid_argument("--plot: '" + pgi::printable(*s) +
+                                            "' holds a character gnuplot or sh would interpret");
     const std::string tmp = svg + ".tmp" + std::to_string(::getpid());
     pgi::TemporaryFile figure(tmp);
     const std::string vars = "kind='work-precision'; csv='" + csv + "'; out='" + tmp + "'; name='" + title + "'";
     const pgi::ChildResult r = pgi::run_child({"gnuplot", "-e", vars, PGI_PEERS_PLOT_SCRIPT});
     if (!r.ok())
-        throw std::runtime_error("--plot: gnuplot " + r.failure + " on " + pgi::printable(csv) + ": " + pgi::output_tail(r.output) +
-                                 " (Debian: gnuplot-nox)");
+        throw std::runtime_error("--plot: gnuplot " + r.failure + " on " + pgi::printable(csv) + ": " +
+                                 pgi::output_tail(r.output) + " (Debian: gnuplot-nox)");
     std::filesystem::rename(tmp, svg);
     figure.keep();
 }
@@ -245,7 +267,8 @@ void plot_work_precision(const std::string& csv, const std::string& svg, const s
 int main(int argc, char** argv) {
     std::signal(SIGPIPE, SIG_IGN);  // a closed pipe is a failed write (exit 6)
     pgi::remove_temporaries_on_signals();
-    CLI::App app{"pgi_peers: pgi against GSL's and Boost.Odeint's integrators: work-precision, drift, long runs, outcomes"};
+    CLI::App app{
+        "pgi_peers: pgi against GSL's and Boost.Odeint's integrators: work-precision, drift, long runs, outcomes"};
     std::string scene_file, csv_file, drift_file;
     pgi::SceneOverrides overrides;
     std::optional<double> t_end_opt;
@@ -259,14 +282,16 @@ int main(int argc, char** argv) {
     std::string plot_file;
     app.add_option("scene", scene_file)->required();
     app.add_option("--orders", orders, "pgi's orders k on the step ladder (default 2,4,6)")->delimiter(',');
-    app.add_option("--peers", peer_names, "the peers to run (default all: rk2imp,rk4imp,rk8pd,rkf45,msbdf,odeint-rk4,odeint-dopri5,odeint-bs)")
+    app.add_option("--peers", peer_names,
+                   "the peers to run (default all: rk2imp,rk4imp,rk8pd,rkf45,msbdf,odeint-rk4,odeint-dopri5,odeint-bs)")
         ->delimiter(',');
     app.add_option("--dts", dts, "the step ladder (default 4 dt, 2 dt, dt, dt/2, dt/4, dt/8)")->delimiter(',');
     app.add_option("--tols", tols, "the tolerance ladder (default 1e-4,1e-6,1e-8,1e-10,1e-12)")->delimiter(',');
     app.add_option("--plot", plot_file, "the work-precision diagram, an SVG drawn by gnuplot (needs --csv)");
     app.add_option("--order", overrides.order, "pgi's order k (suite)");
     std::vector<std::string> extra_realisations;
-    app.add_option("--realisations", extra_realisations, "pgi also with these realisations (closed-form, radial), e.g. radial")
+    app.add_option("--realisations", extra_realisations,
+                   "pgi also with these realisations (closed-form, radial), e.g. radial")
         ->delimiter(',');
     app.add_option("--dt", overrides.dt, "the step (the ladders' middle)");
     app.add_option("--x0", overrides.x0, "the initial state, e.g. 1,2,0.5");
@@ -278,19 +303,25 @@ int main(int argc, char** argv) {
     app.add_option("--long", long_t_end, "the long-run table to this final time (e.g. 1e5)");
     bool jit = false;
     app.add_flag("--jit", jit, "pgi also with its compiled maps as native code (pgi-k4-jit: the same numbers, faster)");
-    app.add_flag("--suite", run_suite, "one run of every method with its outcome, instead of the work-precision ladders");
+    app.add_flag("--suite", run_suite,
+                 "one run of every method with its outcome, instead of the work-precision ladders");
     app.add_option("--tol", suite_tol, "the adaptive peers' tolerance in --suite (default 1e-6)");
     CLI11_PARSE(app, argc, argv);
     try {
         for (std::size_t k : orders)
             if (k < 1) throw std::invalid_argument("--orders: the order k must be at least 1");
         for (double v : dts)
-            if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--dts: {} is not a positive step", v));
+            if (!(v > 0) || !std::isfinite(v))
+                throw std::invalid_argument(fmt::format("--dts: {} is not a positive step", v));
         for (double v : tols)
-            if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(fmt::format("--tols: {} is not a positive tolerance", v));
-        if (!plot_file.empty() && csv_file.empty()) throw std::invalid_argument("--plot draws from the --csv file: give both");
-        // output paths are checked before hours of runs, not after (pgi's rules: directory, regular target, not the scene)
-        for (const auto& [option, path] : {std::pair<std::string, std::string>{"--csv", csv_file}, {"--plot", plot_file}, {"--drift", drift_file}})
+            if (!(v > 0) || !std::isfinite(v))
+                throw std::invalid_argument(fmt::format("--tols: {} is not a positive tolerance", v));
+        if (!plot_file.empty() && csv_file.empty())
+            throw std::invalid_argument("--plot draws from the --csv file: give both");
+        // output paths are checked before hours of runs, not after (pgi's rules: directory, regular target, not the
+        // scene)
+        for (const auto& [option, path] :
+             {std::pair<std::string, std::string>{"--csv", csv_file}, {"--plot", plot_file}, {"--drift", drift_file}})
             if (!path.empty()) try {
                     pgi::check_output_path(path, {scene_file});
                 } catch (const std::invalid_argument& e) {
@@ -315,15 +346,17 @@ int main(int argc, char** argv) {
             summary["suite"] = suite(pr, methods, x0, t_end_opt.value_or(scene.t_end.value_or(100.0)), suite_tol);
         } else {
             const double dt = scene.dt, T = t_end_opt.value_or(100.0);
-            const Ladders ladders{dts.empty() ? std::vector<double>{4 * dt, 2 * dt, dt, dt / 2, dt / 4, dt / 8} : dts, tols};
+            const Ladders ladders{dts.empty() ? std::vector<double>{4 * dt, 2 * dt, dt, dt / 2, dt / 4, dt / 8} : dts,
+                                  tols};
             // a fixed step runs llround(T / dt) steps: one that does not divide T would end elsewhere, and its error
             // against the reference at T would be measured at another time
             for (double v : ladders.steps) {
                 const double steps = std::round(T / v);
                 if (!(steps >= 1) || std::abs(steps * v - T) > 1e-9 * T)
-                    throw std::invalid_argument(fmt::format("{}: dt = {} does not divide the final time {} ({} steps end at t = {}); "
-                                                            "give steps T / N", dts.empty() ? "the scene's step ladder (4 dt .. dt/8)" : "--dts",
-                                                            v, T, steps, steps * v));
+                    throw std::invalid_argument(fmt::format(
+                        "{}: dt = {} does not divide the final time {} ({} steps end at t = {}); "
+                        "give steps T / N",
+                        dts.empty() ? "the scene's step ladder (4 dt .. dt/8)" : "--dts", v, T, steps, steps * v));
             }
             const auto methods = select_methods(orders, extra, peer_names, jit);
             summary["work_precision"] = work_precision(pr, methods, ladders, x0, T, csv_file);

@@ -15,7 +15,8 @@ namespace pgi::peers {
 namespace {
 
 // The stepper at order k and step dt for starts near x0, built now; runs from any x0 to T on it.
-PreparedRun prepare_pgi(const Problem& pr, const State& x0, double dt, std::size_t k, RealisationChoice realisation, bool jit) {
+PreparedRun prepare_pgi(const Problem& pr, const State& x0, double dt, std::size_t k, RealisationChoice realisation,
+                        bool jit) {
     StepOptions opt;
     opt.k = k;
     opt.dt = dt;
@@ -25,7 +26,8 @@ PreparedRun prepare_pgi(const Problem& pr, const State& x0, double dt, std::size
     pr.scene.phase_space().ring()->budget().restart();  // each stepper's exact phase has the whole time budget
     // the problem at order k, kept beside its stepper
     auto scheme = std::make_shared<const Scheme>(pr.scene.pi, pr.scene.H, pr.scene.casimirs, k, opt.realisation);
-    auto stepper = std::make_shared<NewtonStepper>(scheme->stepper(opt, Eigen::Map<const Eigen::VectorXd>(x0.data(), Eigen::Index(x0.size()))));
+    auto stepper = std::make_shared<NewtonStepper>(
+        scheme->stepper(opt, Eigen::Map<const Eigen::VectorXd>(x0.data(), Eigen::Index(x0.size()))));
     const double setup_seconds = std::chrono::duration<double>(Clock::now() - setup).count();
     return [&pr, scheme, stepper, dt, setup_seconds](const State& start, double T, Samples* samples) {
         Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(start.data(), Eigen::Index(start.size()));
@@ -37,9 +39,11 @@ PreparedRun prepare_pgi(const Problem& pr, const State& x0, double dt, std::size
             if (n > 0) monitor(t, y.data());
             return false;
         });
-        const std::string failure = summary.status == StepStatus::ok ? "" : failure_message(*stepper, summary.steps + 1, summary.status);
+        const std::string failure =
+            summary.status == StepStatus::ok ? "" : failure_message(*stepper, summary.steps + 1, summary.status);
         Outcome o = finish(State(x.data(), x.data() + x.size()), summary.steps, clock, monitor, failure);
-        o.evaluations = static_cast<std::size_t>(std::llround(summary.mean_iterations * double(summary.steps)));  // Newton systems
+        o.evaluations =
+            static_cast<std::size_t>(std::llround(summary.mean_iterations * double(summary.steps)));  // Newton systems
         o.setup_seconds = setup_seconds;
         return o;
     };
@@ -48,12 +52,16 @@ PreparedRun prepare_pgi(const Problem& pr, const State& x0, double dt, std::size
 }  // namespace
 
 Method pgi_method(std::size_t k, std::optional<RealisationChoice> realisation, bool jit) {
-    const std::string name = (realisation ? fmt::format("pgi-k{}-{}", k, to_string(*realisation)) : fmt::format("pgi-k{}", k)) + (jit ? "-jit" : "");
+    const std::string name =
+        (realisation ? fmt::format("pgi-k{}-{}", k, to_string(*realisation)) : fmt::format("pgi-k{}", k)) +
+        (jit ? "-jit" : "");
     const auto prepare = [k, realisation, jit](const Problem& pr, const State& x0, double dt) {
         return prepare_pgi(pr, x0, dt, k, realisation.value_or(pr.scene.realisation), jit);
     };
     return {name, true,
-            [prepare](const Problem& pr, const State& x0, double T, double dt, Samples* samples) { return prepare(pr, x0, dt)(x0, T, samples); },
+            [prepare](const Problem& pr, const State& x0, double T, double dt, Samples* samples) {
+                return prepare(pr, x0, dt)(x0, T, samples);
+            },
             prepare};
 }
 

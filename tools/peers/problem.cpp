@@ -33,7 +33,9 @@ Monitor::Monitor(const Problem& p, const double* x0, Samples* s)
     pr.invariants.eval(x0, initial.data());
 }
 
-double Monitor::relative_change(std::size_t i) const { return relative_error(value[i], initial[i], scale[i]); }
+double Monitor::relative_change(std::size_t i) const {
+    return relative_error(value[i], initial[i], scale[i]);
+}
 
 void Monitor::operator()(double t, const double* x) {
     pr.invariants.eval(x, value.data());
@@ -80,8 +82,9 @@ Outcome finish(State x, std::size_t steps, Clock::time_point start, const Monito
 }
 
 Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, double value, int repeats) {
-    const PreparedRun run = m.prepare ? m.prepare(pr, x0, value)
-                                      : PreparedRun([&](const State& x, double t, Samples* s) { return m.run(pr, x, t, value, s); });
+    const PreparedRun run =
+        m.prepare ? m.prepare(pr, x0, value)
+                  : PreparedRun([&](const State& x, double t, Samples* s) { return m.run(pr, x, t, value, s); });
     Outcome best = run(x0, T, nullptr);
     for (int r = 1; r < repeats && best.seconds < 0.2; ++r) {
         Outcome o = run(x0, T, nullptr);

@@ -21,7 +21,7 @@ struct Problem {
     const Scene& scene;
     std::size_t n;
     CompiledMap field;       // pi grad H
-    CompiledMap invariants;       // H, the Casimirs, then the watched quantities
+    CompiledMap invariants;  // H, the Casimirs, then the watched quantities
     std::vector<Poly> watched;
     std::size_t num_watched;
     mutable std::size_t evaluations = 0;  // field (or Jacobian) evaluations since the last reset
@@ -51,7 +51,7 @@ struct Monitor {
     Monitor(const Problem& p, const double* x0, Samples* s);
     void operator()(double t, const double* x);
     double energy_error() const { return worst[0]; }
-    double casimir_error() const;       // the worst Casimir (0 without Casimirs)
+    double casimir_error() const;  // the worst Casimir (0 without Casimirs)
     std::vector<double> watched_ratios() const;
 
 private:
@@ -65,7 +65,7 @@ struct Outcome {
     std::vector<double> watched;  // final / initial value of each watched quantity
     std::size_t steps = 0, evaluations = 0;
     bool ok = true;
-    std::string failure;          // why the run stopped, if it did
+    std::string failure;  // why the run stopped, if it did
 };
 
 /// Why a run must stop after `steps` steps at t with state x (non-finite, or past the step budget of
