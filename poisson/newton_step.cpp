@@ -446,24 +446,9 @@ double NewtonStepper::residual_at(const Eigen::VectorXd& x, const Eigen::VectorX
 Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
     Eigen::VectorXd inc(x.size());
     if (step(x, inc) != StepStatus::ok) throw std::runtime_error("NewtonStepper::tangent_map: the step failed");
-    jacobian_at(xb_);
-    if (!gradient_.full_hessian.empty()) {  // the Newton matrix's Hessian was truncated: the whole one here
-        std::vector<double> upper(gradient_.full_hessian.width());
-        gradient_.full_hessian.eval(xb_.data(), step_dt_, upper.data());
-        expand_hessian(gradient_, upper.data(), hessian_.data());
-        if (!sparse_) gradient_.hessian.scatter(hessian_.data(), hess_);
-        assemble();
-        if (sparse_) J_ = matrix_.dense();
-    }
-    if (sparse_) {  // the dense blocks from the patterns: a tangent map is dense anyway
-        v_ = RealisationValues(dim());
-        realisation_.eval(xb_, p_, v_);
-        gradient_.hessian.scatter(hessian_.data(), hess_);
-    }
-    D_ = v_.delta_x;
-    D_.noalias() += v_.delta_p * hess_;
-    // x = alpha(xb(x)) gives dxb/dx = J^{-1}; x_new = beta(xb) = alpha + delta, so Dphi = (J + D) J^{-1}
-    return Eigen::MatrixXd::Identity(x.size(), x.size()) + D_ * J_.inverse();
+    Eigen::MatrixXd jacobian;
+    last_step_jacobian(jacobian);  // poisson/step_jacobian.cpp
+    return jacobian;
 }
 
 }  // namespace pgi

@@ -73,6 +73,10 @@ public:
     const Eigen::MatrixXd& newton_system(const Eigen::VectorXd& xb);
 
     int last_iterations() const { return iterations_; }
+    /// Sets jacobian (n x n) to the derivative of the last step's map at the state it stepped from, by the implicit
+    /// function theorem at its accepted base point with the whole Hess S_dt (poisson/step_jacobian.cpp). Requires the
+    /// last step to have returned ok. False when the Newton matrix there is singular (jacobian then not finite).
+    bool last_step_jacobian(Eigen::MatrixXd& jacobian);
     /// |alpha(xb, p) - x|_inf at the last base point tested (the accepted one after an ok step).
     double last_residual() const { return residual_; }
     /// The residual's tolerance there: kappa u (|x| + sizes of the terms summed into alpha, and of those
