@@ -57,7 +57,7 @@ RunPlan plan_ensemble(const Scheme& scheme, std::size_t m, double dt, double t_e
     request.dt = dt;
     request.t_end = t_end;
     request.every = 0;  // the final state only
-    request.dim = scheme.phase_space().dim();
+    request.dim = scheme.dim();
     request.invariants = 1 + scheme.casimirs().size();
     request.trajectories = std::max<std::size_t>(1, m);
     return plan_run(request, limits);
@@ -295,9 +295,8 @@ RunPlan check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>&
     return plan;
 }
 
-}  // namespace
-
-EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
+// The ensemble of the extended states X0 (m x phase_space().dim(): the coordinates, then the parameter values).
+EnsembleResult integrate_extended(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
                                   const EnsembleOptions& options) {
     const RunPlan plan = check_arguments(scheme, X0, dt, t_end, options);
     const Eigen::Index m = X0.rows(), n = X0.cols();
@@ -333,6 +332,32 @@ EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const R
             },
             tbb::simple_partitioner());
     });
+    return r;
+}
+
+}  // namespace
+
+EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
+                                  const EnsembleOptions& options) {
+    if (scheme.parameters().empty() && options.parameters.empty())
+        return integrate_extended(scheme, X0, dt, t_end, options);
+    const auto n = Eigen::Index(scheme.dim());
+    if (X0.cols() != n)
+        throw InputError(
+            "X0", "must have " + std::to_string(n) + " columns (one per coordinate), got " + std::to_string(X0.cols()));
+    if (options.x_typical && options.x_typical->size() != n)
+        throw InputError("x_typical", "must have " + std::to_string(n) + " values, got " +
+                                          std::to_string(options.x_typical->size()));
+    const RowMatrix P = scheme.parameter_rows(options.parameters, std::size_t(X0.rows()));
+    EnsembleOptions extended = options;
+    if (options.x_typical) {
+        Eigen::Index largest = 0;
+        P.rowwise().norm().maxCoeff(&largest);
+        extended.x_typical = scheme.extended_states(options.x_typical->transpose(), P.row(largest)).row(0).transpose();
+    }
+    EnsembleResult r = integrate_extended(scheme, scheme.extended_states(X0, P), dt, t_end, extended);
+    r.x = r.x.leftCols(n).eval();
+    if (r.x_typical.size()) r.x_typical = r.x_typical.head(n).eval();
     return r;
 }
 

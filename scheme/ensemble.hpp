@@ -47,6 +47,9 @@ struct EnsembleOptions {
     /// Default: typical_state(X0), the finite row of largest norm.
     std::optional<Eigen::VectorXd> x_typical;
     RunControl control;  // the budgets, checked before any work, and the flag that stops the run (RunInterrupted)
+    /// The scheme's parameter values by name: 1 value (every trajectory) or one per row of X0 (a sweep); the defaults
+    /// for those not given (Scheme::parameter_rows).
+    ParameterValues parameters;
 };
 
 /// Per trajectory: how it ended and its Newton statistics.
@@ -85,7 +88,9 @@ std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& 
 /// options.x_typical. Throws before any work what plan_run throws (InputError on dt <= 0, t_end < 0 or not
 /// finite; RunBudgetError above options.control.limits), InputError on X0 without n columns, a non-finite x_typical or
 /// one of the wrong length, threads or batch above their limits. Rows that are not finite are not an error:
-/// they end with status non_finite_start.
+/// they end with status non_finite_start. X0 and options.x_typical hold the coordinates only (Scheme::dim()); each row
+/// runs on its extended state (x, w) with its parameter values w (options.parameters), and x_typical is extended with
+/// the row of parameter values of largest norm.
 EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
                                   const EnsembleOptions& options = {});
 

@@ -12,14 +12,16 @@ namespace {
 // Rows turned to columns at a time: the block's inputs and outputs stay in cache whatever m is.
 constexpr std::size_t block_rows = 256;
 
-// InputError("x") unless X has one column per coordinate and every value is finite.
-void check_states(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X) {
-    const std::size_t n = scheme.phase_space().dim();
+// The extended states (x, w) of the rows of X and the parameter values, after the checks: InputError("x") unless X has
+// one column per coordinate and every value is finite, InputError("parameters...") as Scheme::parameter_rows says.
+RowMatrix states(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X, const ParameterValues& parameters) {
+    const std::size_t n = scheme.dim();
     if (std::size_t(X.cols()) != n)
         throw InputError(
             "x", "must have " + std::to_string(n) + " columns (one per coordinate), got " + std::to_string(X.cols()));
     for (Eigen::Index j = 0; j < X.rows(); ++j)
         if (!X.row(j).allFinite()) throw InputError("x", "row " + std::to_string(j) + " is not finite");
+    return scheme.extended_states(X, scheme.parameter_rows(parameters, std::size_t(X.rows())));
 }
 
 // f at every row of X, a block of rows at a time through eval_batch; emit(j, y, stride) is given
@@ -40,19 +42,21 @@ void for_each_row(const CompiledMap& f, const Eigen::Ref<const RowMatrix>& X, Em
 
 }  // namespace
 
-RowMatrix vector_field(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X) {
-    check_states(scheme, X);
-    RowMatrix F(X.rows(), X.cols());
+RowMatrix vector_field(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X_in,
+                       const ParameterValues& parameters) {
+    const RowMatrix X = states(scheme, X_in, parameters);
+    RowMatrix F(X.rows(), X_in.cols());
     for_each_row(scheme.vector_field_map(), X, [&](Eigen::Index j, const double* y, std::size_t stride) {
         for (Eigen::Index i = 0; i < F.cols(); ++i) F(j, i) = y[std::size_t(i) * stride];
     });
     return F;
 }
 
-RowMatrix poisson_matrices(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X) {
-    check_states(scheme, X);
+RowMatrix poisson_matrices(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X_in,
+                           const ParameterValues& parameters) {
+    const RowMatrix X = states(scheme, X_in, parameters);
     const CompiledBrackets& b = scheme.brackets_map();
-    const std::size_t n = scheme.phase_space().dim();
+    const std::size_t n = scheme.dim();  // the parameters' rows and columns of pi are zero
     RowMatrix P = RowMatrix::Zero(X.rows(), Eigen::Index(n * n));
     for_each_row(b.map, X, [&](Eigen::Index j, const double* y, std::size_t stride) {
         for (std::size_t e = 0; e < b.entries.size(); ++e) {
@@ -64,15 +68,17 @@ RowMatrix poisson_matrices(const Scheme& scheme, const Eigen::Ref<const RowMatri
     return P;
 }
 
-Eigen::VectorXd hamiltonian_values(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X) {
-    check_states(scheme, X);
+Eigen::VectorXd hamiltonian_values(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X_in,
+                                   const ParameterValues& parameters) {
+    const RowMatrix X = states(scheme, X_in, parameters);
     Eigen::VectorXd H(X.rows());
     for_each_row(scheme.invariants_map(), X, [&](Eigen::Index j, const double* y, std::size_t) { H[j] = y[0]; });
     return H;
 }
 
-RowMatrix casimir_values(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X) {
-    check_states(scheme, X);
+RowMatrix casimir_values(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X_in,
+                         const ParameterValues& parameters) {
+    const RowMatrix X = states(scheme, X_in, parameters);
     RowMatrix C(X.rows(), Eigen::Index(scheme.casimirs().size()));
     for_each_row(scheme.invariants_map(), X, [&](Eigen::Index j, const double* y, std::size_t stride) {
         for (Eigen::Index c = 0; c < C.cols(); ++c) C(j, c) = y[std::size_t(c + 1) * stride];  // output 0 is H
@@ -80,11 +86,11 @@ RowMatrix casimir_values(const Scheme& scheme, const Eigen::Ref<const RowMatrix>
     return C;
 }
 
-Eigen::VectorXd modified_hamiltonian_values(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X, double dt,
-                                            std::size_t upto) {
+Eigen::VectorXd modified_hamiltonian_values(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X_in, double dt,
+                                            std::size_t upto, const ParameterValues& parameters) {
     if (!(dt > 0) || !std::isfinite(dt)) throw InputError("dt", "must be positive and finite");
     if (upto > max_modified_upto) throw InputError("upto", "must be at most " + std::to_string(max_modified_upto));
-    check_states(scheme, X);  // before the exact phase (the first call for an upto)
+    const RowMatrix X = states(scheme, X_in, parameters);  // before the exact phase (the first call for an upto)
     Eigen::VectorXd Ht(X.rows());
     for_each_row(scheme.modified_hamiltonian_map(upto), X, [&](Eigen::Index j, const double* y, std::size_t stride) {
         double v = y[upto * stride];

@@ -1,5 +1,7 @@
 #include "scheme/input.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <map>
 #include <optional>
 #include <tuple>
@@ -39,6 +41,35 @@ void check_coordinates(const std::vector<std::string>& names) {
         Ring check(names);  // identifier syntax
     } catch (const std::exception& e) {
         throw InputError("coordinates", e.what());
+    }
+}
+
+Rational parse_parameter_value(const std::string& key, const std::string& text) {
+    try {
+        Rational r = Rational::parse(text);
+        if (!std::isfinite(r.to_double())) throw InputError(key, "'" + text + "' is out of the double range");
+        return r;
+    } catch (const std::invalid_argument& e) {
+        if (const auto* ie = dynamic_cast<const InputError*>(&e)) throw *ie;
+        throw InputError(key, std::string(e.what()) + "; a parameter's value is exact: \"2\", \"-1/3\", \"0.05\"");
+    }
+}
+
+void check_parameter_names(const std::vector<std::string>& coordinates, const std::vector<std::string>& parameters) {
+    for (std::size_t i = 0; i < parameters.size(); ++i) {
+        const std::string& name = parameters[i];
+        const std::string key = "parameters." + name;
+        if (name.empty()) throw InputError("parameters", "empty parameter name");
+        if (name == "t") throw InputError(key, "'t' is reserved for the time step");
+        if (std::find(coordinates.begin(), coordinates.end(), name) != coordinates.end())
+            throw InputError(key, "'" + name + "' is also a coordinate");
+        if (std::find(parameters.begin(), parameters.begin() + long(i), name) != parameters.begin() + long(i))
+            throw InputError(key, "duplicate parameter '" + name + "'");
+        try {
+            Ring check(std::vector<std::string>{name});  // identifier syntax
+        } catch (const std::exception& e) {
+            throw InputError(key, e.what());
+        }
     }
 }
 

@@ -33,6 +33,12 @@ Poly parse_polynomial(const PhaseSpace& M, const std::string& key, const std::st
 /// that is not two known coordinates, a non-zero {a,a}, or two entries that contradict each other.
 PoissonStructure structure_from_brackets(const PhaseSpace& M,
                                          const std::vector<std::pair<std::string, std::string>>& brackets);
+/// A parameter's default value (docs/user-guide.md, "Parameters"): "2", "-1/3" or a decimal read exactly ("0.05" is
+/// 1/20). InputError(key) for anything else or a value beyond the double range.
+Rational parse_parameter_value(const std::string& key, const std::string& text);
+/// Checks parameter names: non-empty identifiers, not 't', distinct from each other and from the coordinates.
+/// InputError("parameters.NAME").
+void check_parameter_names(const std::vector<std::string>& coordinates, const std::vector<std::string>& parameters);
 /// The order k: 1 <= k <= 64.
 std::size_t check_order(const std::string& key, long k);
 

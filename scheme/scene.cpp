@@ -33,10 +33,14 @@ public:
     Scene read_text(std::string_view text) {
         toml::table doc = parse_document(text);
         check_keys(doc, "",
-                   {"name", "coordinates", "brackets", "hamiltonian", "integrator", "run", "magnus", "splitting"});
+                   {"name", "coordinates", "parameters", "brackets", "hamiltonian", "integrator", "run", "magnus",
+                    "splitting"});
         std::string name = string_at(doc, "name", true).value_or("");
         if (has_control(name)) fail("name", "contains a control character: '" + name + "'");
-        PhaseSpace M(read_coordinates(doc), budget());
+        std::vector<std::string> coordinates = read_coordinates(doc);
+        std::vector<Parameter> parameters = read_parameters(doc, coordinates);
+        for (const auto& p : parameters) coordinates.push_back(p.name);
+        PhaseSpace M(coordinates, budget());
         PoissonStructure pi = read_brackets(doc, M);
         const toml::table& ham = table_at(doc, "hamiltonian", true);
         check_keys(ham, "hamiltonian", {"H", "casimirs"});
@@ -54,6 +58,7 @@ public:
         }
         Scene scene{file_,
                     name,
+                    std::move(parameters),
                     std::move(pi),
                     std::move(H),
                     std::move(casimirs),
@@ -62,17 +67,24 @@ public:
                     "1/10",
                     RealisationChoice::automatic,
                     false,
+                    {},
                     std::nullopt,
                     std::nullopt,
                     std::nullopt,
                     std::nullopt,
                     nullptr};
         read_integrator(doc, scene);
+        read_parameter_values(scene);
         read_run(doc, scene);
         read_magnus(doc, scene);
         read_splitting(doc, scene);
-        scene.scheme = std::make_shared<const Scheme>(scene.pi, scene.H, scene.casimirs, scene.order, scene.realisation,
-                                                      ov_.trust_jacobi, scene.jit);
+        try {
+            scene.scheme =
+                std::make_shared<const Scheme>(scene.pi, scene.H, scene.casimirs, scene.order, scene.realisation,
+                                               ov_.trust_jacobi, scene.jit, scene.parameters);
+        } catch (const InputError& e) {  // a bracket that uses a parameter
+            fail(e.key(), e.problem());
+        }
         return scene;
     }
 
@@ -174,6 +186,52 @@ private:
         return names;
     }
 
+    // [parameters] name = "value": exact values (a string, or a TOML integer), sorted by name (as toml++ keeps them).
+    std::vector<Parameter> read_parameters(const toml::table& doc, const std::vector<std::string>& coordinates) const {
+        const toml::table& t = table_at(doc, "parameters", false);
+        std::vector<Parameter> parameters;
+        std::vector<std::string> names;
+        try {
+            for (const auto& [k, v] : t) {
+                const std::string name(k.str()), key = "parameters." + name;
+                if (has_control(name)) fail(key, "the parameter name contains a control character");
+                std::string text;
+                if (v.is_integer())
+                    text = std::to_string(*v.value<long>());
+                else if (v.is_string())
+                    text = *v.value<std::string>();
+                else
+                    fail(key, "must be a string holding an exact value (\"2\", \"-1/3\", \"0.05\") or an integer");
+                parameters.push_back({name, parse_parameter_value(key, text)});
+                names.push_back(name);
+            }
+            check_parameter_names(coordinates, names);
+        } catch (const InputError& e) {
+            fail(e.key(), e.problem());
+        }
+        return parameters;
+    }
+
+    // The run's parameter values: the defaults, replaced by --param NAME=VALUE (a decimal or a rational a/b).
+    void read_parameter_values(Scene& scene) const {
+        for (const auto& p : scene.parameters) scene.parameter_values.push_back(p.value.to_double());
+        for (const std::string& given : ov_.parameters) {
+            const std::size_t eq = given.find('=');
+            if (eq == std::string::npos) fail("--param", "'" + given + "' is not NAME=VALUE");
+            const std::string name = given.substr(0, eq);
+            const auto it = std::find_if(scene.parameters.begin(), scene.parameters.end(),
+                                         [&](const Parameter& p) { return p.name == name; });
+            if (it == scene.parameters.end()) {
+                std::string known;
+                for (const auto& p : scene.parameters) known += (known.empty() ? "" : ", ") + p.name;
+                fail("--param", "unknown parameter '" + name + "' (the scene's parameters: " +
+                                    (known.empty() ? std::string("none") : known) + ")");
+            }
+            scene.parameter_values[std::size_t(it - scene.parameters.begin())] =
+                real("--param " + name, given.substr(eq + 1));
+        }
+    }
+
     PoissonStructure read_brackets(const toml::table& doc, const PhaseSpace& M) const {
         const toml::table& br = table_at(doc, "brackets", true);
         std::vector<std::pair<std::string, std::string>> brackets;
@@ -264,7 +322,7 @@ private:
     void read_run(const toml::table& doc, Scene& scene) const {
         const toml::table& t = table_at(doc, "run", false);
         check_keys(t, "run", {"x0", "t_end"});
-        const std::size_t n = scene.phase_space().dim();
+        const std::size_t n = scene.dim();
         std::vector<double> x0;
         if (ov_.x0) {
             // strictly a,b,c: every item a number, no empty item (a trailing comma is an error)
@@ -290,6 +348,7 @@ private:
             if (x0.size() != n)
                 fail(ov_.x0 ? "--x0" : "run.x0",
                      "has " + std::to_string(x0.size()) + " values for " + std::to_string(n) + " coordinates");
+            x0.insert(x0.end(), scene.parameter_values.begin(), scene.parameter_values.end());
             scene.x0 = std::move(x0);
         }
         if (ov_.t_end)

@@ -27,6 +27,7 @@ inline constexpr std::size_t max_scene_bytes = 8u << 20;
 /// Command-line values that replace the scene's, in the scene's own forms ("1/10", "0.6,0.8,0.3").
 struct SceneOverrides {
     std::optional<std::string> order, dt, realisation, x0, t_end;
+    std::vector<std::string> parameters;                     // --param NAME=VALUE: a parameter's value for the run
     std::size_t max_terms = Ring::default_max_terms;         // --max-terms: the exact phase's product bound
     std::size_t max_memory_mb = 0;                           // --max-memory-mb: its memory (0: default_memory_budget())
     double max_seconds = BudgetLimits::default_max_seconds;  // --max-seconds: its algebra's time (none; pgi: 60)
@@ -38,6 +39,8 @@ struct SceneOverrides {
 struct Scene {
     std::filesystem::path file;
     std::string name;
+    /// [parameters]: the last coordinates of pi's phase space, Poisson-commuting with everything (Scheme::parameters).
+    std::vector<Parameter> parameters;
     PoissonStructure pi;
     Poly H;
     std::vector<Poly> casimirs;
@@ -46,6 +49,9 @@ struct Scene {
     std::string dt_text = "1/10";  // as written, for reports
     RealisationChoice realisation = RealisationChoice::automatic;
     bool jit = false;  // [integrator] jit: the step's compiled maps as native code (series/native.hpp)
+    /// The parameters' values of the run: the defaults, or --param's.
+    std::vector<double> parameter_values;
+    /// The initial state, extended: the coordinates, then parameter_values (what the scheme's stepper steps).
     std::optional<std::vector<double>> x0;
     std::optional<double> t_end;
     std::optional<Series> magnus_h;   // [magnus] h, a t-series
@@ -55,6 +61,8 @@ struct Scene {
     std::shared_ptr<const Scheme> scheme;
 
     const PhaseSpace& phase_space() const { return pi.phase_space(); }
+    /// The coordinates, without the parameters (x0's length).
+    std::size_t dim() const { return pi.dim() - parameters.size(); }
 };
 
 /// Reads and checks a scene. Throws SceneError for anything malformed: syntax, missing keys, wrong

@@ -4,6 +4,7 @@
 #include "poisson/hamilton_jacobi.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <mutex>
@@ -41,6 +42,39 @@ const T& built_once(std::optional<T>& slot, std::size_t& builds, Build build) {
     return *slot;
 }
 
+// A polynomial's first parameter (a ring variable of index first and up, below the momenta), if it holds one.
+std::optional<std::size_t> parameter_in(const Poly& f, std::size_t first, std::size_t end) {
+    for (std::size_t v : used_variables(f))
+        if (v >= first && v < end) return v;
+    return std::nullopt;
+}
+
+// InputError unless the parameters are the last coordinates of pi's phase space, named so, with at least one
+// coordinate before them, and pi does not hold them: their rows and columns are zero and no entry uses one.
+// NOTE: a parameter in a bracket is refused, not supported: the class (constant, linear, log-canonical) and so the
+// closed-form realisation are decided on the extended coordinates, where w times a linear bracket is quadratic.
+void check_parameters(const PoissonStructure& pi, const std::vector<Parameter>& parameters) {
+    const std::size_t q = parameters.size(), N = pi.dim();
+    if (q == 0) return;
+    if (q >= N) throw InputError("parameters", "a scheme with parameters needs at least one coordinate besides them");
+    const auto& names = pi.phase_space().coordinates();
+    const std::size_t n = N - q;
+    for (std::size_t a = 0; a < q; ++a)
+        if (names[n + a] != parameters[a].name)
+            throw InputError("parameters." + parameters[a].name, "not the scheme's coordinate " + names[n + a]);
+    for (std::size_t i = 0; i < N; ++i)
+        for (std::size_t j : pi.row_support(i)) {
+            const std::string where = "brackets.\"" + names[i] + "," + names[j] + "\"";
+            if (i >= n || j >= n)
+                throw InputError(where, "'" + names[std::max(i, j)] +
+                                            "' is a parameter: parameters Poisson-commute with everything");
+            if (auto v = parameter_in(pi(i, j), n, N))
+                throw InputError(where, "uses the parameter '" + names[*v] +
+                                            "': parameters are allowed in H and the Casimirs, not in brackets (the "
+                                            "structure's class and realisation are decided with them as coordinates)");
+        }
+}
+
 }  // namespace
 
 // What has been computed so far. One recursive mutex: artefacts call each other (the checks ask for
@@ -62,9 +96,11 @@ struct Scheme::Cache {
 };
 
 Scheme::Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order, RealisationChoice choice,
-               bool trust_jacobi, bool jit)
+               bool trust_jacobi, bool jit, std::vector<Parameter> parameters)
     : pi_(std::move(pi)), H_(std::move(H)), casimirs_(std::move(casimirs)), k_(check_order("order", long(order))),
-      choice_(choice), trust_jacobi_(trust_jacobi), jit_(jit), cache_(std::make_unique<Cache>(choice)) {
+      choice_(choice), trust_jacobi_(trust_jacobi), jit_(jit), parameters_(std::move(parameters)),
+      cache_(std::make_unique<Cache>(choice)) {
+    check_parameters(pi_, parameters_);
     if (H_.ring() != phase_space().ring())
         throw InputError("hamiltonian.H", "not a polynomial of the scheme's phase space");
     for (std::size_t i = 0; i < casimirs_.size(); ++i)
@@ -80,7 +116,14 @@ Scheme::Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::siz
 
 Scheme Scheme::from_values(const SchemeValues& v) {
     check_coordinates(v.coordinates);
-    PhaseSpace M(v.coordinates, v.max_terms);
+    std::vector<std::string> names = v.coordinates;
+    std::vector<Parameter> parameters;
+    for (const auto& [name, value] : v.parameters) {
+        parameters.push_back({name, parse_parameter_value("parameters." + name, value)});
+        names.push_back(name);
+    }
+    check_parameter_names(v.coordinates, {names.begin() + long(v.coordinates.size()), names.end()});
+    PhaseSpace M(names, v.max_terms);
     PoissonStructure pi = structure_from_brackets(M, v.brackets);
     Poly H = parse_polynomial(M, "hamiltonian.H", v.hamiltonian);
     std::vector<Poly> casimirs;
@@ -93,12 +136,12 @@ Scheme Scheme::from_values(const SchemeValues& v) {
         throw InputError("realisation", e.what());
     }
     return Scheme(std::move(pi), std::move(H), std::move(casimirs), check_order("order", v.order), choice,
-                  v.trust_jacobi, v.jit);
+                  v.trust_jacobi, v.jit, std::move(parameters));
 }
 
 Scheme::Scheme(const Scheme& o)
     : pi_(o.pi_), H_(o.H_), casimirs_(o.casimirs_), k_(o.k_), choice_(o.choice_), trust_jacobi_(o.trust_jacobi_),
-      jit_(o.jit_), cache_(std::make_unique<Cache>(o.choice_)) {}
+      jit_(o.jit_), parameters_(o.parameters_), cache_(std::make_unique<Cache>(o.choice_)) {}
 Scheme& Scheme::operator=(const Scheme& o) {
     if (this != &o) *this = Scheme(o);
     return *this;
@@ -106,6 +149,47 @@ Scheme& Scheme::operator=(const Scheme& o) {
 Scheme::Scheme(Scheme&&) noexcept = default;
 Scheme& Scheme::operator=(Scheme&&) noexcept = default;
 Scheme::~Scheme() = default;
+
+std::vector<std::string> Scheme::coordinates() const {
+    const auto& all = phase_space().coordinates();
+    return {all.begin(), all.begin() + long(dim())};
+}
+
+RowMatrix Scheme::parameter_rows(const ParameterValues& values, std::size_t m) const {
+    const std::size_t q = parameters_.size();
+    RowMatrix P(Eigen::Index(std::max<std::size_t>(m, 1)), Eigen::Index(q));
+    for (std::size_t a = 0; a < q; ++a) P.col(Eigen::Index(a)).setConstant(parameters_[a].value.to_double());
+    std::vector<bool> given(q, false);
+    for (const auto& [name, v] : values) {
+        const auto it =
+            std::find_if(parameters_.begin(), parameters_.end(), [&](const auto& p) { return p.name == name; });
+        if (it == parameters_.end()) {
+            std::string known;
+            for (const auto& p : parameters_) known += (known.empty() ? "" : ", ") + p.name;
+            throw InputError("parameters", "unknown parameter '" + name + "' (the scheme's parameters: " +
+                                               (known.empty() ? std::string("none") : known) + ")");
+        }
+        const auto a = std::size_t(it - parameters_.begin());
+        if (given[a]) throw InputError("parameters", "parameter '" + name + "' given twice");
+        given[a] = true;
+        const std::string key = "parameters." + name;
+        if (v.size() != 1 && v.size() != std::size_t(P.rows()))
+            throw InputError(key, "has " + std::to_string(v.size()) + " values, for " + std::to_string(P.rows()) +
+                                      " trajectories (give 1 value, or one per trajectory)");
+        for (std::size_t j = 0; j < v.size(); ++j)
+            if (!std::isfinite(v[j])) throw InputError(key, "value " + std::to_string(j) + " is not finite");
+        for (Eigen::Index j = 0; j < P.rows(); ++j) P(j, Eigen::Index(a)) = v[v.size() == 1 ? 0 : std::size_t(j)];
+    }
+    return P;
+}
+
+RowMatrix Scheme::extended_states(const Eigen::Ref<const RowMatrix>& X, const Eigen::Ref<const RowMatrix>& P) const {
+    const Eigen::Index n = Eigen::Index(dim()), q = Eigen::Index(parameters_.size());
+    RowMatrix E(X.rows(), n + q);
+    E.leftCols(n) = X;
+    for (Eigen::Index j = 0; j < X.rows(); ++j) E.row(j).tail(q) = P.row(P.rows() == 1 ? 0 : j);
+    return E;
+}
 
 RealisationForm Scheme::realisation_form() const {
     return pgi::realisation_form(pi_.structure_class(), choice_);

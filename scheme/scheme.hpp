@@ -7,6 +7,7 @@
 #include "poisson/newton_step.hpp"
 #include "scheme/input.hpp"
 #include "series/compile.hpp"
+#include "series/rational.hpp"
 
 #include <Eigen/Dense>
 
@@ -17,6 +18,18 @@
 #include <vector>
 
 namespace pgi {
+
+using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// A run-time constant of a scheme (docs/math.md, "Parameters"): a symbol of the exact phase, an extra coordinate
+/// that Poisson-commutes with everything, whose value each run gives (value: the default, exact).
+struct Parameter {
+    std::string name;
+    Rational value;
+};
+
+/// Parameter values a run gives by name (the others keep their defaults): one value, or one per trajectory.
+using ParameterValues = std::vector<std::pair<std::string, std::vector<double>>>;
 
 /// A scheme from plain values, as a Python caller or a C++ program writes it.
 struct SchemeValues {
@@ -29,6 +42,9 @@ struct SchemeValues {
     std::size_t max_terms = Ring::default_max_terms;            // bound on every product of the exact phase
     bool trust_jacobi = false;                                  // skip the Jacobi check: the caller vouches for pi
     bool jit = false;  // the steps' compiled maps as native code (StepOptions::jit)
+    /// Parameters and their defaults {{"w1", "1/2"}, {"eps", "0.05"}} (exact: 0.05 is 1/20), usable in H and the
+    /// Casimirs polynomially, not in the brackets (InputError naming the bracket).
+    std::vector<std::pair<std::string, std::string>> parameters;
 };
 
 /// The verdicts of the exact checks (docs/math.md sections 1 and 2).
@@ -67,7 +83,8 @@ public:
     /// trust_jacobi: the caller vouches for the Jacobi identity of pi, which is then not checked (checks() says
     /// so in jacobi_checked); every other check still runs.
     Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order,
-           RealisationChoice choice = RealisationChoice::automatic, bool trust_jacobi = false, bool jit = false);
+           RealisationChoice choice = RealisationChoice::automatic, bool trust_jacobi = false, bool jit = false,
+           std::vector<Parameter> parameters = {});
     /// From strings; InputError names the entry at fault ("brackets.\"x1,x2\"", "hamiltonian.H", ...).
     static Scheme from_values(const SchemeValues& values);
     explicit Scheme(const SchemeValues& values) : Scheme(from_values(values)) {}
@@ -79,11 +96,25 @@ public:
     Scheme& operator=(Scheme&&) noexcept;
     ~Scheme();
 
-    // The problem, as given.
+    // The problem, as given. With parameters, the exact phase space holds the coordinates then the parameters
+    // (pi's rows and columns of the parameters are zero): structure(), phase_space(), stepper() and the compiled
+    // maps work on the extended state (x, w) of dim() + parameters().size() values; the runs (pgi::integrate,
+    // integrate_ensemble, the evaluators) take x and the parameter values apart.
     const PoissonStructure& structure() const { return pi_; }
     const PhaseSpace& phase_space() const { return pi_.phase_space(); }
     const Poly& hamiltonian() const { return H_; }
     const std::vector<Poly>& casimirs() const { return casimirs_; }
+    /// The coordinates (the state), without the parameters: n.
+    std::size_t dim() const { return pi_.dim() - parameters_.size(); }
+    std::vector<std::string> coordinates() const;
+    /// The parameters, in their order (the last coordinates of phase_space()), with their defaults.
+    const std::vector<Parameter>& parameters() const { return parameters_; }
+    /// The values of a run: m rows of one value per parameter, the defaults where values has none. Each entry of
+    /// values names a parameter and holds 1 value (every row) or m. InputError("parameters") for an unknown or
+    /// repeated name, InputError("parameters.NAME") for a value that is not finite or a length other than 1 or m.
+    RowMatrix parameter_rows(const ParameterValues& values, std::size_t m = 1) const;
+    /// The extended states (x, w) of the rows of X (m x dim(), unchecked) and of P (1 or m rows of parameter values).
+    RowMatrix extended_states(const Eigen::Ref<const RowMatrix>& X, const Eigen::Ref<const RowMatrix>& P) const;
     std::size_t order() const { return k_; }                         // k
     std::size_t method_order() const { return 2 * ((k_ + 1) / 2); }  // 2 ceil(k/2)
     RealisationChoice realisation_choice() const { return choice_; }
@@ -152,6 +183,7 @@ private:
     RealisationChoice choice_;
     bool trust_jacobi_ = false;
     bool jit_ = false;
+    std::vector<Parameter> parameters_;
     std::unique_ptr<Cache> cache_;
 };
 

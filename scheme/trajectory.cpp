@@ -45,8 +45,8 @@ std::string step_failure_message(const NewtonStepper& s, std::size_t step, StepS
 
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every,
                      const std::optional<Eigen::VectorXd>& x_typical, const TrajectoryEvents& events,
-                     const RunControl& control) {
-    const std::size_t n = scheme.phase_space().dim();
+                     const RunControl& control, const ParameterValues& parameters) {
+    const std::size_t n = scheme.dim();
     if (every == 0) throw InputError("every", "must be at least 1");
     RunRequest request;
     request.dt = dt, request.t_end = t_end, request.every = every, request.dim = n;
@@ -57,9 +57,14 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
         throw InputError("x0", "must have " + std::to_string(n) + " finite values");
     if (x_typical && (x_typical->size() != x0.size() || !x_typical->allFinite()))
         throw InputError("x_typical", "must have " + std::to_string(n) + " finite values");
+    const RowMatrix P = scheme.parameter_rows(parameters);
+    // the run's state is the extended one (x, w): w constant, its increments exactly 0 (pi's rows of w are zero)
+    const auto extend = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+        return scheme.extended_states(v.transpose(), P).row(0).transpose();
+    };
     std::optional<EventSet> event_set;
     if (!events.specs.empty()) event_set = EventSet::build(scheme.phase_space(), events.specs, events.naming);
-    NewtonStepper stepper = scheme.stepper(dt, x_typical ? *x_typical : x0);
+    NewtonStepper stepper = scheme.stepper(dt, extend(x_typical ? *x_typical : x0));
     std::optional<EventDetector> detector;
     if (event_set)
         detector.emplace(std::move(*event_set),
@@ -69,11 +74,11 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
     loop.set_cancel(control.cancel);
     Trajectory r;
     r.dim = n;
-    Eigen::VectorXd x = x0;
+    Eigen::VectorXd x = extend(x0);
     auto record = [&](const RunPoint& p) {
         if (p.step % every != 0 && !p.final) return false;
         r.t.push_back(p.t);
-        r.x.insert(r.x.end(), p.x.data(), p.x.data() + p.x.size());
+        r.x.insert(r.x.end(), p.x.data(), p.x.data() + n);
         r.energy_error.push_back(loop.error(0));
         for (std::size_t c = 0; c < C; ++c) r.casimir_error.push_back(loop.error(1 + c));
         return false;

@@ -76,8 +76,12 @@ struct TrajectoryEvents {
 /// a bad event; RunInterrupted once control.cancel is set. A given x_typical (finite, of x0's length) makes the run the
 /// one an ensemble built at x_typical makes. With events, each crossing is kept and a terminal one ends the run: its
 /// state at its t is the last row (terminal_event).
+/// parameters: the values of the scheme's parameters (one each; the defaults where none is given), constant along
+/// the run; x0, x_typical and the recorded states hold the coordinates only (Scheme::dim()); InputError as
+/// Scheme::parameter_rows throws it.
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1,
                      const std::optional<Eigen::VectorXd>& x_typical = std::nullopt,
-                     const TrajectoryEvents& events = {}, const RunControl& control = {});
+                     const TrajectoryEvents& events = {}, const RunControl& control = {},
+                     const ParameterValues& parameters = {});
 
 }  // namespace pgi

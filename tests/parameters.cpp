@@ -1,0 +1,203 @@
+// Parameters (scheme/scheme.hpp, Parameter): symbols of the exact phase, given values at run time. A run with values w
+// equals, to round-off, the scheme with w written into H; the exact phase is built once whatever the values.
+#include "scheme/ensemble.hpp"
+#include "scheme/evaluators.hpp"
+#include "scheme/trajectory.hpp"
+#include "test_util.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+
+using namespace pgi;
+
+namespace {
+
+// The rigid body with inverse moments of inertia w1, w2, w3: parameters, or the exact values given (substituted).
+SchemeValues rigid_body(bool parameters, const std::string& w1 = "1/2", const std::string& w2 = "1",
+                        const std::string& w3 = "3/2") {
+    SchemeValues v;
+    v.coordinates = {"x1", "x2", "x3"};
+    v.brackets = {{"x1,x2", "-x3"}, {"x2,x3", "-x1"}, {"x3,x1", "-x2"}};
+    const std::string a = parameters ? "w1" : "(" + w1 + ")", b = parameters ? "w2" : "(" + w2 + ")",
+                      c = parameters ? "w3" : "(" + w3 + ")";
+    v.hamiltonian = "1/2*" + a + "*x1^2 + 1/2*" + b + "*x2^2 + 1/2*" + c + "*x3^2";
+    v.casimirs = {"x1^2 + x2^2 + x3^2"};
+    v.order = 4;
+    if (parameters) v.parameters = {{"w1", w1}, {"w2", w2}, {"w3", w3}};
+    return v;
+}
+
+double relative_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+    return (a - b).lpNorm<Eigen::Infinity>() / b.lpNorm<Eigen::Infinity>();
+}
+
+const Eigen::Vector3d x0(0.4535961214255773, 0.0, 0.8912073600614354);
+
+// The final state of a run of t_end = 5 (50 steps of 1/10).
+Eigen::VectorXd final_state(const Scheme& s, const ParameterValues& w = {}) {
+    const Trajectory tr = integrate(s, x0, 0.1, 5.0, 1, std::nullopt, {}, {}, w);
+    REQUIRE(tr.status == StepStatus::ok);
+    return Eigen::Map<const Eigen::VectorXd>(tr.x.data() + tr.x.size() - 3, 3);
+}
+
+}  // namespace
+
+TEST_CASE("parameters: a scene's [parameters] are read exactly, decimals included") {
+    const Scene scene = test::bundled("rigid_body_parameters");
+    REQUIRE(scene.parameters.size() == 3);
+    CHECK(scene.parameters[0].name == "w1");
+    CHECK(scene.parameters[0].value == Rational(1, 2));
+    CHECK(scene.parameters[2].value == Rational(3, 2));  // "1.5"
+    CHECK(scene.dim() == 3);
+    CHECK(scene.scheme->dim() == 3);
+    CHECK(scene.scheme->coordinates() == std::vector<std::string>{"x1", "x2", "x3"});
+    CHECK(scene.scheme->phase_space().dim() == 6);
+    SchemeValues v = rigid_body(true, "0.05");
+    CHECK(Scheme(v).parameters()[0].value == Rational(1, 20));
+}
+
+TEST_CASE("parameters: the checks hold for every value, the closed form is kept") {
+    const Scheme s(rigid_body(true));
+    const SchemeChecks& c = s.checks();
+    CHECK(c.ok());
+    CHECK(c.structure_class == StructureClass::linear);
+    CHECK(s.realisation_form() == RealisationForm::lie_poisson);
+    // a Casimir that holds only with the parameters as symbols: w1 (x1^2 + x2^2 + x3^2) + w2 w3
+    SchemeValues v = rigid_body(true);
+    v.casimirs.push_back("w1*(x1^2 + x2^2 + x3^2) + w2*w3");
+    CHECK(Scheme(v).checks().ok());
+    v.casimirs.back() = "w1*x1^2";
+    CHECK_THROWS_AS(Scheme(v).require_valid(), InputError);
+}
+
+TEST_CASE("parameters: S_1..S_k are polynomials in the coordinates and the parameters") {
+    const Scheme s(rigid_body(true));
+    const std::vector<Poly>& S = s.terms();
+    REQUIRE(S.size() == 4);
+    CHECK(S[0] == s.hamiltonian());
+    CHECK(S[1].is_zero());
+    const auto vars = used_variables(S[2]);
+    CHECK(std::find(vars.begin(), vars.end(), s.phase_space().x(3)) != vars.end());  // w1
+    CHECK(S[2].to_string().find("w2") != std::string::npos);
+}
+
+TEST_CASE("parameters: a run with values equals the scheme with the values written in, one exact phase") {
+    const Scheme s(rigid_body(true));
+    const std::vector<std::array<std::string, 3>> values{
+        {"1/2", "1", "3/2"}, {"2/5", "7/10", "9/4"}, {"1", "1/3", "5"}, {"-1/2", "3", "1/7"}};
+    for (const auto& [a, b, c] : values) {
+        CAPTURE(a);
+        const Scheme written(rigid_body(false, a, b, c));
+        const Eigen::VectorXd expected = final_state(written);
+        const ParameterValues w{{"w1", {Rational::parse(a).to_double()}},
+                                {"w2", {Rational::parse(b).to_double()}},
+                                {"w3", {Rational::parse(c).to_double()}}};
+        CHECK(relative_difference(final_state(s, w), expected) < 1e-13);
+    }
+    CHECK(s.stats().terms_builds == 1);
+    CHECK(s.stats().realisation_builds == 1);
+}
+
+TEST_CASE("parameters: an ensemble sweeps one value per trajectory, equal to the schemes with the values written in") {
+    const Scheme s(rigid_body(true));
+    constexpr std::size_t m = 40;
+    std::vector<double> w1(m), w3(m);
+    std::vector<std::string> w1_text(m), w3_text(m);
+    for (std::size_t j = 0; j < m; ++j) {
+        w1_text[j] = std::to_string(20 + j) + "/40", w3_text[j] = std::to_string(60 - j) + "/40";
+        w1[j] = Rational::parse(w1_text[j]).to_double(), w3[j] = Rational::parse(w3_text[j]).to_double();
+    }
+    RowMatrix X0(Eigen::Index(m), 3);
+    for (Eigen::Index j = 0; j < X0.rows(); ++j) X0.row(j) = x0.transpose();
+    EnsembleOptions o;
+    o.parameters = {{"w1", w1}, {"w3", w3}};  // w2 keeps its default, 1
+    const EnsembleResult r = integrate_ensemble(s, X0, 0.1, 5.0, o);
+    REQUIRE(r.x.cols() == 3);
+    for (std::size_t j = 0; j < m; j += 7) {
+        CAPTURE(j);
+        CHECK(r.members[j].status == TrajectoryStatus::ok);
+        const Eigen::VectorXd expected = final_state(Scheme(rigid_body(false, w1_text[j], "1", w3_text[j])));
+        CHECK(relative_difference(r.x.row(Eigen::Index(j)).transpose(), expected) < 1e-13);
+        CHECK(r.casimir_error(Eigen::Index(j), 0) < 1e-14);
+    }
+    CHECK(s.stats().terms_builds == 1);
+}
+
+TEST_CASE("parameters: a parameterised Casimir stays at round-off along a run") {
+    SchemeValues v = rigid_body(true);
+    v.casimirs = {"w1*(x1^2 + x2^2 + x3^2) + w2*w3"};
+    const Scheme s(v);
+    const Trajectory tr = integrate(s, x0, 0.1, 100.0, 10, std::nullopt, {}, {}, {{"w1", {3.0}}, {"w3", {0.7}}});
+    REQUIRE(tr.status == StepStatus::ok);
+    CHECK(tr.casimir_error_max[0] < 1e-14);
+    CHECK(tr.energy_error_max < 1e-5);
+}
+
+TEST_CASE("parameters: the evaluators take the parameters' values") {
+    const Scheme s(rigid_body(true));
+    RowMatrix X(2, 3);
+    X << 0.3, -0.4, 0.5, 1.0, 2.0, -1.0;
+    const RowMatrix F = vector_field(s, X, {{"w1", {2.0, 0.5}}});
+    const Scheme written(rigid_body(false, "2", "1", "3/2"));
+    CHECK(relative_difference(F.row(0).transpose(), vector_field(written, X).row(0).transpose()) < 1e-15);
+    const Eigen::VectorXd H = hamiltonian_values(s, X, {{"w2", {4.0}}});
+    CHECK(H[0] == doctest::Approx(0.25 * 0.09 + 2 * 0.16 + 0.75 * 0.25));
+}
+
+TEST_CASE("parameters: bad input is refused with an InputError naming it") {
+    const Scheme s(rigid_body(true));
+    RowMatrix X0(2, 3);
+    X0.setOnes();
+    CHECK_THROWS_WITH_AS(s.parameter_rows({{"I1", {1.0}}}),
+                         "parameters: unknown parameter 'I1' (the scheme's parameters: w1, w2, w3)", InputError);
+    CHECK_THROWS_WITH_AS(s.parameter_rows({{"w1", {std::numeric_limits<double>::quiet_NaN()}}}),
+                         "parameters.w1: value 0 is not finite", InputError);
+    EnsembleOptions o;
+    o.parameters = {{"w2", {1.0, 2.0, 3.0}}};
+    CHECK_THROWS_WITH_AS(integrate_ensemble(s, X0, 0.1, 1.0, o),
+                         "parameters.w2: has 3 values, for 2 trajectories (give 1 value, or one per trajectory)",
+                         InputError);
+    CHECK_THROWS_WITH_AS(integrate(s, x0, 0.1, 1.0, 1, std::nullopt, {}, {}, {{"w1", {1.0}}, {"w1", {2.0}}}),
+                         "parameters: parameter 'w1' given twice", InputError);
+    SchemeValues v = rigid_body(true);
+    v.brackets[0].second = "-w1*x3";
+    CHECK_THROWS_WITH_AS(Scheme::from_values(v),
+                         "brackets.\"x1,x2\": uses the parameter 'w1': parameters are allowed in H and the Casimirs, "
+                         "not in brackets (the structure's class and realisation are decided with them as coordinates)",
+                         InputError);
+    v = rigid_body(true);
+    v.brackets.emplace_back("x1,w2", "x1");
+    CHECK_THROWS_WITH_AS(Scheme::from_values(v),
+                         "brackets.\"x1,w2\": 'w2' is a parameter: parameters Poisson-commute with everything",
+                         InputError);
+    v = rigid_body(true);
+    v.parameters[1] = {"x2", "1"};
+    CHECK_THROWS_WITH_AS(Scheme::from_values(v), "parameters.x2: 'x2' is also a coordinate", InputError);
+    v = rigid_body(true, "one");
+    CHECK_THROWS_AS(Scheme::from_values(v), InputError);
+    const Scheme plain(rigid_body(false));
+    CHECK_THROWS_WITH_AS(integrate(plain, x0, 0.1, 1.0, 1, std::nullopt, {}, {}, {{"w1", {1.0}}}),
+                         "parameters: unknown parameter 'w1' (the scheme's parameters: none)", InputError);
+}
+
+TEST_CASE("parameters: a bracket that uses a parameter in a scene names the bracket") {
+    const std::string text =
+        "name = \"s\"\ncoordinates = [\"q\", \"p\"]\n[parameters]\nk = \"2\"\n[brackets]\n\"q,p\" = \"k\"\n"
+        "[hamiltonian]\nH = \"p^2/2 + k*q^2/2\"\n";
+    CHECK_THROWS_WITH_AS(parse_scene(text, "s.toml"),
+                         "s.toml: brackets.\"q,p\": uses the parameter 'k': parameters are allowed in H and the "
+                         "Casimirs, not in brackets (the structure's class and realisation are decided with them as "
+                         "coordinates)",
+                         SceneError);
+    const std::string bad_value =
+        "name = \"s\"\ncoordinates = [\"q\", \"p\"]\n[parameters]\nk = 0.5\n[brackets]\n\"q,p\" = \"1\"\n"
+        "[hamiltonian]\nH = \"p^2/2 + k*q^2/2\"\n";
+    CHECK_THROWS_WITH_AS(parse_scene(bad_value, "s.toml"),
+                         "s.toml: parameters.k: must be a string holding an exact value (\"2\", \"-1/3\", \"0.05\") "
+                         "or an integer",
+                         SceneError);
+}
