@@ -6,8 +6,11 @@
 //   term       := unary (('*' | '/') unary)*       (a divisor must be a non-zero constant)
 //   unary      := ('+' | '-') unary | power
 //   power      := atom ['^' integer]                 (no chained exponents: write (a^b)^c)
-//   atom       := integer | variable | '(' expression ')'
+//   atom       := number | variable | '(' expression ')'
+//   number     := digits ['.' digits] [('e'|'E') ['+'|'-'] digits], exactly: 0.05 is 1/20 (Rational::parse)
 #include "series/poly.hpp"
+
+#include "series/decimal.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -141,6 +144,8 @@ private:
         if (n != 0 && a.scale > max_exponent_ / n)
             fail("exponent " + std::to_string(a.scale) + " inside groups raised to the power " + digits +
                  " exceeds the limit " + std::to_string(max_exponent_) + " (at position " + pos(start) + ")");
+        if (end < text_.size() && (text_[end] == '.' || decimal_literal_length(text_.substr(start)) > end - start))
+            fail("'^' must be followed by a non-negative integer at position " + pos(start) + ", not a decimal");
         i_ = end;
         if (skip_space() < text_.size() && text_[i_] == '^')
             fail("chained exponents at position " + pos(i_) + ": write (a^b)^c");
@@ -160,11 +165,15 @@ private:
             ++i_;
             return e;
         }
-        if (std::isdigit(static_cast<unsigned char>(c))) {
-            const std::size_t end = skip_number(i_);
-            Rational value = Rational::parse(text_.substr(i_, end - i_));
-            i_ = end;
-            return {Poly::constant(ring_, value)};
+        if (const std::size_t length = decimal_literal_length(text_.substr(i_)); length > 0) {
+            const std::string_view literal = text_.substr(i_, length);
+            try {
+                Rational value = Rational::parse(literal);
+                i_ += length;
+                return {Poly::constant(ring_, value)};
+            } catch (const std::invalid_argument& e) {
+                fail(std::string(e.what()) + " at position " + pos(i_));
+            }
         }
         if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
             const std::size_t end = skip_identifier(i_);
@@ -181,8 +190,7 @@ private:
     }
 
     [[noreturn]] void unexpected(char c) const {
-        fail(std::string("unexpected character '") + printable(c) + "' at position " + pos(i_) +
-             (c == '.' ? " (write decimal coefficients as fractions, e.g. 3/2)" : ""));
+        fail(std::string("unexpected character '") + printable(c) + "' at position " + pos(i_));
     }
 
     [[noreturn]] void fail(const std::string& why) const {

@@ -1,5 +1,7 @@
 #include "series/rational.hpp"
 
+#include "series/decimal.hpp"
+
 #include <flint/arith.h>
 #include <flint/fmpz.h>
 #include <gmp.h>
@@ -35,7 +37,8 @@ std::string_view strip(std::string_view s) {
     throw std::invalid_argument("'" + std::string(text) + "' is not a number (" + why + ")");
 }
 
-// |decimal exponent| beyond this is refused: 10^400 is already far outside the double range.
+// |e| in a decimal's exponent beyond this is refused: 10^400 is far outside the double range, and the bound
+// keeps the value's size within the text's length plus 400 digits.
 constexpr long max_decimal_exponent = 400;
 
 // 10^e as a Rational, e of either sign.
@@ -64,9 +67,13 @@ Rational parse_decimal(std::string_view text) {
     long exponent = 0;
     if (auto e = s.find_first_of("eE"); e != std::string_view::npos) {
         std::string_view ex = s.substr(e + 1);
-        bool eneg = !ex.empty() && ex[0] == '-';
+        const bool eneg = !ex.empty() && ex[0] == '-';
         if (!ex.empty() && (ex[0] == '-' || ex[0] == '+')) ex.remove_prefix(1);
-        if (!all_digits(ex) || ex.size() > 6) bad_number(text, "malformed exponent");
+        if (!all_digits(ex)) bad_number(text, "malformed exponent");
+        while (ex.size() > 1 && ex[0] == '0') ex.remove_prefix(1);
+        if (ex.size() > 6 || std::stol(std::string(ex)) > max_decimal_exponent)
+            bad_number(text,
+                       "exponent out of range: at most " + std::to_string(max_decimal_exponent) + " in absolute value");
         exponent = std::stol(std::string(ex)) * (eneg ? -1 : 1);
         s = s.substr(0, e);
     }
@@ -81,13 +88,32 @@ Rational parse_decimal(std::string_view text) {
     } else if (!all_digits(s)) {
         bad_number(text, "expected an integer, a decimal or a fraction a/b");
     }
-    if (std::labs(exponent) > max_decimal_exponent + static_cast<long>(digits.size()))
-        bad_number(text, "decimal exponent out of range");
     Rational r = integer(digits) * power_of_ten(exponent);
     return negative ? -r : r;
 }
 
 }  // namespace
+
+std::size_t decimal_literal_length(std::string_view text) {
+    auto digits_from = [&](std::size_t i) {
+        while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i;
+        return i;
+    };
+    std::size_t i = digits_from(0);
+    const bool whole = i > 0;
+    if (i < text.size() && text[i] == '.') {
+        const std::size_t frac_end = digits_from(i + 1);
+        if (!whole && frac_end == i + 1) return 0;  // '.' alone is no number
+        i = frac_end;
+    }
+    if (i == 0) return 0;
+    if (i < text.size() && (text[i] == 'e' || text[i] == 'E')) {
+        std::size_t j = i + 1;
+        if (j < text.size() && (text[j] == '+' || text[j] == '-')) ++j;
+        if (const std::size_t end = digits_from(j); end > j) i = end;  // "2e" without digits ends before 'e'
+    }
+    return i;
+}
 
 Rational Rational::parse(std::string_view text) {
     std::string_view s = strip(text);

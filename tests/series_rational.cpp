@@ -1,8 +1,11 @@
 #include "series/rational.hpp"
 
+#include "series/decimal.hpp"
+
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <string>
 
 using namespace pgi;
 
@@ -24,6 +27,32 @@ TEST_CASE("rational: malformed numbers are refused with the text in the message"
     CHECK_THROWS_AS(Rational::parse("1..2"), std::invalid_argument);
     CHECK_THROWS_AS(Rational::parse("1e99999999"), std::invalid_argument);
     CHECK_THROWS_AS(Rational::parse("nan"), std::invalid_argument);
+}
+
+TEST_CASE("rational: a decimal's exponent is bounded by 400 in absolute value") {
+    CHECK(Rational::parse("1e400") == Rational::parse("1" + std::string(400, '0')));
+    CHECK(Rational::parse("-2.5e-0400") == Rational(-25) / (Rational(10) * Rational::parse("1e400")));
+    CHECK_THROWS_WITH_AS(Rational::parse("1e401"),
+                         "'1e401' is not a number (exponent out of range: at most 400 in absolute value)",
+                         std::invalid_argument);
+    CHECK_THROWS_WITH_AS(Rational::parse("1e999999"),
+                         "'1e999999' is not a number (exponent out of range: at most 400 in absolute value)",
+                         std::invalid_argument);
+    CHECK_THROWS_WITH_AS(Rational::parse("1e"), "'1e' is not a number (malformed exponent)", std::invalid_argument);
+    CHECK_THROWS_AS(Rational::parse("1e+-2"), std::invalid_argument);
+}
+
+TEST_CASE("rational: the extent of a decimal literal inside a longer text") {
+    CHECK(decimal_literal_length("0.05*x") == 4);
+    CHECK(decimal_literal_length("1.5e-3*x") == 6);
+    CHECK(decimal_literal_length("2E+10)") == 5);
+    CHECK(decimal_literal_length(".5") == 2);
+    CHECK(decimal_literal_length("3.x") == 2);
+    CHECK(decimal_literal_length("2ex") == 1);
+    CHECK(decimal_literal_length("2e+") == 1);
+    CHECK(decimal_literal_length(".") == 0);
+    CHECK(decimal_literal_length("x1") == 0);
+    CHECK(decimal_literal_length("") == 0);
 }
 
 TEST_CASE("rational: conversion to double is correctly rounded") {

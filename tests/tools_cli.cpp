@@ -176,6 +176,26 @@ TEST_CASE("cli: terms --json follows the contract and equals the library's S_1..
     CHECK(jr["S"] == j["S"]);
 }
 
+TEST_CASE("cli: decimal coefficients in a scene are exact rationals: the same terms as the fractions") {
+    const std::string head =
+        "name = \"decimals\"\ncoordinates = [\"x1\", \"x2\", \"x3\"]\n[brackets]\n"
+        "\"x1,x2\" = \"-x3\"\n\"x2,x3\" = \"-x1\"\n\"x3,x1\" = \"-x2\"\n[hamiltonian]\n";
+    TempScene decimals("decimals", head +
+                                       "H = \"0.25*x1^2 + 0.5*x2^2 + 7.5e-1*x3^2\"\n"
+                                       "casimirs = [\"1.0*x1^2 + 10e-1*x2^2 + 0.1e1*x3^2\"]\n");
+    TempScene fractions("fractions", head +
+                                         "H = \"1/4*x1^2 + 1/2*x2^2 + 3/4*x3^2\"\n"
+                                         "casimirs = [\"x1^2 + x2^2 + x3^2\"]\n");
+    Run d = pgi_run({"terms", decimals.path.string(), "--order", "3", "--json"});
+    Run f = pgi_run({"terms", fractions.path.string(), "--order", "3", "--json"});
+    REQUIRE(d.exit_code == 0);
+    REQUIRE(f.exit_code == 0);
+    CHECK(nlohmann::json::parse(d.out)["S"] == nlohmann::json::parse(f.out)["S"]);
+    Run c = pgi_run({"check", decimals.path.string()});
+    CHECK(c.exit_code == 0);
+    CHECK_MESSAGE(c.out.find("Casimir x1^2 + x2^2 + x3^2: holds") != std::string::npos, c.out);
+}
+
 TEST_CASE("cli: realisation --json prints alpha and beta in the momenta p_<coordinate>") {
     Run r = pgi_run({"realisation", test::scene_path("harmonic_oscillator"), "--degree", "3", "--json"});
     REQUIRE(r.exit_code == 0);

@@ -107,6 +107,18 @@ def test_a_python_power_gets_the_hint_to_write_a_caret():
     refused(r"events\[0\]: '\*\*'", lambda: s.integrate(X0, dt=0.1, t_end=1, events=["x1**2 - 0.1"]))
 
 
+def test_decimal_coefficients_are_read_as_exact_rationals():
+    decimals = pgi.Scheme(**{**RIGID_BODY, "hamiltonian": "0.25*x1^2 + 0.5*x2^2 + 7.5e-1*x3^2",
+                             "casimirs": ["1.0*x1^2 + (0.1 + 0.9)*x2^2 + 1e0*x3^2"]})
+    fractions = pgi.Scheme(**RIGID_BODY)
+    assert decimals.hamiltonian == fractions.hamiltonian and decimals.casimirs == fractions.casimirs
+    assert decimals.terms() == fractions.terms()
+    assert pgi.Scheme(**{**RIGID_BODY, "hamiltonian": "0.05*x1^2"}).hamiltonian == "1/20*x1^2"
+    refused(r"hamiltonian.H: malformed polynomial .*'1e999999' is not a number "
+            r"\(exponent out of range: at most 400 in absolute value\) at position 12",
+            lambda: pgi.Scheme(**{**RIGID_BODY, "hamiltonian": "0.5*x1^2 + 1e999999*x2"}))
+
+
 def test_the_scheme_explains_itself_with_real_methods_and_properties():
     s = pgi.Scheme(**RIGID_BODY)
     names = set(dir(s))
