@@ -196,6 +196,23 @@ TEST_CASE("cli: decimal coefficients in a scene are exact rationals: the same te
     CHECK_MESSAGE(c.out.find("Casimir x1^2 + x2^2 + x3^2: holds") != std::string::npos, c.out);
 }
 
+TEST_CASE("cli: the run's text names each Casimir whose error it prints") {
+    Run one = pgi_run({"integrate", test::scene_path("rigid_body"), "--t-end", "1"});
+    REQUIRE(one.exit_code == 0);
+    CHECK_MESSAGE(one.out.find("  max relative error of Casimir x1^2 + x2^2 + x3^2: ") != std::string::npos, one.out);
+    Run two = pgi_run({"run", test::scene_path("volterra_chain"), "--t-end", "1"});
+    REQUIRE(two.exit_code == 0);
+    const auto first = two.out.find("  max relative error of Casimir C1 = x1*x3*x5: ");
+    const auto second = two.out.find("  max relative error of Casimir C2 = x2*x4*x6: ");
+    CHECK_MESSAGE((first != std::string::npos && second != std::string::npos && first < second), two.out);
+    Run json = pgi_run({"integrate", test::scene_path("volterra_chain"), "--t-end", "1", "--json"});
+    CHECK(nlohmann::json::parse(json.out)["casimirs"] == nlohmann::json({"x1*x3*x5", "x2*x4*x6"}));
+    TempDir dir("casimir_report");
+    const fs::path md = dir.path / "r.md";
+    REQUIRE(pgi_run({"report", test::scene_path("rigid_body"), "--order", "2", "--out", md.string()}).exit_code == 0);
+    CHECK_MESSAGE(slurp(md).find(", of the Casimir `x1^2 + x2^2 + x3^2` ") != std::string::npos, slurp(md));
+}
+
 TEST_CASE("cli: realisation --json prints alpha and beta in the momenta p_<coordinate>") {
     Run r = pgi_run({"realisation", test::scene_path("harmonic_oscillator"), "--degree", "3", "--json"});
     REQUIRE(r.exit_code == 0);

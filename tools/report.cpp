@@ -194,7 +194,9 @@ std::string report_markdown(const json& r) {
             run["steps"].get<std::size_t>(), run["dt"].get<double>(), run["t"].get<double>(),
             run["energy_error_max"].get<double>(), r["modified_upto"].get<std::size_t>(),
             run["modified_energy_error_max"].get<double>());
-        for (const auto& e : run["casimir_error_max"]) out += fmt::format(", of a Casimir {:.3e}", e.get<double>());
+        for (std::size_t i = 0; i < run["casimir_error_max"].size(); ++i)
+            out += fmt::format(", of the Casimir `{}` {:.3e}", r["casimirs"][i]["text"].get<std::string>(),
+                               run["casimir_error_max"][i].get<double>());
         out += fmt::format("; {:.2f} Newton iterations per step.\n", run["newton_iterations_mean"].get<double>());
     }
     return out;

@@ -120,6 +120,21 @@ std::size_t step_count(const Scene& scene, std::size_t max_steps, std::size_t ev
 
 namespace {
 
+// The scene's Casimirs as text, in the order of casimir_error_max.
+std::vector<std::string> casimir_texts(const Scene& scene) {
+    std::vector<std::string> texts;
+    for (const Poly& c : scene.casimirs) texts.push_back(c.to_string());
+    return texts;
+}
+
+// "x1^2 + x2^2 + x3^2" for a scene's only Casimir, "C2 = x2*x4*x6" for the second of several; at most 60
+// characters of the polynomial (then "...").
+std::string casimir_label(const json& texts, std::size_t i) {
+    std::string text = texts[i].get<std::string>();
+    if (text.size() > 60) text = text.substr(0, 57) + "...";
+    return texts.size() == 1 ? text : fmt::format("C{} = {}", i + 1, text);
+}
+
 // Each Casimir's fitted error slope per step (RunLoop::drift_per_step, H's entry and the extras' left out).
 std::vector<double> casimir_drift(const RunLoop& loop, std::size_t casimirs) {
     const std::vector<double> drift = loop.drift_per_step();
@@ -205,6 +220,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
            {"t", double(end.steps) * scene.dt},
            {"x", to_std(x)},
            {"energy_error_max", worst[0]},
+           {"casimirs", casimir_texts(scene)},
            {"casimir_error_max", casimir_errors},
            {"casimir_drift_per_step", casimir_drift(loop, scene.casimirs.size())},
            {"newton_iterations_mean", end.mean_iterations},
@@ -257,8 +273,10 @@ std::string integrate_text(const json& r) {
                            r["t_end"].get<double>(), r["t"].get<double>());
     out += fmt::format("  x(t) = ({:.17g})\n", fmt::join(r["x"].get<std::vector<double>>(), ", "));
     out += fmt::format("  max relative energy error: {:.3e}\n", r["energy_error_max"].get<double>());
-    for (const auto& c : r["casimir_error_max"])
-        out += fmt::format("  max relative Casimir error: {:.3e}\n", c.get<double>());
+    const json& errors = r["casimir_error_max"];
+    for (std::size_t i = 0; i < errors.size(); ++i)
+        out += fmt::format("  max relative error of Casimir {}: {:.3e}\n", casimir_label(r["casimirs"], i),
+                           errors[i].get<double>());
     out += fmt::format("  Newton iterations per step: {:.3f}; {:.0f} ns per step; exact phase {:.3f} s\n",
                        r["newton_iterations_mean"].get<double>(), r["ns_per_step"].get<double>(),
                        r["build_seconds"].get<double>());
