@@ -1,5 +1,6 @@
 #include "scheme/trajectory.hpp"
 
+#include "poisson/step_jacobian.hpp"
 #include "scheme/run_loop.hpp"
 
 #include <cmath>
@@ -45,7 +46,7 @@ std::string step_failure_message(const NewtonStepper& s, std::size_t step, StepS
 
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every,
                      const std::optional<Eigen::VectorXd>& x_typical, const TrajectoryEvents& events,
-                     const RunControl& control, const ParameterValues& parameters) {
+                     const RunControl& control, const ParameterValues& parameters, bool tangent) {
     const std::size_t n = scheme.dim();
     if (every == 0) throw InputError("every", "must be at least 1");
     RunRequest request;
@@ -62,6 +63,11 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
     const auto extend = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
         return scheme.extended_states(v.transpose(), P).row(0).transpose();
     };
+    if (tangent)
+        for (const EventSpec& e : events.specs)
+            if (e.terminal)
+                throw InputError("tangent", "not with a terminal event: it ends the run between steps, and the "
+                                            "tangent map is the product of whole steps' Jacobians");
     std::optional<EventSet> event_set;
     if (!events.specs.empty()) event_set = EventSet::build(scheme.phase_space(), events.specs, events.naming);
     NewtonStepper stepper = scheme.stepper(dt, extend(x_typical ? *x_typical : x0));
@@ -75,7 +81,12 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
     Trajectory r;
     r.dim = n;
     Eigen::VectorXd x = extend(x0);
+    // tangent: each step's Jacobian multiplied in after it (of the extended state: w's rows are those of I, so the
+    // coordinates' block of the product is the product of the coordinates' blocks)
+    std::optional<TangentProduct> product;
+    if (tangent) product.emplace(Eigen::Index(stepper.dim()));
     auto record = [&](const RunPoint& p) {
+        if (product && p.step > 0) product->after_step(stepper);
         if (p.step % every != 0 && !p.final) return false;
         r.t.push_back(p.t);
         r.x.insert(r.x.end(), p.x.data(), p.x.data() + n);
@@ -98,6 +109,12 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
     r.casimir_error_max.assign(loop.error_max().begin() + 1, loop.error_max().begin() + 1 + long(C));
     const std::vector<double> drift = loop.drift_per_step();
     r.casimir_drift_per_step.assign(drift.begin() + 1, drift.begin() + 1 + long(C));
+    if (product) {
+        r.jacobian.resize(n * n);
+        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(r.jacobian.data(), long(n),
+                                                                                          long(n)) =
+            product->product().topLeftCorner(long(n), long(n));
+    }
     if (!end.ok()) {
         r.failed_step = end.started ? end.steps + 1 : 0;
         r.failed_t = double(end.steps) * dt;

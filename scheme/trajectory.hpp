@@ -58,6 +58,9 @@ struct Trajectory {
     std::string message;
     std::vector<Crossing> crossings;  // with events: every crossing, in time order
     bool terminal_event = false;      // a terminal event ended the run: its crossing is the last row
+    /// With tangent: row-major dim x dim, d x(t_last) / d x0, the product of the Jacobians of the steps taken
+    /// (poisson/step_jacobian.hpp); empty without.
+    std::vector<double> jacobian;
 };
 
 /// Events watched along a run: g_i(x) = 0 crossed in event i's direction, located on the dense output
@@ -78,10 +81,11 @@ struct TrajectoryEvents {
 /// state at its t is the last row (terminal_event).
 /// parameters: the values of the scheme's parameters (one each; the defaults where none is given), constant along
 /// the run; x0, x_typical and the recorded states hold the coordinates only (Scheme::dim()); InputError as
-/// Scheme::parameter_rows throws it.
+/// Scheme::parameter_rows throws it. tangent: jacobian holds the derivative of the run's map, computed step by step
+/// alongside it (InputError with a terminal event, which ends the run between steps).
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1,
                      const std::optional<Eigen::VectorXd>& x_typical = std::nullopt,
                      const TrajectoryEvents& events = {}, const RunControl& control = {},
-                     const ParameterValues& parameters = {});
+                     const ParameterValues& parameters = {}, bool tangent = false);
 
 }  // namespace pgi
