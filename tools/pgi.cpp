@@ -9,6 +9,7 @@
 #include "tools/plot.hpp"
 #include "tools/program_allocator.hpp"
 #include "tools/section.hpp"
+#include "tools/lyapunov.hpp"
 #include "tools/exit_codes.hpp"
 #include "tools/option_values.hpp"
 
@@ -230,6 +231,8 @@ int run_command(const std::string& name, Options o) {
         print(pgi::check_text(pgi::check_report(scene)) + "\n" + pgi::terms_text(pgi::terms_report(scene)) + "\n");
         if (scene.x0 && scene.t_end) print(pgi::integrate_text(pgi::integrate_report(scene, io)));
     }
+    if (name == "lyapunov")
+        emit(o, pgi::lyapunov_report(scene, o.integrate.every, o.integrate.max_steps), pgi::lyapunov_text);
     if (plot)
         for (const auto& f : plot->write()) std::cerr << "pgi: wrote " << f.string() << "\n";
     return 0;
@@ -300,6 +303,12 @@ int main(int argc, char** argv) {
         app.add_subcommand("section", "the crossings of an event polynomial along the run (a Poincare section)");
     scene_options(section, o,
                   use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);
+    auto* lyapunov = app.add_subcommand("lyapunov", "the Lyapunov exponents along the run (Benettin's method)");
+    scene_options(lyapunov, o, use::trust | use::json | use::order | use::dt | use::realisation | use::x0 |
+                                   use::t_end | use::jit);
+    lyapunov->add_option("--every", o.every, "record the estimates every M steps (default 1)");
+    lyapunov->add_option("--max-steps", o.max_steps,
+                         "refuse a run of more steps than this, before any work (default 1e8)");
     section->add_option("--event", o.section.event, "the polynomial g whose zeros are reported")->required();
     section->add_option("--direction", o.section.direction, "1: g rising through 0, -1: falling, 0: both (default)")
         ->check(CLI::IsMember({-1, 0, 1}));
