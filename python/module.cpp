@@ -98,9 +98,9 @@ struct PyScheme {
     const pgi::PhaseSpace& M() const { return scheme->phase_space(); }
 
     Eigen::VectorXd state(const Eigen::VectorXd& x, const char* what) const {
-        if (static_cast<std::size_t>(x.size()) != M().dim())
+        if (static_cast<std::size_t>(x.size()) != scheme->dim())
             throw pgi::InputError(
-                what, "must have " + std::to_string(M().dim()) + " values, got " + std::to_string(x.size()));
+                what, "must have " + std::to_string(scheme->dim()) + " values, got " + std::to_string(x.size()));
         if (!x.allFinite()) throw pgi::InputError(what, "must be finite");
         return x;
     }
@@ -109,6 +109,10 @@ struct PyScheme {
         if (!h) throw pgi::InputError("dt", "missing: give dt (the scheme has none)");
         if (!(*h > 0) || !std::isfinite(*h)) throw pgi::InputError("dt", "must be positive and finite");
         return *h;
+    }
+    // The extended state (x, w) of x with the parameter values w (the defaults where none is given).
+    Eigen::VectorXd extended(const Eigen::VectorXd& x, const pgi::ParameterValues& w) const {
+        return scheme->extended_states(x.transpose(), scheme->parameter_rows(w)).row(0).transpose();
     }
 };
 
@@ -121,8 +125,9 @@ std::vector<std::string> texts(const std::vector<pgi::Poly>& v, bool latex) {
 PyScheme from_values(std::vector<std::string> coordinates, const py::dict& brackets, std::string hamiltonian,
                      std::vector<std::string> casimirs, long order, std::string realisation, std::optional<double> dt,
                      std::optional<Eigen::VectorXd> x0, std::optional<double> t_end, std::size_t max_terms,
-                     bool trust_jacobi, bool jit) {
+                     bool trust_jacobi, bool jit, std::vector<std::pair<std::string, std::string>> parameters) {
     pgi::SchemeValues v;
+    v.parameters = std::move(parameters);
     v.trust_jacobi = trust_jacobi;
     v.jit = jit;
     v.coordinates = std::move(coordinates);
@@ -156,7 +161,7 @@ PyScheme from_scene(const pgi::Scene& scene) {
     s.name = scene.name;
     s.dt = scene.dt;
     s.t_end = scene.t_end;
-    if (scene.x0) s.x0 = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
+    if (scene.x0) s.x0 = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.dim()));  // no w
     return s;
 }
 
@@ -213,13 +218,15 @@ py::dict check(const PyScheme& s) {
     return r;
 }
 
-// One step: the new state, or the failure's report for the Python side to raise StepFailure.
-py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt_in) {
-    const Eigen::VectorXd x = s.state(x_in, "x");
+// One step: the new state, or the failure's report for the Python side to raise StepFailure. The step runs on the
+// extended state (x, w) (w's increments are exactly 0).
+py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt_in,
+              const pgi::ParameterValues& parameters) {
+    const Eigen::VectorXd x = s.extended(s.state(x_in, "x"), parameters);
     const double dt = s.step_size(dt_in);
     auto it = s.steppers.find(dt);
     if (it == s.steppers.end()) {
-        const Eigen::VectorXd typical = s.x0 ? *s.x0 : x;
+        const Eigen::VectorXd typical = s.x0 ? s.extended(*s.x0, {}) : x;
         // the exact phase (require_valid first); the map is touched only with the GIL held
         const auto& scheme = *s.scheme;
         pgi::NewtonStepper built = interruptible([&](const pgi::RunCancel&) { return scheme.stepper(dt, typical); });
@@ -228,7 +235,7 @@ py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt
     pgi::NewtonStepper& st = it->second;
     Eigen::VectorXd increment(x.size());
     const pgi::StepStatus status = st.step(x, increment);
-    Eigen::VectorXd next = x + increment;
+    Eigen::VectorXd next = (x + increment).head(Eigen::Index(s.scheme->dim()));
     py::dict r("newton_iterations"_a = st.last_iterations(), "status"_a = pgi::to_string(status));
     if (status == pgi::StepStatus::ok && next.allFinite()) {
         r["x"] = next;
@@ -278,7 +285,8 @@ py::dict crossings(const pgi::Trajectory& tr) {
 py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::optional<double> dt_in,
                    std::optional<double> t_end_in, std::size_t every, std::optional<Eigen::VectorXd> x_typical,
                    const std::vector<std::tuple<std::string, int, bool>>& events, std::size_t event_samples,
-                   std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
+                   std::optional<std::size_t> max_steps, std::optional<double> max_output_mb,
+                   const pgi::ParameterValues& parameters) {
     if (!x0_in && !s.x0) throw pgi::InputError("x0", "missing: give x0 (the scheme has none)");
     const Eigen::VectorXd x0 = s.state(x0_in ? *x0_in : *s.x0, "x0");
     const double dt = s.step_size(dt_in);
@@ -295,7 +303,7 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
         tr = interruptible([&](const pgi::RunCancel& cancel) {
             pgi::RunControl c = control;
             c.cancel = &cancel;
-            return pgi::integrate(scheme, x0, dt, t_end, every, x_typical, watched, c);
+            return pgi::integrate(scheme, x0, dt, t_end, every, x_typical, watched, c, parameters);
         });
     } catch (const pgi::ParseError& e) {  // a bad event (the other arguments were checked above)
         throw pgi::InputError("", e.what());
@@ -340,7 +348,7 @@ std::string shape_of(const py::array& a) {
 py::array ensemble_states(const PyScheme& s, const py::object& X0, const std::string& name = "X0") {
     if (!py::isinstance<py::array>(X0)) throw pgi::InputError(name, "must be a numpy array of shape (m, n), float64");
     const auto a = py::reinterpret_borrow<py::array>(X0);
-    const std::size_t n = s.M().dim();
+    const std::size_t n = s.scheme->dim();
     if (!py::array_t<double>::check_(a))  // dtype equivalent to float64 (native byte order)
         throw pgi::InputError(name, "must have dtype float64, got " + py::str(a.dtype()).cast<std::string>());
     if (a.ndim() != 2 || std::size_t(a.shape(1)) != n)
@@ -372,7 +380,8 @@ Eigen::Map<const pgi::RowMatrix> as_matrix(const py::array_t<double, py::array::
 py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::optional<double> dt_in,
                             std::optional<double> t_end_in, std::size_t threads, std::size_t chunk,
                             std::optional<Eigen::VectorXd> x_typical, std::size_t batch,
-                            std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
+                            std::optional<std::size_t> max_steps, std::optional<double> max_output_mb,
+                            const pgi::ParameterValues& parameters) {
     const py::array states = ensemble_states(s, X0_in);
     const double dt = s.step_size(dt_in);
     const double t_end = run_length(s, t_end_in);
@@ -383,6 +392,8 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
     options.batch = batch;
     options.x_typical = x_typical;
     options.control.limits = limits(max_steps, max_output_mb);
+    options.parameters = parameters;
+    s.scheme->parameter_rows(parameters, std::size_t(states.shape(0)));  // their checks, before the copy
     pgi::plan_ensemble(*s.scheme, std::size_t(states.shape(0)), dt, t_end, options.control.limits);  // before the copy
     const auto X0 = contiguous(states);
     // X0 stays alive (held here) and is only read; the run is C++ only, on a worker, stopped by Ctrl-C
@@ -435,10 +446,12 @@ py::object evaluate(const PyScheme& s, const py::object& x, bool exact_phase, F 
     return py::cast(std::move(values));
 }
 
-// The method of Scheme evaluating f, which runs no exact phase, at the rows of x.
+// The method of Scheme evaluating f, which runs no exact phase, at the rows of x with the parameter values w.
 template <class Values>
-auto at_rows(Values (*f)(const pgi::Scheme&, const Eigen::Ref<const pgi::RowMatrix>&)) {
-    return [f](const PyScheme& s, const py::object& x) { return evaluate(s, x, false, f); };
+auto at_rows(Values (*f)(const pgi::Scheme&, const Eigen::Ref<const pgi::RowMatrix>&, const pgi::ParameterValues&)) {
+    return [f](const PyScheme& s, const py::object& x, const pgi::ParameterValues& w) {
+        return evaluate(s, x, false, [&](const pgi::Scheme& scheme, const auto& X) { return f(scheme, X, w); });
+    };
 }
 
 py::dict stats(const PyScheme& s) {
@@ -478,13 +491,21 @@ PYBIND11_MODULE(_pgi, m) {
         .def(py::init(&from_values), "coordinates"_a, "brackets"_a, "hamiltonian"_a,
              "casimirs"_a = std::vector<std::string>{}, "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(),
              "x0"_a = py::none(), "t_end"_a = py::none(), "max_terms"_a = pgi::Ring::default_max_terms,
-             "trust_jacobi"_a = false, "jit"_a = false)
+             "trust_jacobi"_a = false, "jit"_a = false,
+             "parameters"_a = std::vector<std::pair<std::string, std::string>>{})
         .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false, "jit"_a = false)
         .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a, "trust_jacobi"_a = false, "jit"_a = false)
         .def_property_readonly("jacobi_trusted", [](const PyScheme& s) { return s.scheme->jacobi_trusted(); })
         .def_property_readonly("jit", [](const PyScheme& s) { return s.scheme->jit(); })
         .def_property_readonly("name", [](const PyScheme& s) { return s.name; })
-        .def_property_readonly("coordinates", [](const PyScheme& s) { return s.M().coordinates(); })
+        .def_property_readonly("coordinates", [](const PyScheme& s) { return s.scheme->coordinates(); })
+        .def_property_readonly("parameters",
+                               [](const PyScheme& s) {
+                                   std::vector<std::pair<std::string, std::string>> p;
+                                   for (const auto& w : s.scheme->parameters())
+                                       p.emplace_back(w.name, w.value.to_string());
+                                   return p;
+                               })
         .def_property_readonly("order", [](const PyScheme& s) { return s.scheme->order(); })
         .def_property_readonly("method_order", [](const PyScheme& s) { return s.scheme->method_order(); })
         .def_property_readonly("realisation",
@@ -529,13 +550,14 @@ PYBIND11_MODULE(_pgi, m) {
                 return py::dict("method"_a = r.method, "degree"_a = r.degree, "alpha"_a = alpha, "beta"_a = beta);
             },
             "degree"_a)
-        .def("_step", &step, "x"_a, "dt"_a = py::none())
+        .def("_step", &step, "x"_a, "dt"_a = py::none(), "parameters"_a = pgi::ParameterValues{})
         .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
              "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{},
-             "event_samples"_a = 1, "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
+             "event_samples"_a = 1, "max_steps"_a = py::none(), "max_output_mb"_a = py::none(),
+             "parameters"_a = pgi::ParameterValues{})
         .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),
              "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none(), "batch"_a = 0, "max_steps"_a = py::none(),
-             "max_output_mb"_a = py::none())
+             "max_output_mb"_a = py::none(), "parameters"_a = pgi::ParameterValues{})
         .def(
             "_check_ensemble",
             [](const PyScheme& s, std::size_t m, std::optional<double> dt, std::optional<double> t_end,
@@ -546,19 +568,20 @@ PYBIND11_MODULE(_pgi, m) {
             "m"_a, "dt"_a = py::none(), "t_end"_a = py::none(), "max_steps"_a = py::none(),
             "max_output_mb"_a = py::none())
         .def("stats", &stats)
-        .def("_vector_field", at_rows(&pgi::vector_field), "x"_a)
-        .def("_poisson_matrices", at_rows(&pgi::poisson_matrices), "x"_a)
-        .def("_hamiltonian_values", at_rows(&pgi::hamiltonian_values), "x"_a)
-        .def("_casimir_values", at_rows(&pgi::casimir_values), "x"_a)
+        .def("_vector_field", at_rows(&pgi::vector_field), "x"_a, "parameters"_a = pgi::ParameterValues{})
+        .def("_poisson_matrices", at_rows(&pgi::poisson_matrices), "x"_a, "parameters"_a = pgi::ParameterValues{})
+        .def("_hamiltonian_values", at_rows(&pgi::hamiltonian_values), "x"_a, "parameters"_a = pgi::ParameterValues{})
+        .def("_casimir_values", at_rows(&pgi::casimir_values), "x"_a, "parameters"_a = pgi::ParameterValues{})
         .def(
             "_modified_hamiltonian_values",
-            [](const PyScheme& s, const py::object& x, std::optional<double> dt, std::size_t upto) {
+            [](const PyScheme& s, const py::object& x, std::optional<double> dt, std::size_t upto,
+               const pgi::ParameterValues& w) {
                 const double h = s.step_size(dt);
                 return evaluate(s, x, true, [&](const pgi::Scheme& scheme, const auto& X) {
-                    return pgi::modified_hamiltonian_values(scheme, X, h, upto);
+                    return pgi::modified_hamiltonian_values(scheme, X, h, upto, w);
                 });
             },
-            "x"_a, "dt"_a = py::none(), "upto"_a = 4)
+            "x"_a, "dt"_a = py::none(), "upto"_a = 4, "parameters"_a = pgi::ParameterValues{})
         .def(
             "_typical_state",
             [](const PyScheme& s, const py::object& X0) {

@@ -35,19 +35,64 @@ void add_ensemble_options(CLI::App* cmd, EnsembleCommandOptions& o) {
     cmd->add_option("--batch", o.batch,
                     "trajectories stepped together (default 16 below 40 coordinates, else 1: one at a time)")
         ->check(CLI::PositiveNumber);
+    cmd->add_option("--params", o.params,
+                    "the scene's parameter values, one row per state, one column per parameter in the scene's order "
+                    "(NPY or CSV; default: the defaults or --param, for every state)");
     cmd->add_option("--out", o.out, "write PREFIX.x0.npy, PREFIX.x.npy, PREFIX.errors.npy and PREFIX.csv")->required();
 }
 
 namespace {
 
-std::string names(const PhaseSpace& M, const std::string& prefix = "", const std::string& suffix = "") {
+std::string names(const std::vector<std::string>& coordinates, const std::string& prefix = "",
+                  const std::string& suffix = "") {
     std::string s;
-    for (const auto& c : M.coordinates()) s += (s.empty() ? "" : ",") + prefix + c + suffix;
+    for (const auto& c : coordinates) s += (s.empty() ? "" : ",") + prefix + c + suffix;
     return s;
+}
+std::string names(const Scene& scene, const std::string& prefix = "", const std::string& suffix = "") {
+    return names(scene.scheme->coordinates(), prefix, suffix);
+}
+
+// The rows of an NPY or CSV file of the given columns (named by header), m of them.
+RowMatrix read_rows(const std::string& file, const char* option, std::size_t columns, const std::string& header,
+                    const EnsembleCommandOptions& o) {
+    const std::filesystem::path p(file);
+    const auto max_bytes = std::size_t(o.limits.max_output_mb * double(1 << 20));
+    RowMatrix X = p.extension() == ".npy" ? read_npy(p, max_bytes)
+                  : p.extension() == ".csv"
+                      ? read_csv_states(p, columns, header, max_bytes)
+                      : throw InputError(file, std::string(option) + " must be a .npy or .csv file");
+    if (std::size_t(X.cols()) != columns)
+        throw InputError(file, "holds " + std::to_string(X.cols()) + " columns, " + option + " needs " +
+                                   std::to_string(columns) + " (" + header + ")");
+    if (X.rows() == 0) throw InputError(file, "holds no rows: nothing to integrate");
+    return X;
+}
+
+// The parameters' values of the m trajectories: --params's columns, else the scene's values (defaults, --param).
+ParameterValues parameter_values(const Scene& scene, const EnsembleCommandOptions& o, Eigen::Index m) {
+    ParameterValues w;
+    std::vector<std::string> parameter_names;
+    for (const auto& p : scene.parameters) parameter_names.push_back(p.name);
+    if (o.params.empty()) {
+        for (std::size_t a = 0; a < scene.parameters.size(); ++a)
+            w.push_back({scene.parameters[a].name, {scene.parameter_values[a]}});
+        return w;
+    }
+    if (scene.parameters.empty()) throw InputError("--params", "the scene has no [parameters]");
+    const RowMatrix P = read_rows(o.params, "--params", scene.parameters.size(), names(parameter_names), o);
+    if (P.rows() != m)
+        throw InputError(
+            o.params, "holds " + std::to_string(P.rows()) + " rows of parameters for " + std::to_string(m) + " states");
+    for (std::size_t a = 0; a < scene.parameters.size(); ++a) {
+        const Eigen::VectorXd column = P.col(Eigen::Index(a));
+        w.push_back({scene.parameters[a].name, {column.data(), column.data() + column.size()}});
+    }
+    return w;
 }
 
 RowMatrix initial_states(const Scene& scene, const EnsembleCommandOptions& o) {
-    const std::size_t n = scene.phase_space().dim();
+    const std::size_t n = scene.dim();
     if (o.states.empty() && o.sample.empty())
         throw InputError("ensemble", "give the initial states: --states FILE or --sample KIND");
     if (!o.states.empty()) {
@@ -55,14 +100,16 @@ RowMatrix initial_states(const Scene& scene, const EnsembleCommandOptions& o) {
         const std::filesystem::path p(o.states);
         const auto max_bytes = std::size_t(o.limits.max_output_mb * double(1 << 20));
         RowMatrix X = p.extension() == ".npy"   ? read_npy(p, max_bytes)
-                      : p.extension() == ".csv" ? read_csv_states(p, n, names(scene.phase_space()), max_bytes)
+                      : p.extension() == ".csv" ? read_csv_states(p, n, names(scene), max_bytes)
                                                 : throw InputError(o.states, "--states must be a .npy or .csv file");
         if (std::size_t(X.cols()) != n)
             throw InputError(o.states, "holds " + std::to_string(X.cols()) + " columns, the scene has " +
-                                           std::to_string(n) + " coordinates (" + names(scene.phase_space()) + ")");
+                                           std::to_string(n) + " coordinates (" + names(scene) + ")");
         if (X.rows() == 0) throw InputError(o.states, "holds no states (no rows): nothing to integrate");
         return X;
     }
+    if (!scene.parameters.empty())
+        throw InputError("--sample", "not supported for a scene with [parameters] yet: give --states");
     SampleSpec spec;
     spec.kind = parse_sample_kind(o.sample);
     spec.count = o.count;
@@ -83,11 +130,10 @@ std::string status_line(const EnsembleResult& r, std::size_t i) {
 }
 
 void write_csv(std::ostream& out, const Scene& scene, const RowMatrix& X0, const EnsembleResult& r) {
-    const auto& M = scene.phase_space();
     out << "index,status,steps,failed_step,failed_t,residual,newton_iterations_mean,newton_iterations_max,energy_error,"
            "energy_warning";
     for (std::size_t c = 0; c < scene.casimirs.size(); ++c) out << ",casimir_error_" << c + 1;
-    out << "," << names(M, "", "_0") << "," << names(M) << "\n";
+    out << "," << names(scene, "", "_0") << "," << names(scene) << "\n";
     for (std::size_t i = 0; i < r.members.size(); ++i) {
         const auto& e = r.members[i];
         const auto row = Eigen::Index(i);
@@ -170,6 +216,7 @@ int ensemble_command(const Scene& scene, const EnsembleCommandOptions& o, bool j
     // refused here, and nothing is half-written
     std::vector<std::filesystem::path> inputs{scene.file};
     if (!o.states.empty()) inputs.emplace_back(o.states);
+    if (!o.params.empty()) inputs.emplace_back(o.params);
     const std::vector<std::string> files{o.out + ".x0.npy", o.out + ".x.npy", o.out + ".errors.npy", o.out + ".csv"};
     std::vector<std::unique_ptr<AtomicFile>> out;
     for (const auto& f : files) out.push_back(std::make_unique<AtomicFile>(f, inputs));
@@ -180,6 +227,7 @@ int ensemble_command(const Scene& scene, const EnsembleCommandOptions& o, bool j
     options.chunk = o.chunk;
     options.batch = o.batch;
     options.control.limits = o.limits;
+    options.parameters = parameter_values(scene, o, X0.rows());
     const auto start = std::chrono::steady_clock::now();
     const EnsembleResult r = integrate_ensemble(*scene.scheme, X0, scene.dt, *scene.t_end, options);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

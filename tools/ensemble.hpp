@@ -19,6 +19,7 @@ struct EnsembleCommandOptions {
     std::size_t count = 0;    // --count N
     std::uint64_t seed = 0;   // --seed S
     std::size_t threads = 0, chunk = 0, batch = 0;
+    std::string params;     // --params FILE (.npy or .csv): one column per parameter, one row per state
     std::string out;        // --out PREFIX
     bool x0_given = false;  // --x0 was given (read only by --sample casimir)
     RunLimits limits;       // --max-steps, --max-output-mb (also the bound on a --states file's size)

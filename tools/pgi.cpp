@@ -87,6 +87,9 @@ void scene_options(CLI::App* cmd, Options& o, unsigned uses) {
     if (uses & use::realisation)
         cmd->add_option("--realisation", o.overrides.realisation, "auto | closed-form | radial");
     if (uses & use::x0) cmd->add_option("--x0", o.overrides.x0, "initial state, comma-separated");
+    if (uses & use::x0)
+        cmd->add_option("--param", o.overrides.parameters,
+                        "a parameter's value for the run, NAME=VALUE (a decimal or a rational a/b; repeatable)");
     if (uses & use::t_end) cmd->add_option("--t-end", o.overrides.t_end, "final time");
     if (uses & use::trust)
         cmd->add_flag("--trust-jacobi", o.overrides.trust_jacobi,

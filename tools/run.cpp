@@ -141,6 +141,19 @@ std::vector<double> casimir_drift(const RunLoop& loop, std::size_t casimirs) {
     return {drift.begin() + 1, drift.begin() + 1 + long(casimirs)};
 }
 
+// The coordinates of an extended state (x, w) (the scene's parameters' values w after them).
+std::vector<double> coordinates_of(const Scene& scene, const Eigen::VectorXd& x) {
+    return {x.data(), x.data() + scene.dim()};
+}
+
+// The run's parameter values by name, for the JSON report (none: no key).
+void add_parameters(const Scene& scene, json& r) {
+    if (scene.parameters.empty()) return;
+    json w = json::object();
+    for (std::size_t a = 0; a < scene.parameters.size(); ++a) w[scene.parameters[a].name] = scene.parameter_values[a];
+    r["parameters"] = w;
+}
+
 }  // namespace
 
 json step_report(const Scene& scene) {
@@ -154,18 +167,19 @@ json step_report(const Scene& scene) {
                                          {"failure", message},
                                          {"steps", 0},
                                          {"t", 0.0},
-                                         {"x", require_x0(scene)},
+                                         {"x", coordinates_of(scene, x)},
                                          {"dt", scene.dt}});
     }
     const int iterations = s.last_iterations();
     const double correction = s.last_correction();
     json r{{"status", "ok"},
-           {"x", to_std(x + increment)},
+           {"x", coordinates_of(scene, x + increment)},
            {"newton_iterations", iterations},
            {"residual", s.residual_at_solution(x)},
            {"correction", correction},
            {"dt", scene.dt}};
     r.update(stepper_info(scene, s));
+    add_parameters(scene, r);
     return r;
 }
 
@@ -175,8 +189,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     std::optional<AtomicFile> csv;
     if (options.csv) {
         // at most 25 characters a number: refuse before running rather than fill the disk
-        const double rows = double(N / options.every + 2),
-                     columns = double(2 + scene.phase_space().dim() + scene.casimirs.size());
+        const double rows = double(N / options.every + 2), columns = double(2 + scene.dim() + scene.casimirs.size());
         const double mb = rows * columns * 25 / 1e6;
         if (!(mb <= options.max_csv_mb))
             throw BudgetError(
@@ -191,7 +204,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     RunLoop loop(*scene.scheme, extra, {"Htilde"});
     if (csv) {
         csv->stream() << "t";
-        for (const auto& c : scene.phase_space().coordinates()) csv->stream() << "," << c;
+        for (const auto& c : scene.scheme->coordinates()) csv->stream() << "," << c;
         csv->stream() << ",H";
         for (std::size_t c = 0; c < scene.casimirs.size(); ++c) csv->stream() << ",C" << c + 1;
         csv->stream() << "\n";
@@ -204,7 +217,8 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
         if (options.observe) options.observe(p.step, p.t, p.x, loop.values());
         if (csv && (p.step % options.every == 0 || p.step == N)) {
             csv->stream() << fmt::format("{:.17g}", p.t);
-            for (Eigen::Index i = 0; i < p.x.size(); ++i) csv->stream() << fmt::format(",{:.17g}", p.x[i]);
+            for (Eigen::Index i = 0; i < Eigen::Index(scene.dim()); ++i)
+                csv->stream() << fmt::format(",{:.17g}", p.x[i]);
             for (std::size_t i = 0; i < 1 + scene.casimirs.size(); ++i)
                 csv->stream() << fmt::format(",{:.17g}", loop.values()[i]);
             csv->stream() << "\n";
@@ -218,7 +232,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     json r{{"status", "ok"},
            {"steps", end.steps},
            {"t", double(end.steps) * scene.dt},
-           {"x", to_std(x)},
+           {"x", coordinates_of(scene, x)},
            {"energy_error_max", worst[0]},
            {"casimirs", casimir_texts(scene)},
            {"casimir_error_max", casimir_errors},
@@ -231,6 +245,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
            {"t_end", *scene.t_end}};
     if (options.modified) r["modified_energy_error_max"] = worst.back();
     r.update(stepper_info(scene, s));
+    add_parameters(scene, r);
     if (end.ok()) warn_energy_drift(scene, worst[0], r);
     if (!end.ok()) {
         std::string message = loop.failure_message(s, end);

@@ -223,6 +223,42 @@ def _strings(name, value, what):
     return items
 
 
+def _parameter_defaults(value):
+    """A scheme's parameters {name: exact value} as (name, text) pairs: a string ("2", "-1/3", "0.05", read exactly:
+    0.05 is 1/20), an int, or a float (read as its shortest repr: 0.05 is 1/20)."""
+    if value is None:
+        return []
+    if not isinstance(value, _abc.Mapping):
+        raise InputError(f"parameters: must be a dict like {{\"w1\": \"1/2\"}}, got {_shown(value)}")
+    pairs = []
+    for k, v in value.items():
+        if not isinstance(k, str):
+            raise InputError(f"parameters: names must be strings, got {_shown(k)}")
+        if isinstance(v, bool) or not isinstance(v, (str, int, float)):
+            raise InputError(f"parameters.{k}: must be an exact value as a string (\"2\", \"-1/3\", \"0.05\") or a "
+                             f"number, got {_shown(v)}")
+        pairs.append((k, v if isinstance(v, str) else repr(v)))
+    return pairs
+
+
+def _parameter_values(value):
+    """A run's parameter values {name: value}, each a number or a 1-D array of numbers (one per trajectory or row),
+    as (name, float64 vector) pairs; the scheme checks the names, the lengths and finiteness."""
+    if value is None:
+        return []
+    if not isinstance(value, _abc.Mapping):
+        raise InputError(f"parameters: must be a dict like {{\"w1\": 0.4}}, got {_shown(value)}")
+    pairs = []
+    for k, v in value.items():
+        if not isinstance(k, str):
+            raise InputError(f"parameters: names must be strings, got {_shown(k)}")
+        a = _real_array(f"parameters.{k}", v, "a number or a 1-D array of numbers")
+        if a.ndim > 1:
+            raise InputError(f"parameters.{k}: must be a number or a 1-D array of numbers, got shape {a.shape}")
+        pairs.append((k, _np.atleast_1d(a)))
+    return pairs
+
+
 def _limits(max_steps, max_output_mb):
     """The run's budgets (None: the library's defaults, 1e8 steps and 1024 MB kept in memory)."""
     return dict(max_steps=_optional_count("max_steps", max_steps, 1, _MAX_COUNT),
@@ -282,7 +318,7 @@ class Scheme:
     out of range raises InputError (a ValueError) naming the argument."""
 
     def __init__(self, coordinates, brackets, hamiltonian, casimirs=(), order=2, realisation="auto", dt=None,
-                 x0=None, t_end=None, max_terms=20_000_000, trust_jacobi=False, jit=False):
+                 x0=None, t_end=None, max_terms=20_000_000, trust_jacobi=False, jit=False, parameters=None):
         """coordinates: the names (a list of strings); brackets: {"a,b": "{a,b} as a polynomial"}, the others
         following by skew-symmetry; hamiltonian: H; casimirs: a list of polynomials that Poisson-commute with
         everything; order: k, 1..64; realisation: "auto", "lie-poisson", "radial", ... (as a scene's);
@@ -292,7 +328,12 @@ class Scheme:
         (check()["jacobi"] is then {"holds": None, "skipped": "trust_jacobi"}, as `pgi --trust-jacobi` reports it): for large structures known to be Poisson.
         jit=True: the steps' compiled maps become native code built by the system C++ compiler (as `pgi --jit`): the
         same numbers bit for bit, faster steps, 0.1-0.5 s more at the first build (kept in ~/.cache/pgi/jit);
-        NativeCodeError if it cannot be built. A scene file says it as `jit = true` under [integrator]."""
+        NativeCodeError if it cannot be built. A scene file says it as `jit = true` under [integrator].
+
+        parameters: {name: default} (a scene's [parameters]): symbols of the exact phase, usable polynomially in H and
+        the Casimirs (not in the brackets), each default exact ("2", "-1/3", "0.05" is 1/20; an int; a float is read
+        as its shortest repr). The exact phase runs once with them as symbols; every run takes values with
+        parameters= (step, integrate, integrate_ensemble, the evaluators), without rebuilding it."""
         coordinates = _strings("coordinates", coordinates, "coordinate names")
         if not isinstance(brackets, _abc.Mapping):
             raise InputError(f"brackets: must be a dict like {{\"x1,x2\": \"-x3\"}}, got {_shown(brackets)}")
@@ -311,12 +352,13 @@ class Scheme:
         t_end = _nonnegative_float("t_end", t_end)
         max_terms = _count("max_terms", max_terms, 1, _MAX_COUNT)
         trust_jacobi, jit = _flag("trust_jacobi", trust_jacobi), _flag("jit", jit)
+        defaults = _parameter_defaults(parameters)
         self._core = _Scheme(coordinates, brackets, hamiltonian, casimirs, order, realisation, dt, x0, t_end, max_terms,
-                             trust_jacobi, jit)
+                             trust_jacobi, jit, defaults)
         self._description = ("values", dict(coordinates=coordinates, brackets=brackets, hamiltonian=hamiltonian,
                                             casimirs=casimirs, order=order, realisation=realisation, dt=dt,
                                             x0=None if x0 is None else x0.tolist(), t_end=t_end, max_terms=max_terms,
-                                            trust_jacobi=trust_jacobi, jit=jit))
+                                            trust_jacobi=trust_jacobi, jit=jit, parameters=dict(defaults)))
 
     @classmethod
     def from_toml(cls, path, trust_jacobi=False, jit=False):
@@ -349,6 +391,8 @@ class Scheme:
 
     # The scheme's values (read-only).
     coordinates = property(lambda self: self._core.coordinates, doc="The coordinates' names (list of str).")
+    parameters = property(lambda self: dict(self._core.parameters),
+                          doc="The parameters and their defaults, exact ({name: \"1/2\"}; {} for none).")
     order = property(lambda self: self._core.order, doc="k, the Hamilton-Jacobi truncation order (1..64).")
     method_order = property(lambda self: self._core.method_order,
                             doc="The order the method converges with: 2 ceil(k/2).")
@@ -393,26 +437,27 @@ class Scheme:
 
     def terms_sympy(self):
         """S_1..S_k as sympy expressions (needs sympy)."""
-        return _sympy(self.terms(), self.coordinates)
+        return _sympy(self.terms(), self.coordinates + list(self.parameters))
 
     def modified_hamiltonian_sympy(self, upto=4):
         """H_0..H_upto as sympy expressions (needs sympy)."""
-        return _sympy(self.modified_hamiltonian(upto), self.coordinates)
+        return _sympy(self.modified_hamiltonian(upto), self.coordinates + list(self.parameters))
 
-    def step(self, x, dt=None):
+    def step(self, x, dt=None, parameters=None):
         """One step of size dt (default: the scheme's) from x (shape (n,)): the new state as a numpy array. The
         compiled step for a dt is built once, sized at the scheme's x0 or else at the first x stepped with
-        that dt. Raises StepFailure if the step is not solved to round-off."""
+        that dt. parameters: {name: value} (the defaults for those not given). Raises StepFailure if the step is
+        not solved to round-off."""
         n = len(self.coordinates)
         if x is None:
             raise InputError("x: missing: give the state to step from")
-        r = self._core._step(_state("x", x, n), _positive_float("dt", dt))
+        r = self._core._step(_state("x", x, n), _positive_float("dt", dt), _parameter_values(parameters))
         if not r["ok"]:
             raise StepFailure(r["message"], 1, 0.0, r["residual"])
         return r["x"]
 
     def integrate(self, x0=None, dt=None, t_end=None, every=1, x_typical=None, events=None, event_samples=1,
-                  max_steps=None, max_output_mb=None):
+                  max_steps=None, max_output_mb=None, parameters=None):
         """ceil(t_end/dt) steps from x0 (defaults: the scheme's), Kahan-summed, recording every `every`-th
         state and the last; returns a Result. Runs with the GIL released; Ctrl-C stops it (KeyboardInterrupt)
         within a step. Raises StepFailure (with .result holding the run up to the failure) if a step fails. The compiled step is built at x0, or at
@@ -428,7 +473,10 @@ class Scheme:
         r.event_index, r.event_t, r.event_x, r.event_step; a terminal crossing is the run's last row and
         r.status is "terminal_event". event_samples > 1 also tests that many - 1 interior points of each
         step (two crossings inside one step). A bad event raises ValueError naming it (events[i]) and,
-        for a polynomial, the problem and its position."""
+        for a polynomial, the problem and its position.
+
+        parameters: {name: value}, the values of the scheme's parameters for this run (the defaults for those not
+        given); the exact phase is not redone for new values."""
         n = len(self.coordinates)
         if events is None:
             events = []
@@ -438,14 +486,14 @@ class Scheme:
         r = Result(self._core._integrate(_state("x0", x0, n), _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
                                          _count("every", every, 1, _MAX_COUNT), _state("x_typical", x_typical, n), specs,
                                          _count("event_samples", event_samples, 1, _MAX_COUNT),
-                                         **_limits(max_steps, max_output_mb)))
+                                         **_limits(max_steps, max_output_mb), parameters=_parameter_values(parameters)))
         if r.status not in ("ok", "terminal_event"):
             raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
         _warn_energy(int(r.energy_warning), None, r.dt)
         return r
 
     def integrate_ensemble(self, X0, dt=None, t_end=None, threads=None, chunk=None, x_typical=None, batch=None,
-                           max_steps=None, max_output_mb=None):
+                           max_steps=None, max_output_mb=None, parameters=None):
         """Every row of X0 (an (m, n) float64 numpy array; nested lists are converted) over ceil(t_end/dt)
         steps, on `threads` cores (default: all), the GIL released; returns an EnsembleResult. Each row's
         numbers equal integrate(row, dt, t_end, x_typical=result.x_typical) bit for bit, whatever threads and
@@ -454,13 +502,17 @@ class Scheme:
         norm). A row that is not finite or a step that fails ends that trajectory with its status (the one its
         single run ends with); nothing is raised for it. Raises ValueError (before any work) for X0 of the
         wrong shape or dtype, ResourceLimitError above max_steps (default 1e8) steps per trajectory or
-        max_output_mb (default 1024) MB of results. Ctrl-C stops it (KeyboardInterrupt) within a step."""
+        max_output_mb (default 1024) MB of results. Ctrl-C stops it (KeyboardInterrupt) within a step.
+
+        parameters: {name: value or (m,) array}: the scheme's parameter values, one for every trajectory or one per
+        row of X0 (a sweep in one call; the defaults for those not given). x_typical (n values) is extended with the
+        row of parameter values of largest norm; result.x_typical holds its coordinates."""
         X0 = _states(X0)
         r = EnsembleResult(self._core._integrate_ensemble(
             X0, _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
             _optional_count("threads", threads, 1, _MAX_COUNT) or 0, _optional_count("chunk", chunk, 1, _MAX_COUNT) or 0,
             _state("x_typical", x_typical, len(self.coordinates)), _optional_count("batch", batch, 1, _MAX_COUNT) or 0,
-            **_limits(max_steps, max_output_mb)))
+            **_limits(max_steps, max_output_mb), parameters=_parameter_values(parameters)))
         _warn_energy(int(r.energy_warning.sum()), len(r.energy_warning), r.dt)
         return r
 
@@ -483,44 +535,46 @@ class Scheme:
     # Hamiltonian), at one state x of shape (n,) (checked as step()'s x) or at m states, the rows of an (m, n)
     # float64 array (checked as integrate_ensemble's X0), with the GIL released. A row's values are the same bits
     # alone or among others. A wrong shape or dtype, or a value that is not finite, raises InputError naming x.
-    def _evaluated(self, method, x, *args):
+    # parameters: {name: value, or an (m,) array of one value per row} (the defaults for those not given).
+    def _evaluated(self, method, x, *args, parameters=None):
         """The core's method at x's rows, and the first row's values alone if x was one state."""
         X = _states(x, "x")
         one = X.ndim != 2
         if one:
             X = _state("x", X, len(self.coordinates))[None, :]
-        values = getattr(self._core, method)(X, *args)
+        values = getattr(self._core, method)(X, *args, parameters=_parameter_values(parameters))
         return values[0] if one else values
 
-    def vector_field(self, x):
+    def vector_field(self, x, parameters=None):
         """pi(x) grad H(x), the time derivative of the flow (units of x per unit of time): shape (n,) for x of shape
         (n,), (m, n) for x of shape (m, n). scipy's solve_ivp takes it as lambda t, x: s.vector_field(x). It needs
         no exact phase, and is computed even for a scheme that fails its checks."""
-        return self._evaluated("_vector_field", x)
+        return self._evaluated("_vector_field", x, parameters=parameters)
 
-    def poisson_matrix(self, x):
+    def poisson_matrix(self, x, parameters=None):
         """pi(x), entry [i, j] the bracket {x_i, x_j} at x: shape (n, n) for x of shape (n,), (m, n, n) for x of
         shape (m, n). Skew-symmetric with a zero diagonal, exactly."""
         n = len(self.coordinates)
-        P = self._evaluated("_poisson_matrices", x)
+        P = self._evaluated("_poisson_matrices", x, parameters=parameters)
         return P.reshape((n, n) if P.ndim == 1 else (len(P), n, n))
 
-    def hamiltonian_value(self, x):
+    def hamiltonian_value(self, x, parameters=None):
         """H(x) (units of H): a float for x of shape (n,), shape (m,) for x of shape (m, n)."""
-        return self._evaluated("_hamiltonian_values", x)
+        return self._evaluated("_hamiltonian_values", x, parameters=parameters)
 
-    def casimir_values(self, x):
+    def casimir_values(self, x, parameters=None):
         """The Casimirs at x, in the order of s.casimirs: shape (c,) for x of shape (n,), (m, c) for x of shape
         (m, n) (c = len(s.casimirs), possibly 0)."""
-        return self._evaluated("_casimir_values", x)
+        return self._evaluated("_casimir_values", x, parameters=parameters)
 
-    def modified_hamiltonian_value(self, x, dt=None, upto=4):
+    def modified_hamiltonian_value(self, x, dt=None, upto=4, parameters=None):
         """H_0(x) + dt H_1(x) + ... + dt^upto H_upto(x) (units of H), the modified Hamiltonian that the method of
         step dt (default: the scheme's; positive, finite, time units) conserves up to O(dt^(upto+1)); H_0..H_upto are
         modified_hamiltonian(upto), upto in 0..64. A float for x of shape (n,), shape (m,) for x of shape (m, n). The
         first call for an upto runs the exact phase (once; Ctrl-C raises KeyboardInterrupt); raises InputError for an
         invalid scheme, as terms() does."""
-        return self._evaluated("_modified_hamiltonian_values", x, _positive_float("dt", dt), _count("upto", upto, 0, _MAX_UPTO))
+        return self._evaluated("_modified_hamiltonian_values", x, _positive_float("dt", dt),
+                               _count("upto", upto, 0, _MAX_UPTO), parameters=parameters)
 
     def __repr__(self):
         c = self._core

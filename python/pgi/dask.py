@@ -19,7 +19,7 @@ import warnings
 
 import numpy as _np
 
-from . import EnergyWarning, EnsembleResult, InputError, _rebuild, _states, _warn_energy
+from . import _parameter_values, EnergyWarning, EnsembleResult, InputError, _rebuild, _states, _warn_energy
 
 __all__ = ["integrate_ensemble", "sweep"]
 
@@ -42,29 +42,44 @@ def _worker_scheme(description, dt):
         return cache[key]
 
 
-def _run_chunk(description, X0, dt, t_end, x_typical, threads, limits=None):
+def _run_chunk(description, X0, dt, t_end, x_typical, threads, limits=None, parameters=None):
     with warnings.catch_warnings():  # said once, on the client, for the whole ensemble
         warnings.simplefilter("ignore", EnergyWarning)
         r = _worker_scheme(description, dt).integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads, x_typical=x_typical,
-                                                               **(limits or {}))
+                                                               parameters=parameters, **(limits or {}))
     return {f: getattr(r, f) for f in _FIELDS}
+
+
+def _chunk_parameters(parameters, m):
+    """parameters as integrate_ensemble checks them ({name: a number or one value per row of X0}), and a function of
+    (a, b) giving rows a..b-1's (a number stays one)."""
+    pairs = dict(_parameter_values(parameters))
+    for k, v in pairs.items():
+        if len(v) not in (1, m):
+            raise InputError(f"parameters.{k}: has {len(v)} values, for {m} trajectories (give 1 value, or one per "
+                             f"trajectory)")
+    return lambda a, b: {k: (v if len(v) == 1 else v[a:b]) for k, v in pairs.items()} or None
 
 
 class _Job:
     """One ensemble's chunks, submitted; collect() gathers them in order."""
 
     @staticmethod
-    def check(scheme, X0, dt, t_end, max_steps, max_output_mb):
-        """Every check of the local run (shape, dtype, dt, t_end, the budgets), on no rows and then on all of
-        them, before any work (a chunk is checked again on its worker, with its rows): X0 and the empty result."""
+    def check(scheme, X0, dt, t_end, max_steps, max_output_mb, parameters=None):
+        """Every check of the local run (shape, dtype, dt, t_end, the budgets, the parameters), on no rows and then
+        on all of them, before any work (a chunk is checked again on its worker, with its rows): X0, the empty
+        result and the parameters' slicer."""
         X0 = _states(X0)
         limits = dict(max_steps=max_steps, max_output_mb=max_output_mb)
-        empty = scheme.integrate_ensemble(X0[:0], dt=dt, t_end=t_end, threads=1, **limits)
+        rows = _chunk_parameters(parameters, len(X0))
+        first = {k: v[:1] for k, v in (rows(0, len(X0)) or {}).items()}  # names and values checked on no rows
+        empty = scheme.integrate_ensemble(X0[:0], dt=dt, t_end=t_end, threads=1, parameters=first or None, **limits)
         scheme._check_ensemble(len(X0), dt=dt, t_end=t_end, **limits)
-        return X0, empty
+        return X0, empty, rows
 
-    def __init__(self, client, scheme, X0, dt, t_end, chunks, threads, retries, max_steps=None, max_output_mb=None):
-        X0, empty = self.check(scheme, X0, dt, t_end, max_steps, max_output_mb)
+    def __init__(self, client, scheme, X0, dt, t_end, chunks, threads, retries, max_steps=None, max_output_mb=None,
+                 parameters=None):
+        X0, empty, rows = self.check(scheme, X0, dt, t_end, max_steps, max_output_mb, parameters)
         limits = dict(max_steps=max_steps, max_output_mb=max_output_mb)
         if chunks is not None and (isinstance(chunks, (bool, _np.bool_)) or not isinstance(chunks, (int, _np.integer))
                                    or chunks < 1):
@@ -76,7 +91,8 @@ class _Job:
         self.bounds = [(a, min(a + size, self.m)) for a in range(0, self.m, size)]
         token = uuid.uuid4().hex
         self.futures = [client.submit(_run_chunk, scheme.description, _np.ascontiguousarray(X0[a:b]), self.dt,
-                                      self.t_end, self.x_typical, threads, limits, key=f"pgi-ensemble-{token}-{i}",
+                                      self.t_end, self.x_typical, threads, limits, rows(a, b),
+                                      key=f"pgi-ensemble-{token}-{i}",
                                       retries=retries, pure=False)
                         for i, (a, b) in enumerate(self.bounds)]
 
@@ -97,7 +113,7 @@ class _Job:
 
 
 def integrate_ensemble(client, scheme, X0, dt=None, t_end=None, chunks=None, threads=1, retries=2, max_steps=None,
-                       max_output_mb=None):
+                       max_output_mb=None, parameters=None):
     """scheme.integrate_ensemble(X0, dt, t_end) on the client's cluster: chunks of `chunks` rows (default:
     about four chunks per worker), each run with `threads` threads on its worker, gathered in order; returns
     a pgi.EnsembleResult with the local run's numbers bit for bit. A chunk whose task raises is rerun
@@ -105,8 +121,13 @@ def integrate_ensemble(client, scheme, X0, dt=None, t_end=None, chunks=None, thr
     scheduler, up to its distributed.scheduler.allowed-failures deaths (default 3; retries does not count
     deaths). A chunk that still fails raises RuntimeError naming the chunk and its rows. Bad X0, dt or t_end
     raise ValueError, and a run above max_steps (steps per trajectory, default 1e8) or max_output_mb (the
-    whole ensemble's results, default 1024) ResourceLimitError, before anything is submitted."""
-    return _Job(client, scheme, X0, dt, t_end, chunks, threads, retries, max_steps, max_output_mb).collect()
+    whole ensemble's results, default 1024) ResourceLimitError, before anything is submitted.
+
+    parameters: as scheme.integrate_ensemble's ({name: a number, or one value per row of X0}), each chunk given its
+    rows' values; with parameters, a chunk's step is built at its own rows' largest values, so the numbers equal the
+    local run's to round-off (bit for bit without parameters)."""
+    return _Job(client, scheme, X0, dt, t_end, chunks, threads, retries, max_steps, max_output_mb,
+                parameters).collect()
 
 
 def sweep(client, runs, chunks=None, threads=1, retries=2, max_steps=None, max_output_mb=None):
