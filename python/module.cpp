@@ -2,8 +2,10 @@
 // types and ranges checked, results as objects, StepFailure raised from a failed step's report, sympy conversions.
 // Every failure here becomes a Python exception: the library's InputError, ResourceLimitError (a run above its
 // budget: RunBudgetError), NativeCodeError; std::bad_alloc a MemoryError; Ctrl-C a KeyboardInterrupt (interruptible).
+#include "poisson/step_jacobian.hpp"
 #include "scheme/ensemble.hpp"
 #include "scheme/evaluators.hpp"
+#include "scheme/lyapunov.hpp"
 #include "scheme/run_request.hpp"
 #include "scheme/scheme.hpp"
 #include "scheme/trajectory.hpp"
@@ -218,12 +220,10 @@ py::dict check(const PyScheme& s) {
     return r;
 }
 
-// One step: the new state, or the failure's report for the Python side to raise StepFailure. The step runs on the
-// extended state (x, w) (w's increments are exactly 0).
-py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt_in,
-              const pgi::ParameterValues& parameters) {
-    const Eigen::VectorXd x = s.extended(s.state(x_in, "x"), parameters);
-    const double dt = s.step_size(dt_in);
+// The compiled step of dt that step() and step_jacobian() take: built at x0, or at the first x stepped with that dt.
+pgi::NewtonStepper& cached_stepper(PyScheme& s, const Eigen::VectorXd& x, double dt) {
+    if (std::size_t(x.size()) != s.M().dim())  // a caller that does not extend x yet
+        throw pgi::InputError("parameters", "not supported here yet: the scheme has parameters");
     auto it = s.steppers.find(dt);
     if (it == s.steppers.end()) {
         const Eigen::VectorXd typical = s.x0 ? s.extended(*s.x0, {}) : x;
@@ -232,7 +232,43 @@ py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt
         pgi::NewtonStepper built = interruptible([&](const pgi::RunCancel&) { return scheme.stepper(dt, typical); });
         it = s.steppers.emplace(dt, std::move(built)).first;
     }
-    pgi::NewtonStepper& st = it->second;
+    return it->second;
+}
+
+// A failed step's report, for the Python side to raise StepFailure.
+void report_failure(py::dict& r, const pgi::NewtonStepper& st, pgi::StepStatus status) {
+    const auto why = status == pgi::StepStatus::ok ? pgi::StepStatus::non_finite : status;
+    r["ok"] = false;
+    r["message"] = pgi::step_failure_message(st, 1, why);
+    r["residual"] = st.last_residual();
+}
+
+// One step with its Jacobian (poisson/step_jacobian.hpp): the new state and d x_new / d x, or the failure's report.
+// On the extended state (x, w) at the parameters' defaults: the coordinates' block (w's rows are those of I).
+py::dict step_jacobian(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt_in) {
+    const Eigen::VectorXd x = s.extended(s.state(x_in, "x"), {});
+    const double dt = s.step_size(dt_in);
+    pgi::NewtonStepper& st = cached_stepper(s, x, dt);
+    const pgi::StepWithJacobian j = pgi::step_with_jacobian(st, x, dt);
+    const auto n = Eigen::Index(s.scheme->dim());
+    py::dict r("newton_iterations"_a = st.last_iterations(), "status"_a = pgi::to_string(j.status));
+    if (j.status == pgi::StepStatus::ok && j.x_new.allFinite()) {
+        r["x"] = Eigen::VectorXd(j.x_new.head(n));
+        r["jacobian"] = Eigen::MatrixXd(j.jacobian.topLeftCorner(n, n));
+        r["ok"] = true;
+    } else {
+        report_failure(r, st, j.status);
+    }
+    return r;
+}
+
+// One step: the new state, or the failure's report for the Python side to raise StepFailure. The step runs on the
+// extended state (x, w) (w's increments are exactly 0).
+py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt_in,
+              const pgi::ParameterValues& parameters) {
+    const Eigen::VectorXd x = s.extended(s.state(x_in, "x"), parameters);
+    const double dt = s.step_size(dt_in);
+    pgi::NewtonStepper& st = cached_stepper(s, x, dt);
     Eigen::VectorXd increment(x.size());
     const pgi::StepStatus status = st.step(x, increment);
     Eigen::VectorXd next = (x + increment).head(Eigen::Index(s.scheme->dim()));
@@ -241,10 +277,7 @@ py::dict step(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt
         r["x"] = next;
         r["ok"] = true;
     } else {
-        const auto why = status == pgi::StepStatus::ok ? pgi::StepStatus::non_finite : status;
-        r["ok"] = false;
-        r["message"] = pgi::step_failure_message(st, 1, why);
-        r["residual"] = st.last_residual();
+        report_failure(r, st, status);
     }
     return r;
 }
@@ -285,7 +318,7 @@ py::dict crossings(const pgi::Trajectory& tr) {
 py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::optional<double> dt_in,
                    std::optional<double> t_end_in, std::size_t every, std::optional<Eigen::VectorXd> x_typical,
                    const std::vector<std::tuple<std::string, int, bool>>& events, std::size_t event_samples,
-                   std::optional<std::size_t> max_steps, std::optional<double> max_output_mb,
+                   std::optional<std::size_t> max_steps, std::optional<double> max_output_mb, bool tangent,
                    const pgi::ParameterValues& parameters) {
     if (!x0_in && !s.x0) throw pgi::InputError("x0", "missing: give x0 (the scheme has none)");
     const Eigen::VectorXd x0 = s.state(x0_in ? *x0_in : *s.x0, "x0");
@@ -303,7 +336,7 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
         tr = interruptible([&](const pgi::RunCancel& cancel) {
             pgi::RunControl c = control;
             c.cancel = &cancel;
-            return pgi::integrate(scheme, x0, dt, t_end, every, x_typical, watched, c, parameters);
+            return pgi::integrate(scheme, x0, dt, t_end, every, x_typical, watched, c, parameters, tangent);
         });
     } catch (const pgi::ParseError& e) {  // a bad event (the other arguments were checked above)
         throw pgi::InputError("", e.what());
@@ -338,6 +371,11 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
 
 // An array's shape as text: "(4, 2)", "(3,)".
 std::string shape_of(const py::array& a) {
+    if (tangent) {
+        py::array_t<double> jacobian({n, n});
+        std::copy(tr.jacobian.begin(), tr.jacobian.end(), jacobian.mutable_data());
+        r["jacobian"] = jacobian;
+    }
     std::string shape = "(";
     for (py::ssize_t d = 0; d < a.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(a.shape(d));
     return shape + (a.ndim() == 1 ? ",)" : ")");
@@ -347,6 +385,38 @@ std::string shape_of(const py::array& a) {
 // per coordinate, checked before any work and not copied yet.
 py::array ensemble_states(const PyScheme& s, const py::object& X0, const std::string& name = "X0") {
     if (!py::isinstance<py::array>(X0)) throw pgi::InputError(name, "must be a numpy array of shape (m, n), float64");
+// The Lyapunov spectrum (scheme/lyapunov.hpp): the running estimates' history, the spectrum, the failure's report.
+py::dict lyapunov(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::optional<double> dt_in,
+                  std::optional<double> t_end_in, std::size_t every, std::optional<std::size_t> max_steps,
+                  std::optional<double> max_output_mb) {
+    if (!x0_in && !s.x0) throw pgi::InputError("x0", "missing: give x0 (the scheme has none)");
+    const Eigen::VectorXd x0 = s.state(x0_in ? *x0_in : *s.x0, "x0");
+    const double dt = s.step_size(dt_in);
+    const double t_end = run_length(s, t_end_in);
+    pgi::RunControl control;
+    control.limits = limits(max_steps, max_output_mb);
+    const auto& scheme = *s.scheme;
+    const pgi::LyapunovSpectrum l = interruptible([&](const pgi::RunCancel& cancel) {
+        pgi::RunControl c = control;
+        c.cancel = &cancel;
+        return pgi::lyapunov(scheme, x0, dt, t_end, every, c);
+    });
+    const auto rows = static_cast<py::ssize_t>(l.t.size()), n = static_cast<py::ssize_t>(l.dim);
+    py::array_t<double> exponents({rows, n});
+    std::copy(l.exponents.begin(), l.exponents.end(), exponents.mutable_data());
+    py::dict r("t"_a = py::array_t<double>(rows, l.t.data()), "exponents"_a = exponents,
+               "spectrum"_a = py::array_t<double>(py::ssize_t(l.spectrum.size()), l.spectrum.data()),
+               "leaf_dim"_a = l.leaf_dim, "steps"_a = l.steps, "dt"_a = dt,
+               "status"_a = pgi::to_string(pgi::status_of(l.status)));
+    if (l.status != pgi::StepStatus::ok) {
+        r["failed_step"] = l.failed_step;
+        r["failed_t"] = l.failed_t;
+        r["residual"] = l.failed_residual;
+        r["message"] = l.message;
+    }
+    return r;
+}
+
     const auto a = py::reinterpret_borrow<py::array>(X0);
     const std::size_t n = s.scheme->dim();
     if (!py::array_t<double>::check_(a))  // dtype equivalent to float64 (native byte order)
@@ -553,7 +623,7 @@ PYBIND11_MODULE(_pgi, m) {
         .def("_step", &step, "x"_a, "dt"_a = py::none(), "parameters"_a = pgi::ParameterValues{})
         .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
              "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{},
-             "event_samples"_a = 1, "max_steps"_a = py::none(), "max_output_mb"_a = py::none(),
+             "event_samples"_a = 1, "max_steps"_a = py::none(), "max_output_mb"_a = py::none(), "tangent"_a = false,
              "parameters"_a = pgi::ParameterValues{})
         .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),
              "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none(), "batch"_a = 0, "max_steps"_a = py::none(),
@@ -563,10 +633,13 @@ PYBIND11_MODULE(_pgi, m) {
             [](const PyScheme& s, std::size_t m, std::optional<double> dt, std::optional<double> t_end,
                std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
                 pgi::plan_ensemble(*s.scheme, m, s.step_size(dt), run_length(s, t_end),
+        .def("_step_jacobian", &step_jacobian, "x"_a, "dt"_a = py::none())
                                    limits(max_steps, max_output_mb));
             },
             "m"_a, "dt"_a = py::none(), "t_end"_a = py::none(), "max_steps"_a = py::none(),
             "max_output_mb"_a = py::none())
+        .def("_lyapunov", &lyapunov, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
+             "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
         .def("stats", &stats)
         .def("_vector_field", at_rows(&pgi::vector_field), "x"_a, "parameters"_a = pgi::ParameterValues{})
         .def("_poisson_matrices", at_rows(&pgi::poisson_matrices), "x"_a, "parameters"_a = pgi::ParameterValues{})

@@ -24,7 +24,7 @@ import numpy as _np
 from ._pgi import InputError, NativeCodeError, ResourceLimitError, SceneError, __version__
 from ._pgi import Scheme as _Scheme
 
-__all__ = ["Scheme", "Result", "EnsembleResult", "StepFailure", "EnergyWarning", "InputError", "SceneError", "ResourceLimitError", "NativeCodeError",
+__all__ = ["Scheme", "Result", "EnsembleResult", "LyapunovResult", "StepFailure", "EnergyWarning", "InputError", "SceneError", "ResourceLimitError", "NativeCodeError",
            "__version__"]
 
 
@@ -65,6 +65,19 @@ class Result:
     def __repr__(self):
         return (f"pgi.Result(steps={self.steps}, t_end={self.t[-1] if len(self.t) else 0.0}, status={self.status!r}, "
                 f"energy_error_max={self.energy_error_max:.3e})")
+
+
+class LyapunovResult:
+    """Lyapunov exponents (Scheme.lyapunov), in 1/time units: t (rows,) the recorded times, exponents (rows, n) the
+    running estimates there, spectrum (n,) the last row. The first leaf_dim columns are the exponents on the
+    symplectic leaf (Benettin's order: decreasing, in (+l, -l) pairs); the last n - leaf_dim (one per Casimir, across
+    the leaf) are exactly 0. steps, dt, status (as Result.status)."""
+
+    def __init__(self, d):
+        self.__dict__.update(d)
+
+    def __repr__(self):
+        return f"pgi.LyapunovResult(steps={self.steps}, spectrum={self.spectrum.tolist()}, status={self.status!r})"
 
 
 class EnsembleResult:
@@ -457,13 +470,43 @@ class Scheme:
         return r["x"]
 
     def integrate(self, x0=None, dt=None, t_end=None, every=1, x_typical=None, events=None, event_samples=1,
-                  max_steps=None, max_output_mb=None, parameters=None):
+                  max_steps=None, max_output_mb=None, tangent=False, parameters=None):
         """ceil(t_end/dt) steps from x0 (defaults: the scheme's), Kahan-summed, recording every `every`-th
         state and the last; returns a Result. Runs with the GIL released; Ctrl-C stops it (KeyboardInterrupt)
         within a step. Raises StepFailure (with .result holding the run up to the failure) if a step fails. The compiled step is built at x0, or at
         x_typical when given (an ensemble's x_typical gives its run of this trajectory, bit for bit).
 
         Budgets, checked before any work (ResourceLimitError, as `pgi integrate` exits 4): max_steps (default
+    def step_jacobian(self, x, dt=None):
+        """The derivative of the step of size dt (default: the scheme's) at x (shape (n,)): d step(x) / dx, a numpy
+        array of shape (n, n), exact to round-off by the implicit function theorem on the step's equation (not
+        finite differences, not a derivative of Newton's iterations; docs/math.md). A Poisson map's: J pi(x) J^T
+        = pi(step(x)) and grad C(step(x)) J = grad C(x) for each Casimir C. The compiled step is step()'s. Raises
+        InputError for a bad x or dt, StepFailure if the step is not solved to round-off."""
+        n = len(self.coordinates)
+        if x is None:
+            raise InputError("x: missing: give the state to step from")
+        r = self._core._step_jacobian(_state("x", x, n), _positive_float("dt", dt))
+        if not r["ok"]:
+            raise StepFailure(r["message"], 1, 0.0, r["residual"])
+        return r["jacobian"]
+
+    def lyapunov(self, x0=None, dt=None, t_end=None, every=1, max_steps=None, max_output_mb=None):
+        """Lyapunov exponents of the step of dt from x0 (defaults: the scheme's) over ceil(t_end/dt) steps, by
+        Benettin's method: tangent vectors carried by the exact step Jacobian (step_jacobian), re-orthonormalised by
+        QR after every step. Returns a LyapunovResult: the estimates every `every` steps and at the last
+        (r.t, r.exponents of shape (rows, n)) and r.spectrum (n,). The vectors start tangent to the Casimirs' level
+        set at x0 and stay so: the exponents on the leaf come first, those across it are reported as exactly 0.
+        Raises InputError for a bad argument (x0 where the Casimirs' gradients are dependent too), ResourceLimitError
+        above max_steps or max_output_mb (as integrate), StepFailure (with .result) if a step fails."""
+        n = len(self.coordinates)
+        r = LyapunovResult(self._core._lyapunov(_state("x0", x0, n), _positive_float("dt", dt),
+                                                _nonnegative_float("t_end", t_end), _count("every", every, 1, _MAX_COUNT),
+                                                **_limits(max_steps, max_output_mb)))
+        if r.status != "ok":
+            raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
+        return r
+
         1e8) steps, max_output_mb (default 1024) MB of recorded rows kept in memory, event_samples at most 10000.
 
         events: a list of polynomials g(x) in the coordinates whose zeros are reported, each "g", a tuple
@@ -483,10 +526,14 @@ class Scheme:
         elif isinstance(events, (str, dict)) or not isinstance(events, (list, tuple)):
             raise InputError(f"events: must be a list of events, got {_shown(events)}")
         specs = [_event(i, e) for i, e in enumerate(events)]
+        tangent=True: r.jacobian (n, n) is the derivative of the run's map, d r.x[-1] / d x0, the product of the
+        steps' Jacobians (step_jacobian) computed alongside the steps (not with a terminal event).
+
         r = Result(self._core._integrate(_state("x0", x0, n), _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
                                          _count("every", every, 1, _MAX_COUNT), _state("x_typical", x_typical, n), specs,
                                          _count("event_samples", event_samples, 1, _MAX_COUNT),
-                                         **_limits(max_steps, max_output_mb), parameters=_parameter_values(parameters)))
+                                         **_limits(max_steps, max_output_mb), tangent=_flag("tangent", tangent),
+                                         parameters=_parameter_values(parameters)))
         if r.status not in ("ok", "terminal_event"):
             raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
         _warn_energy(int(r.energy_warning), None, r.dt)

@@ -13,7 +13,7 @@ from ._pgi import ResourceLimitError as ResourceLimitError
 from ._pgi import SceneError as SceneError
 from ._pgi import __version__ as __version__
 
-__all__ = ["Scheme", "Result", "EnsembleResult", "StepFailure", "EnergyWarning", "InputError", "SceneError",
+__all__ = ["Scheme", "Result", "EnsembleResult", "LyapunovResult", "StepFailure", "EnergyWarning", "InputError", "SceneError",
            "ResourceLimitError", "NativeCodeError", "__version__"]
 
 _Array = npt.NDArray[np.float64]
@@ -28,8 +28,9 @@ class StepFailure(ArithmeticError):
     step: int
     t: float
     residual: float
-    result: Result | None
-    def __init__(self, message: str, step: int, t: float, residual: float, result: Result | None = None) -> None: ...
+    result: Result | LyapunovResult | None
+    def __init__(self, message: str, step: int, t: float, residual: float,
+                 result: Result | LyapunovResult | None = None) -> None: ...
 
 class Result:
     """A run (Scheme.integrate): arrays of shape (rows,), (rows, n), (rows, c)."""
@@ -54,6 +55,22 @@ class Result:
     event_t: _Array
     event_x: _Array
     event_step: npt.NDArray[np.int64]
+    jacobian: _Array  # (n, n), with integrate(tangent=True) only
+    def __init__(self, d: Mapping[str, Any]) -> None: ...
+
+class LyapunovResult:
+    """Lyapunov exponents (Scheme.lyapunov), 1/time units: t (rows,), exponents (rows, n), spectrum (n,)."""
+    t: _Array
+    exponents: _Array
+    spectrum: _Array
+    leaf_dim: int
+    steps: int
+    dt: float
+    status: str
+    message: str
+    failed_step: int
+    failed_t: float
+    residual: float
     def __init__(self, d: Mapping[str, Any]) -> None: ...
 
 class EnsembleResult:
@@ -124,9 +141,12 @@ class Scheme:
     def terms_sympy(self) -> list[Any]: ...
     def modified_hamiltonian_sympy(self, upto: int = 4) -> list[Any]: ...
     def step(self, x: _State, dt: float | None = None, parameters: _Parameters | None = None) -> _Array: ...
+    def step_jacobian(self, x: _State, dt: float | None = None) -> _Array: ...
+    def lyapunov(self, x0: _State | None = None, dt: float | None = None, t_end: float | None = None, every: int = 1,
+                 max_steps: int | None = None, max_output_mb: float | None = None) -> LyapunovResult: ...
     def integrate(self, x0: _State | None = None, dt: float | None = None, t_end: float | None = None, every: int = 1,
                   x_typical: _State | None = None, events: Sequence[_Event] | None = None, event_samples: int = 1,
-                  max_steps: int | None = None, max_output_mb: float | None = None,
+                  max_steps: int | None = None, max_output_mb: float | None = None, tangent: bool = False,
                   parameters: _Parameters | None = None) -> Result: ...
     def integrate_ensemble(self, X0: npt.ArrayLike, dt: float | None = None, t_end: float | None = None,
                            threads: int | None = None, chunk: int | None = None, x_typical: _State | None = None,
