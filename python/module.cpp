@@ -360,6 +360,11 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
         // the ensemble's vocabulary (status_of), so a member's status is its single run's, word for word
         "status"_a = tr.terminal_event ? std::string("terminal_event") : pgi::to_string(pgi::status_of(tr.status)));
     r.attr("update")(crossings(tr));  // empty without events
+    if (tangent) {
+        py::array_t<double> jacobian({n, n});
+        std::copy(tr.jacobian.begin(), tr.jacobian.end(), jacobian.mutable_data());
+        r["jacobian"] = jacobian;
+    }
     if (tr.status != pgi::StepStatus::ok) {
         r["failed_step"] = tr.failed_step;
         r["failed_t"] = tr.failed_t;
@@ -369,22 +374,6 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
     return r;
 }
 
-// An array's shape as text: "(4, 2)", "(3,)".
-std::string shape_of(const py::array& a) {
-    if (tangent) {
-        py::array_t<double> jacobian({n, n});
-        std::copy(tr.jacobian.begin(), tr.jacobian.end(), jacobian.mutable_data());
-        r["jacobian"] = jacobian;
-    }
-    std::string shape = "(";
-    for (py::ssize_t d = 0; d < a.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(a.shape(d));
-    return shape + (a.ndim() == 1 ? ",)" : ")");
-}
-
-// X0 as the ensemble reads it (and the evaluators their x, named so): a 2-D float64 numpy array with one column
-// per coordinate, checked before any work and not copied yet.
-py::array ensemble_states(const PyScheme& s, const py::object& X0, const std::string& name = "X0") {
-    if (!py::isinstance<py::array>(X0)) throw pgi::InputError(name, "must be a numpy array of shape (m, n), float64");
 // The Lyapunov spectrum (scheme/lyapunov.hpp): the running estimates' history, the spectrum, the failure's report.
 py::dict lyapunov(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::optional<double> dt_in,
                   std::optional<double> t_end_in, std::size_t every, std::optional<std::size_t> max_steps,
@@ -417,6 +406,17 @@ py::dict lyapunov(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::
     return r;
 }
 
+// An array's shape as text: "(4, 2)", "(3,)".
+std::string shape_of(const py::array& a) {
+    std::string shape = "(";
+    for (py::ssize_t d = 0; d < a.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(a.shape(d));
+    return shape + (a.ndim() == 1 ? ",)" : ")");
+}
+
+// X0 as the ensemble reads it (and the evaluators their x, named so): a 2-D float64 numpy array with one column
+// per coordinate, checked before any work and not copied yet.
+py::array ensemble_states(const PyScheme& s, const py::object& X0, const std::string& name = "X0") {
+    if (!py::isinstance<py::array>(X0)) throw pgi::InputError(name, "must be a numpy array of shape (m, n), float64");
     const auto a = py::reinterpret_borrow<py::array>(X0);
     const std::size_t n = s.scheme->dim();
     if (!py::array_t<double>::check_(a))  // dtype equivalent to float64 (native byte order)
@@ -621,10 +621,13 @@ PYBIND11_MODULE(_pgi, m) {
             },
             "degree"_a)
         .def("_step", &step, "x"_a, "dt"_a = py::none(), "parameters"_a = pgi::ParameterValues{})
+        .def("_step_jacobian", &step_jacobian, "x"_a, "dt"_a = py::none())
         .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
              "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{},
              "event_samples"_a = 1, "max_steps"_a = py::none(), "max_output_mb"_a = py::none(), "tangent"_a = false,
              "parameters"_a = pgi::ParameterValues{})
+        .def("_lyapunov", &lyapunov, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
+             "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
         .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),
              "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none(), "batch"_a = 0, "max_steps"_a = py::none(),
              "max_output_mb"_a = py::none(), "parameters"_a = pgi::ParameterValues{})
@@ -633,13 +636,10 @@ PYBIND11_MODULE(_pgi, m) {
             [](const PyScheme& s, std::size_t m, std::optional<double> dt, std::optional<double> t_end,
                std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
                 pgi::plan_ensemble(*s.scheme, m, s.step_size(dt), run_length(s, t_end),
-        .def("_step_jacobian", &step_jacobian, "x"_a, "dt"_a = py::none())
                                    limits(max_steps, max_output_mb));
             },
             "m"_a, "dt"_a = py::none(), "t_end"_a = py::none(), "max_steps"_a = py::none(),
             "max_output_mb"_a = py::none())
-        .def("_lyapunov", &lyapunov, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
-             "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
         .def("stats", &stats)
         .def("_vector_field", at_rows(&pgi::vector_field), "x"_a, "parameters"_a = pgi::ParameterValues{})
         .def("_poisson_matrices", at_rows(&pgi::poisson_matrices), "x"_a, "parameters"_a = pgi::ParameterValues{})
