@@ -36,9 +36,13 @@ json check_report(const Scene& scene) {
     const SchemeChecks& checks = scene.scheme->checks();
     json r{{"scene", scene.name},
            {"file", scene.file.string()},
-           {"coordinates", names},
+           {"coordinates", scene.scheme->coordinates()},
            {"class", to_string(checks.structure_class)},
            {"skew", true}};
+    if (!scene.parameters.empty()) {  // Casimir coordinates of the exact phase: their defaults, exact
+        r["parameters"] = json::object();
+        for (const auto& p : scene.parameters) r["parameters"][p.name] = p.value.to_string();
+    }
     json jacobi{{"holds", true}};
     if (!checks.jacobi_checked) jacobi = {{"holds", nullptr}, {"skipped", "--trust-jacobi"}};
     if (const auto& f = checks.jacobi)
@@ -123,9 +127,14 @@ std::string series_text(const json& r) {
 std::string check_text(const json& r) {
     auto verdict = [](bool b) { return b ? "hold" : "FAIL"; };
     std::string out =
-        fmt::format("scene: {} ({})\ncoordinates: {}\nclass: {}\nskew-symmetry: holds\n", r["scene"].get<std::string>(),
-                    r["file"].get<std::string>(), fmt::join(r["coordinates"].get<std::vector<std::string>>(), ", "),
-                    r["class"].get<std::string>());
+        fmt::format("scene: {} ({})\ncoordinates: {}\n", r["scene"].get<std::string>(), r["file"].get<std::string>(),
+                    fmt::join(r["coordinates"].get<std::vector<std::string>>(), ", "));
+    if (r.contains("parameters")) {
+        std::vector<std::string> w;
+        for (const auto& [name, value] : r["parameters"].items()) w.push_back(name + " = " + value.get<std::string>());
+        out += fmt::format("parameters: {}\n", fmt::join(w, ", "));
+    }
+    out += fmt::format("class: {}\nskew-symmetry: holds\n", r["class"].get<std::string>());
     const json& j = r["jacobi"];
     if (j.contains("skipped"))
         out += "Jacobi identity: not checked (--trust-jacobi)";

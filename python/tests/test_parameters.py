@@ -121,6 +121,9 @@ def test_a_pickled_scheme_keeps_its_parameters():
 def test_the_command_line_takes_param_and_a_parameter_file(tmp_path):
     from conftest import cli, cli_json
     scene = SCENES / "rigid_body_parameters.toml"
+    c = cli_json("check", scene)
+    assert c["coordinates"] == ["x1", "x2", "x3"] and c["parameters"] == {"w1": "1/2", "w2": "1", "w3": "3/2"}
+    assert "parameters: w1 = 1/2, w2 = 1, w3 = 3/2" in cli("check", scene)[1]
     j = cli_json("integrate", scene, "--param", "w1=0.4", "--param", "w3=2/3", "--t-end", "5")
     assert j["parameters"] == {"w1": 0.4, "w2": 1.0, "w3": 2 / 3}
     r = pgi.Scheme.from_toml(scene).integrate(t_end=5, parameters={"w1": 0.4, "w3": 2 / 3})
