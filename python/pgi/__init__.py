@@ -469,14 +469,6 @@ class Scheme:
             raise StepFailure(r["message"], 1, 0.0, r["residual"])
         return r["x"]
 
-    def integrate(self, x0=None, dt=None, t_end=None, every=1, x_typical=None, events=None, event_samples=1,
-                  max_steps=None, max_output_mb=None, tangent=False, parameters=None):
-        """ceil(t_end/dt) steps from x0 (defaults: the scheme's), Kahan-summed, recording every `every`-th
-        state and the last; returns a Result. Runs with the GIL released; Ctrl-C stops it (KeyboardInterrupt)
-        within a step. Raises StepFailure (with .result holding the run up to the failure) if a step fails. The compiled step is built at x0, or at
-        x_typical when given (an ensemble's x_typical gives its run of this trajectory, bit for bit).
-
-        Budgets, checked before any work (ResourceLimitError, as `pgi integrate` exits 4): max_steps (default
     def step_jacobian(self, x, dt=None):
         """The derivative of the step of size dt (default: the scheme's) at x (shape (n,)): d step(x) / dx, a numpy
         array of shape (n, n), exact to round-off by the implicit function theorem on the step's equation (not
@@ -507,6 +499,14 @@ class Scheme:
             raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
         return r
 
+    def integrate(self, x0=None, dt=None, t_end=None, every=1, x_typical=None, events=None, event_samples=1,
+                  max_steps=None, max_output_mb=None, tangent=False, parameters=None):
+        """ceil(t_end/dt) steps from x0 (defaults: the scheme's), Kahan-summed, recording every `every`-th
+        state and the last; returns a Result. Runs with the GIL released; Ctrl-C stops it (KeyboardInterrupt)
+        within a step. Raises StepFailure (with .result holding the run up to the failure) if a step fails. The compiled step is built at x0, or at
+        x_typical when given (an ensemble's x_typical gives its run of this trajectory, bit for bit).
+
+        Budgets, checked before any work (ResourceLimitError, as `pgi integrate` exits 4): max_steps (default
         1e8) steps, max_output_mb (default 1024) MB of recorded rows kept in memory, event_samples at most 10000.
 
         events: a list of polynomials g(x) in the coordinates whose zeros are reported, each "g", a tuple
@@ -518,6 +518,9 @@ class Scheme:
         step (two crossings inside one step). A bad event raises ValueError naming it (events[i]) and,
         for a polynomial, the problem and its position.
 
+        tangent=True: r.jacobian (n, n) is the derivative of the run's map, d r.x[-1] / d x0, the product of the
+        steps' Jacobians (step_jacobian) computed alongside the steps (not with a terminal event).
+
         parameters: {name: value}, the values of the scheme's parameters for this run (the defaults for those not
         given); the exact phase is not redone for new values."""
         n = len(self.coordinates)
@@ -526,9 +529,6 @@ class Scheme:
         elif isinstance(events, (str, dict)) or not isinstance(events, (list, tuple)):
             raise InputError(f"events: must be a list of events, got {_shown(events)}")
         specs = [_event(i, e) for i, e in enumerate(events)]
-        tangent=True: r.jacobian (n, n) is the derivative of the run's map, d r.x[-1] / d x0, the product of the
-        steps' Jacobians (step_jacobian) computed alongside the steps (not with a terminal event).
-
         r = Result(self._core._integrate(_state("x0", x0, n), _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
                                          _count("every", every, 1, _MAX_COUNT), _state("x_typical", x_typical, n), specs,
                                          _count("event_samples", event_samples, 1, _MAX_COUNT),
