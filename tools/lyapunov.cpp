@@ -47,7 +47,7 @@ std::string lyapunov_text(const json& r) {
     std::string s = fmt::format("Lyapunov exponents after {} steps of dt = {} to t = {} (Benettin, QR every step):\n",
                                 r["steps"].get<std::size_t>(), r["dt"].get<double>(), r["t_end"].get<double>());
     for (std::size_t i = 0; i < n; ++i)
-        s += fmt::format("  lambda_{} = {:+.6e}{}\n", i + 1, r["spectrum"][i].get<double>(),
+        s += fmt::format("  lambda_{} = {:+.8f}{}\n", i + 1, r["spectrum"][i].get<double>(),
                          i < leaf ? "" : "  (across the leaf: a Casimir's direction)");
     double sum = 0;
     for (std::size_t i = 0; i < leaf; ++i) sum += r["spectrum"][i].get<double>();
