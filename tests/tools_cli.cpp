@@ -707,6 +707,38 @@ TEST_CASE("--trust-jacobi skips the Jacobi check and says so; without it a non-J
     CHECK(pgi_run({"report", test::scene_path("rigid_body"), "--trust-jacobi"}).exit_code == 2);
 }
 
+TEST_CASE("--plot-coords: the trajectory figure projects onto the coordinates named; bad ones are refused first") {
+    const std::string chain = test::scene_path("volterra_chain");
+    TempDir dir("plot_coords");
+    const auto svg = [&](const std::string& name) { return slurp(dir.path / (name + "-trajectory.svg")); };
+    if (shell("command -v gnuplot >/dev/null 2>&1") == 0) {
+        Run picked =
+            pgi_run({"integrate", chain, "--t-end", "1", "--plot", dir.path.string(), "--plot-coords", "x2,5"});
+        REQUIRE(picked.exit_code == 0);
+        CHECK(svg("volterra_chain").find("projection onto (x2, x5)") != std::string::npos);
+        Run again = pgi_run({"run", chain, "--t-end", "1", "--plot", dir.path.string()});  // n = 6: the first three
+        REQUIRE(again.exit_code == 0);
+        CHECK_MESSAGE(again.err.find(dir.path.string() + "/volterra_chain-2-trajectory.svg") != std::string::npos,
+                      again.err);
+        CHECK(svg("volterra_chain-2").find("projection onto (x1, x2, x3)") != std::string::npos);
+        CHECK(svg("volterra_chain").find("projection onto (x2, x5)") != std::string::npos);  // the first kept
+    }
+    std::size_t before = 0;
+    for (const auto& e : fs::directory_iterator(dir.path)) before += e.is_regular_file();
+    Run bad = pgi_run({"integrate", chain, "--plot", dir.path.string(), "--plot-coords", "x2,q"});
+    CHECK(bad.exit_code == 2);
+    CHECK(bad.out.empty());
+    CHECK(bad.err == "pgi: " + chain +
+                         ": --plot-coords: 'q' is not a coordinate (the coordinates are x1, x2, x3, x4, x5, x6, or "
+                         "1..6)\n");
+    Run alone = pgi_run({"integrate", chain, "--plot-coords", "x1,x2"});
+    CHECK(alone.exit_code == 2);
+    CHECK_MESSAGE(alone.err.find("--plot") != std::string::npos, alone.err);
+    std::size_t after = 0;
+    for (const auto& e : fs::directory_iterator(dir.path)) after += e.is_regular_file();
+    CHECK(after == before);
+}
+
 TEST_CASE("--plot: gnuplot failing after the run is an output failure (exit 6), nothing left behind") {
     // (the figures themselves are tested in tools_report.cpp)
     const std::string rb = test::scene_path("rigid_body");

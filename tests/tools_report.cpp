@@ -1,6 +1,7 @@
 // The report side of pgi: splitting reports from scenes, LaTeX that fits the page (pdflatex when installed),
 // plots of a run.
 #include "series/latex.hpp"
+#include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
 #include "tools/plot.hpp"
 #include "test_util.hpp"
@@ -167,6 +168,76 @@ TEST_CASE("RunPlot: a bad directory is refused before the run; a run draws four 
     std::size_t entries = 0;
     for (const auto& e : fs::directory_iterator(dir)) entries += e.is_regular_file();
     CHECK(entries == 4);  // no temporary left behind
+    fs::remove_all(dir);
+}
+
+TEST_CASE("plot coordinates: two or three names or 1-based indices; the first three by default") {
+    const std::vector<std::string> c{"x1", "x2", "x3", "x4", "x5", "x6", "x7"};
+    using Shown = std::vector<std::size_t>;
+    CHECK(plot_coordinates(c, "") == Shown{0, 1, 2});
+    CHECK(plot_coordinates({"q", "p"}, "") == Shown{0, 1});
+    CHECK(plot_coordinates(c, "x2,x5") == Shown{1, 4});
+    CHECK(plot_coordinates(c, "7, 1,x3") == Shown{6, 0, 2});
+    const std::string there = " (the coordinates are x1, x2, x3, x4, x5, x6, ..., or 1..7)";
+    const auto refused = [&](const std::string& spec) {
+        try {
+            plot_coordinates(c, spec);
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    CHECK(refused("x1") ==
+          "give two or three coordinates, comma-separated names or 1-based indices like x1,x2 (got 1 in 'x1')");
+    CHECK(refused("1,2,3,4") ==
+          "give two or three coordinates, comma-separated names or 1-based indices like x1,x2 (got 4 in '1,2,3,4')");
+    CHECK(refused("x1,q") == "'q' is not a coordinate" + there);
+    CHECK(refused("x1,8") == "index 8 is out of range" + there);
+    CHECK(refused("0,x1") == "index 0 is out of range" + there);
+    CHECK(refused("x1,1") == "'1' names coordinate x1 twice");
+    CHECK(refused("x1,") == "an empty entry" + there);
+    CHECK(refused("x1," + std::string(100000, '9')) == "index " + std::string(37, '9') + "... is out of range" + there);
+}
+
+TEST_CASE("RunPlot: a second run's figures get the next free name; no figure is ever replaced") {
+    if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+        MESSAGE("gnuplot is not installed: no figures drawn");
+        return;
+    }
+    const fs::path dir = fs::temp_directory_path() / ("pgi_plot_names_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    Scene scene = test::bundled("harmonic_oscillator");
+    scene.t_end = 2;
+    const auto draw = [&](RunPlot& plot) {
+        IntegrateOptions options;
+        plot.attach(options);
+        integrate_report(scene, options);
+        return plot.write();
+    };
+    RunPlot first_plot(scene, dir);
+    const auto first = draw(first_plot);
+    REQUIRE(first == figure_paths(dir, "harmonic_oscillator"));
+    std::vector<std::string> before;
+    for (const auto& f : first) before.push_back(test::slurp(f));
+    scene.t_end = 3;  // another run, other figures
+    RunPlot second_plot(scene, dir);
+    CHECK(second_plot.name() == "harmonic_oscillator-2");
+    CHECK(draw(second_plot) == figure_paths(dir, "harmonic_oscillator-2"));
+    for (std::size_t i = 0; i < first.size(); ++i) CHECK(test::slurp(first[i]) == before[i]);
+    // a name taken between the check before the run and the drawing: refused, that file kept, none of the run's left
+    RunPlot third_plot(scene, dir);
+    REQUIRE(third_plot.name() == "harmonic_oscillator-3");
+    const fs::path taken = dir / "harmonic_oscillator-3-errors.png";
+    IntegrateOptions options;
+    third_plot.attach(options);
+    integrate_report(scene, options);
+    std::ofstream(taken) << "someone else's";
+    CHECK_THROWS_AS(third_plot.write(), OutputError);
+    CHECK(test::slurp(taken) == "someone else's");
+    std::size_t entries = 0;
+    for (const auto& e : fs::directory_iterator(dir)) entries += e.is_regular_file();
+    CHECK(entries == 4 + 4 + 1);  // the first two runs' figures and the intruder: nothing else, no temporary
     fs::remove_all(dir);
 }
 

@@ -136,6 +136,27 @@ public:
 
     /// Flushes to disk (fsync) and renames into place. Throws OutputError if the data could not be written.
     void commit() {
+        flush_and_close();
+        if (::rename(temp_.c_str(), target_.c_str()) != 0)
+            throw OutputError(target_.string() + ": cannot rename the written file into place (" +
+                              std::strerror(errno) + ")");
+        temp_file_->keep();
+    }
+
+    /// As commit(), but never replaces a file: link(2) gives the target its name only if the name is free. Throws
+    /// OutputError if the target exists by then (the temporary is removed, the existing file left as it was).
+    void commit_new() {
+        flush_and_close();
+        if (::link(temp_.c_str(), target_.c_str()) != 0)
+            throw OutputError(target_.string() + (errno == EEXIST ? ": exists (written meanwhile?): not replaced"
+                                                                  : ": cannot give the written file its name (" +
+                                                                        std::string(std::strerror(errno)) + ")"));
+        ::unlink(temp_.c_str());
+        temp_file_->keep();
+    }
+
+private:
+    void flush_and_close() {
         stream_->flush();
         const bool written = *stream_ && !buffer_->failed() && ::fsync(fd_) == 0;
         const int saved = errno;
@@ -143,13 +164,8 @@ public:
         fd_ = -1;
         if (!written || !closed)
             throw OutputError(target_.string() + ": write failed (" + std::strerror(written ? errno : saved) + ")");
-        if (::rename(temp_.c_str(), target_.c_str()) != 0)
-            throw OutputError(target_.string() + ": cannot rename the written file into place (" +
-                              std::strerror(errno) + ")");
-        temp_file_->keep();
     }
 
-private:
     std::filesystem::path target_;
     std::string temp_;
     int fd_ = -1;

@@ -41,8 +41,9 @@ struct Options {
     std::string format = "markdown", out;
     pgi::IntegrateOptions integrate;
     std::string csv;
-    std::string splitting;  // pgi modified --splitting
-    std::string plot;       // pgi run/integrate --plot DIR
+    std::string splitting;    // pgi modified --splitting
+    std::string plot;         // pgi run/integrate --plot DIR
+    std::string plot_coords;  // --plot-coords x1,x3: the coordinates the trajectory figure draws
     pgi::SectionOptions section;
     pgi::EnsembleCommandOptions ensemble;
     std::string max_memory_mb, max_seconds;  // the exact phase's budget, read by read_numbers
@@ -220,7 +221,7 @@ int run_command(const std::string& name, Options o) {
     io.progress = !o.json;
     std::optional<pgi::RunPlot> plot;  // checked before the run
     if (!o.plot.empty() && (name == "integrate" || name == "run")) {
-        plot.emplace(scene, o.plot);
+        plot.emplace(scene, o.plot, o.plot_coords);
         plot->attach(io);
     }
     if (name == "section") {
@@ -342,8 +343,13 @@ int main(int argc, char** argv) {
     for (auto* cmd : {integrate, run}) {
         cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
         cmd->add_option("--every", o.every, "one CSV row every M steps");
-        cmd->add_option("--plot", o.plot,
-                        "draw the trajectory and the invariants' errors (SVG and PNG, by gnuplot) into this directory");
+        auto* plot = cmd->add_option(
+            "--plot", o.plot,
+            "draw the trajectory and the invariants' errors (SVG and PNG, by gnuplot) into this directory");
+        cmd->add_option("--plot-coords", o.plot_coords,
+                        "the two or three coordinates the trajectory figure draws, names or 1-based indices "
+                        "(default: the first three)")
+            ->needs(plot);
         cmd->add_option("--max-csv-mb", o.max_csv_mb, "refuse a CSV larger than this (default 1024)");
     }
     realisation->add_option("--degree", o.degree, "total degree D in the momenta, 0..100")->required();

@@ -99,38 +99,53 @@ void run_gnuplot(const fs::path& script) {
     }
 }
 
-// Copies a figure gnuplot wrote into the private directory to its target, as every output is written (AtomicFile).
+// Copies a figure gnuplot wrote into the private directory to its target, as every output is written (AtomicFile),
+// under a name no file has (commit_new): a figure is never replaced.
 void publish(const fs::path& figure, const fs::path& target) {
     std::ifstream in(figure, std::ios::binary);
     if (!in || fs::file_size(figure) == 0) throw OutputError("--plot: gnuplot wrote no " + target.string());
     try {
         AtomicFile out(target);
         out.stream() << in.rdbuf();
-        out.commit();
+        out.commit_new();
     } catch (const std::invalid_argument& e) {
+        throw OutputError(std::string("--plot: ") + e.what());
+    } catch (const OutputError& e) {
         throw OutputError(std::string("--plot: ") + e.what());
     }
 }
 
-std::string trajectory_plot(const RunSeries& s, const std::vector<std::string>& coords, const std::string& data) {
-    if (s.dim() == 2)
+// The figure's title for the coordinates drawn: the phase portrait when they are all of them, else a projection.
+std::string trajectory_title(const RunSeries& s, const std::vector<std::string>& coords,
+                             const std::vector<std::size_t>& shown) {
+    if (shown.size() == s.dim()) return "phase portrait";
+    std::vector<std::string> names;
+    for (std::size_t i : shown) names.push_back(coords[i]);
+    return fmt::format("projection onto ({})", fmt::join(names, ", "));
+}
+
+// The trajectory: an orbit in the plane or in space of the coordinates shown (2 or 3), time series for 1.
+std::string trajectory_plot(const RunSeries& s, const std::vector<std::string>& coords,
+                            const std::vector<std::size_t>& shown, const std::string& data) {
+    const std::string title = "set title title.\": \"." + quoted(trajectory_title(s, coords, shown)) + "\n";
+    if (shown.size() == 2)
         return fmt::format(
-            "set xlabel {}; set ylabel {}\nset title title.\": phase portrait\"\n"
-            "plot {} using 2:3 with lines lw 1.5 lc rgb \"#377eb8\" title \"orbit\", "
-            "{} every ::0::0 using 2:3 with points pt 7 ps 1.2 lc rgb \"#e41a1c\" title \"x0\"\n",
-            quoted(coords[0]), quoted(coords[1]), quoted(data), quoted(data));
-    if (s.dim() == 3)
+            "set xlabel {}; set ylabel {}\n{}"
+            "plot {} using {}:{} with lines lw 1.5 lc rgb \"#377eb8\" title \"orbit\", "
+            "{} every ::0::0 using {}:{} with points pt 7 ps 1.2 lc rgb \"#e41a1c\" title \"x0\"\n",
+            quoted(coords[shown[0]]), quoted(coords[shown[1]]), title, quoted(data), shown[0] + 2, shown[1] + 2,
+            quoted(data), shown[0] + 2, shown[1] + 2);
+    if (shown.size() == 3)
         return fmt::format(
-            "set xlabel {}; set ylabel {}; set zlabel {}; set view 60, 35; set ticslevel 0\n"
-            "set title title.\": phase portrait\"\n"
-            "splot {} using 2:3:4 with lines lw 1.2 lc rgb \"#377eb8\" title \"orbit\", "
-            "{} every ::0::0 using 2:3:4 with points pt 7 ps 1.2 lc rgb \"#e41a1c\" title \"x0\"\n",
-            quoted(coords[0]), quoted(coords[1]), quoted(coords[2]), quoted(data), quoted(data));
-    std::string out =
-        "set xlabel \"t\"; set ylabel \"coordinates\"\nset key outside right\nset title title.\": time series\"\nplot ";
-    for (std::size_t i = 0; i < s.dim(); ++i)
-        out += fmt::format("{}{} using 1:{} with lines lw 1.2 title {}", i ? ", " : "", quoted(data), i + 2,
-                           quoted(coords[i]));
+            "set xlabel {}; set ylabel {}; set zlabel {}; set view 60, 35; set ticslevel 0\n{}"
+            "splot {} using {}:{}:{} with lines lw 1.2 lc rgb \"#377eb8\" title \"orbit\", "
+            "{} every ::0::0 using {}:{}:{} with points pt 7 ps 1.2 lc rgb \"#e41a1c\" title \"x0\"\n",
+            quoted(coords[shown[0]]), quoted(coords[shown[1]]), quoted(coords[shown[2]]), title, quoted(data),
+            shown[0] + 2, shown[1] + 2, shown[2] + 2, quoted(data), shown[0] + 2, shown[1] + 2, shown[2] + 2);
+    std::string out = "set xlabel \"t\"; set ylabel \"coordinates\"\nset key outside right\n" + title + "plot ";
+    for (std::size_t i = 0; i < shown.size(); ++i)
+        out += fmt::format("{}{} using 1:{} with lines lw 1.2 title {}", i ? ", " : "", quoted(data), shown[i] + 2,
+                           quoted(coords[shown[i]]));
     return out + "\n";
 }
 
@@ -162,10 +177,86 @@ std::string errors_plot(const RunSeries& s, double dt, const std::string& data, 
     return out + "plot " + plot + "\n";
 }
 
+// At most the first six names, for a message.
+std::string some_names(const std::vector<std::string>& names) {
+    const std::size_t shown = std::min<std::size_t>(names.size(), 6);
+    return fmt::format("{}{}", fmt::join(names.begin(), names.begin() + long(shown), ", "),
+                       names.size() > shown ? ", ..." : "");
+}
+
+// A user's text in a message: at most 40 characters.
+std::string clipped(std::string_view s) {
+    return s.size() > 40 ? std::string(s.substr(0, 37)) + "..." : std::string(s);
+}
+
+// The index of one entry of --plot-coords: a coordinate's name, or its 1-based index.
+std::size_t coordinate_index(const std::vector<std::string>& coords, std::string_view entry) {
+    const std::string there = fmt::format(" (the coordinates are {}, or 1..{})", some_names(coords), coords.size());
+    if (entry.empty()) throw std::invalid_argument("an empty entry" + there);
+    if (std::all_of(entry.begin(), entry.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+        const std::size_t k = entry.size() > 9 ? 0 : std::stoul(std::string(entry));
+        if (k < 1 || k > coords.size())
+            throw std::invalid_argument("index " + clipped(entry) + " is out of range" + there);
+        return k - 1;
+    }
+    const auto at = std::find(coords.begin(), coords.end(), entry);
+    if (at == coords.end()) throw std::invalid_argument("'" + clipped(entry) + "' is not a coordinate" + there);
+    return std::size_t(at - coords.begin());
+}
+
+std::string_view trimmed(std::string_view s) {
+    while (!s.empty() && s.front() == ' ') s.remove_prefix(1);
+    while (!s.empty() && s.back() == ' ') s.remove_suffix(1);
+    return s;
+}
+
 }  // namespace
 
-std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string>& coords, double dt,
-                               const std::string& title, const fs::path& dir, const std::string& name) {
+std::vector<std::size_t> plot_coordinates(const std::vector<std::string>& coords, std::string_view spec) {
+    std::vector<std::size_t> shown;
+    if (spec.empty()) {
+        for (std::size_t i = 0; i < std::min<std::size_t>(coords.size(), 3); ++i) shown.push_back(i);
+        return shown;
+    }
+    const auto entries = std::count(spec.begin(), spec.end(), ',') + 1;
+    if (entries < 2 || entries > 3)
+        throw std::invalid_argument(fmt::format(
+            "give two or three coordinates, comma-separated names or 1-based indices like {},{} (got {} in '{}')",
+            coords.at(0), coords.size() > 1 ? coords[1] : "2", entries, clipped(spec)));
+    for (std::size_t start = 0; start <= spec.size();) {
+        const std::size_t end = std::min(spec.find(',', start), spec.size());
+        const std::string_view entry = trimmed(spec.substr(start, end - start));
+        const std::size_t i = coordinate_index(coords, entry);
+        if (std::find(shown.begin(), shown.end(), i) != shown.end())
+            throw std::invalid_argument("'" + clipped(entry) + "' names coordinate " + coords[i] + " twice");
+        shown.push_back(i);
+        start = end + 1;
+    }
+    return shown;
+}
+
+std::vector<fs::path> figure_paths(const fs::path& dir, const std::string& name) {
+    return {dir / (name + "-trajectory.svg"), dir / (name + "-trajectory.png"), dir / (name + "-errors.svg"),
+            dir / (name + "-errors.png")};
+}
+
+std::string free_run_name(const fs::path& dir, const std::string& stem) {
+    constexpr int max_runs = 999;
+    for (int run = 1; run <= max_runs; ++run) {
+        const std::string name = run == 1 ? stem : fmt::format("{}-{}", stem, run);
+        const auto paths = figure_paths(dir, name);
+        std::error_code ec;  // symlink_status: a dangling link is a name taken too
+        if (std::none_of(paths.begin(), paths.end(),
+                         [&](const fs::path& p) { return fs::exists(fs::symlink_status(p, ec)); }))
+            return name;
+    }
+    throw std::invalid_argument(
+        fmt::format("'{}' holds the figures of {} runs of {}: remove some", dir.string(), max_runs, stem));
+}
+
+std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string>& coords,
+                               const std::vector<std::size_t>& shown, double dt, const std::string& title,
+                               const fs::path& dir, const std::string& name) {
     TempDir tmp;
     const fs::path traj = tmp.path / "trajectory.dat", errs = tmp.path / "errors.dat";
     {
@@ -194,29 +285,36 @@ std::vector<fs::path> draw_run(const RunSeries& s, const std::vector<std::string
     std::vector<fs::path> written;
     std::string script = script_preamble + fmt::format("title = {}\nset grid\nset encoding utf8\n", quoted(title));
     std::vector<std::pair<fs::path, fs::path>> figures;  // (in the private directory, target)
-    for (const auto& [figure, body] : {std::pair{std::string("trajectory"), trajectory_plot(s, coords, traj.string())},
-                                       std::pair{std::string("errors"), errors_plot(s, dt, errs.string(), has_points)}})
+    const std::vector<fs::path> targets = figure_paths(dir, name);
+    for (const auto& [figure, body] :
+         {std::pair{std::string("trajectory"), trajectory_plot(s, coords, shown, traj.string())},
+          std::pair{std::string("errors"), errors_plot(s, dt, errs.string(), has_points)}})
         for (const auto& [ext, terminal] :
              {std::pair{"svg", "svg size 900,560 font \"sans,12\" background \"white\" noenhanced"},
               std::pair{"png", "pngcairo size 900,560 font \"sans,11\" noenhanced"}}) {
             const fs::path out = tmp.path / fmt::format("{}.{}", figure, ext);
             script += fmt::format("reset\nset grid\nset terminal {}\nset output {}\n{}set output\n", terminal,
                                   quoted(out.string()), body);
-            figures.push_back({out, dir / fmt::format("{}-{}.{}", name, figure, ext)});
+            figures.push_back({out, targets[figures.size()]});
         }
     {
         std::ofstream out(tmp.path / "plot.gp");
         out << script;
     }
     run_gnuplot(tmp.path / "plot.gp");
-    for (const auto& [figure, target] : figures) {
-        publish(figure, target);
-        written.push_back(target);
+    try {
+        for (const auto& [figure, target] : figures) {
+            publish(figure, target);
+            written.push_back(target);
+        }
+    } catch (const OutputError&) {
+        for (const auto& f : written) fs::remove(f);  // this run's own figures: none is left half a set
+        throw;
     }
     return written;
 }
 
-RunPlot::RunPlot(const Scene& scene, fs::path dir) : scene_(scene), dir_(std::move(dir)) {
+RunPlot::RunPlot(const Scene& scene, fs::path dir, std::string_view coordinates) : scene_(scene), dir_(std::move(dir)) {
     if (!fs::is_directory(dir_))
         throw SceneError(scene.file, "--plot",
                          "'" + dir_.string() + "' is not an existing directory (create it first)");
@@ -231,6 +329,16 @@ RunPlot::RunPlot(const Scene& scene, fs::path dir) : scene_(scene), dir_(std::mo
     if (!on_path("gnuplot")) throw SceneError(scene.file, "--plot", "gnuplot is not installed (Debian: gnuplot-nox)");
     if (!scene.x0 || !scene.t_end)
         throw SceneError(scene.file, "--plot", "nothing to plot: the scene has no [run] x0 and t_end");
+    try {
+        shown_ = plot_coordinates(scene.phase_space().coordinates(), coordinates);
+    } catch (const std::invalid_argument& e) {
+        throw SceneError(scene.file, "--plot-coords", e.what());
+    }
+    try {
+        name_ = free_run_name(dir_, scene.file.stem().string());
+    } catch (const std::invalid_argument& e) {
+        throw SceneError(scene.file, "--plot", e.what());
+    }
     // Htilde through dt^{method order}: the first power whose term is not zero for the order-k scheme
     modified_upto_ = 2 * ((scene.order + 1) / 2);
     try {
@@ -263,7 +371,7 @@ std::vector<fs::path> RunPlot::write() const {
     const std::string title =
         fmt::format("{} (order {}, dt = {})", scene_.name.empty() ? scene_.file.stem().string() : scene_.name,
                     scene_.order, scene_.dt);
-    return draw_run(*series_, scene_.phase_space().coordinates(), scene_.dt, title, dir_, scene_.file.stem().string());
+    return draw_run(*series_, scene_.phase_space().coordinates(), shown_, scene_.dt, title, dir_, name_);
 }
 
 }  // namespace pgi
