@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -99,7 +100,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.predictor_ = Predictor::choose(M, *probe, S, opt, cost, x_typical, closed ? realisation : RealisationSource{});
     s.info_.predictor_order = s.predictor_.order();
     s.info_.hessian_terms = s.gradient_.hessian_terms;
-    if (opt.jit) s.info_.native_maps = attach_native_code(s.compiled_maps());
+    s.attach_native(opt.native);
     s.size_scratch(n);
     if (!s.sparse_ && s.realisation_.has_lane_form()) {
         switch (n) {
@@ -376,6 +377,44 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
 }
 
 StepStatus NewtonStepper::step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment) {
+    if (--native_countdown_ == 0) [[unlikely]]
+        return sampled_step(x, dt, increment);
+    return step_now(x, dt, increment);
+}
+
+StepStatus NewtonStepper::sampled_step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment) {
+    native_countdown_ = native_sample_period;
+    if (native_tier_ && native_tier_->settled()) adopt_native();
+    if (!native_tier_) return step_now(x, dt, increment);
+    const auto start = std::chrono::steady_clock::now();
+    const StepStatus status = step_now(x, dt, increment);
+    if (native_tier_->spend(native_sample_period * (std::chrono::steady_clock::now() - start)))
+        native_tier_->start(compiled_maps());
+    return status;
+}
+
+void NewtonStepper::adopt_native() {
+    if (!native_tier_ || !native_tier_->settled()) return;
+    native_maps_ = native_tier_->attach(compiled_maps());
+    native_failure_ = native_tier_->failure();
+    native_tier_.reset();
+}
+
+// StepOptions::native at the build: always attaches now, automatic what the cache keeps (a tier for the rest).
+void NewtonStepper::attach_native(NativePolicy policy) {
+    if (policy == NativePolicy::never) return;
+    const std::vector<CompiledMap*> maps = compiled_maps();
+    if (policy == NativePolicy::always) {
+        native_maps_ = info_.native_maps = attach_native_code(maps);
+        return;
+    }
+    native_maps_ = info_.native_maps = attach_kept_native_code(maps);
+    if (native_maps_ > 0) return;
+    native_tier_ = std::make_shared<NativeTier>(maps);
+    native_countdown_ = native_sample_period;
+}
+
+StepStatus NewtonStepper::step_now(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment) {
     if (lane_.index() != 0) return lane_step(x, dt, increment);
     if (!begin_step(x, dt)) return StepStatus::non_finite;
     predictor_.eval(x, dt, xb_);

@@ -12,9 +12,12 @@
 #include "poisson/step_options.hpp"
 #include "poisson/truncation_degree.hpp"
 #include "series/native.hpp"
+#include "series/native_tier.hpp"
 
 #include <Eigen/Dense>
 
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <variant>
 
@@ -38,9 +41,10 @@ public:
     /// predictor's u_m compiled to double, dt a run-time argument. S = S_1..S_k (opt.k of them). opt.dt is
     /// the largest dt the caller plans: the degree and the predictor's order are chosen for it (a larger dt
     /// at run time is guarded by the acceptance test). Requires pi to satisfy Jacobi. Throws
-    /// std::invalid_argument on k < 1, S of another length, dt <= 0 or a bad x_typical. opt.jit: the compiled maps
-    /// then run native code (series/native.hpp; info().native_maps says how many), NativeCodeError if it cannot be
-    /// built.
+    /// std::invalid_argument on k < 1, S of another length, dt <= 0 or a bad x_typical. opt.native: always builds
+    /// native code for the compiled maps now (series/native.hpp; info().native_maps says how many; NativeCodeError if
+    /// it cannot be built); automatic attaches what the cache keeps and leaves the rest to a NativeTier shared with the
+    /// copies of this stepper (native_maps() says how many maps run native code now).
     static NewtonStepper build(const PoissonStructure& pi, const std::vector<Poly>& S,
                                const RealisationSource& realisation, const StepOptions& opt,
                                const Eigen::VectorXd& x_typical);
@@ -49,8 +53,10 @@ public:
                                const Eigen::VectorXd& x_typical);
 
     /// Fast: increment = phi_dt(x) - x. Allocates nothing (on the dense path; SparseLU's factorisation allocates
-    /// on the sparse one), throws nothing. dt is any positive step (a
-    /// non-finite one returns non_finite); the realisation degree and predictor were chosen for built_dt().
+    /// on the sparse one), throws nothing. dt is any positive step (a non-finite one returns non_finite); the
+    /// realisation degree and predictor were chosen for built_dt(). Under NativePolicy::automatic one step in
+    /// native_sample_period is timed for the NativeTier, which may then allocate once to start its build, and once
+    /// more when this stepper switches to native code (adopt_native).
     [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment);
     /// The same at dt().
     [[nodiscard]] StepStatus step(const Eigen::VectorXd& x, Eigen::VectorXd& increment) {
@@ -67,16 +73,29 @@ public:
     const DtSeriesMap& with_hessian() const { return gradient_.with_hessian; }
     /// Dphi_dt(x) by implicit differentiation: I + (delta_x + delta_p Hess S) J^{-1} at the solution.
     Eigen::MatrixXd tangent_map(const Eigen::VectorXd& x);
+    /// Sets jacobian (n x n) to the derivative of the last step's map at the state it stepped from, by the implicit
+    /// function theorem at its accepted base point with the whole Hess S_dt (poisson/step_jacobian.cpp). Requires the
+    /// last step to have returned ok. False when the Newton matrix there is singular (jacobian then not finite).
+    bool last_step_jacobian(Eigen::MatrixXd& jacobian);
 
     /// One evaluation of the Newton system at xb, at dt(): F = alpha(xb, grad S_dt(xb)) and its Jacobian J.
     /// What one Newton iteration costs before the LU solve (the benchmarks' unit of work).
     const Eigen::MatrixXd& newton_system(const Eigen::VectorXd& xb);
 
+    /// One step in this many is timed for the NativeTier (NativePolicy::automatic).
+    static constexpr std::uint32_t native_sample_period = 256;
+    /// The compiled maps that run native code now.
+    std::size_t native_maps() const { return native_maps_; }
+    /// The tier shared with this stepper's copies while native code may still come (NativePolicy::automatic, no kept
+    /// library), else null.
+    const NativeTier* native_tier() const { return native_tier_.get(); }
+    /// Switches to native code if the tier's build is done (what the steps do every native_sample_period steps):
+    /// attaches it, or keeps its failure (native_failure()), and lets the tier go.
+    void adopt_native();
+    /// Why native code could not be built under NativePolicy::automatic ("" if it was, or was not tried).
+    const std::string& native_failure() const { return native_failure_; }
+
     int last_iterations() const { return iterations_; }
-    /// Sets jacobian (n x n) to the derivative of the last step's map at the state it stepped from, by the implicit
-    /// function theorem at its accepted base point with the whole Hess S_dt (poisson/step_jacobian.cpp). Requires the
-    /// last step to have returned ok. False when the Newton matrix there is singular (jacobian then not finite).
-    bool last_step_jacobian(Eigen::MatrixXd& jacobian);
     /// |alpha(xb, p) - x|_inf at the last base point tested (the accepted one after an ok step).
     double last_residual() const { return residual_; }
     /// The residual's tolerance there: kappa u (|x| + sizes of the terms summed into alpha, and of those
@@ -116,6 +135,9 @@ private:
     friend class LaneStep;
     StepStatus lane_step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment);
     bool begin_step(const Eigen::VectorXd& x, double dt);  // false when x or dt is not finite
+    StepStatus step_now(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment);
+    void attach_native(NativePolicy policy);
+    StepStatus sampled_step(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment);  // timed for the tier
     StepStatus solve_from_prediction(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated);
     StepStatus newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated);
     void take_gradient_at(const Eigen::VectorXd& xb);
@@ -128,7 +150,7 @@ private:
     void polish(double x_norm);
     bool solve(bool again);
     void size_scratch(std::size_t n);
-    std::vector<CompiledMap*> compiled_maps();  // every map the step evaluates, for native code (StepOptions::jit)
+    std::vector<CompiledMap*> compiled_maps();  // every map the step evaluates, for native code (StepOptions::native)
     void assemble();                            // J at the point evaluate_at saw
     const Eigen::VectorXd& evaluated_alpha() const { return sparse_ ? sparse_values_.alpha : v_.alpha; }
     const Eigen::VectorXd& evaluated_delta() const { return sparse_ ? sparse_values_.delta : v_.delta; }
@@ -156,6 +178,10 @@ private:
     // the same step over lanes, where it exists (then step() is its one-lane instantiation)
     std::variant<std::monostate, LaneStep<2, double>, LaneStep<3, double>, LaneStep<4, double>, LaneStep<6, double>>
         lane_;
+    std::shared_ptr<NativeTier> native_tier_;  // shared with the copies; null once settled or not wanted
+    std::uint32_t native_countdown_ = 0;  // steps to the next timed one (wraps: never, in practice, without a tier)
+    std::size_t native_maps_ = 0;
+    std::string native_failure_;
     int iterations_ = 0;
     double residual_ = 0, correction_ = 0, tolerance_ = 0, ratio_ = 0, truncation_ = 0;
 };

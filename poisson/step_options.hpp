@@ -3,6 +3,7 @@
 // predictor and Newton.
 #include "poisson/newton_matrix.hpp"
 #include "poisson/realisation.hpp"
+#include "series/native.hpp"
 
 #include <string>
 
@@ -20,7 +21,9 @@ struct StepOptions {
     std::size_t predictor_order = 0;  // P of the base point's series; 0 chooses it by cost, up to max(k + 1, 8)
     NewtonSolverChoice solver =
         NewtonSolverChoice::automatic;  // the Newton matrix dense or sparse (NewtonMatrix::choose)
-    bool jit = false;  // the step's compiled maps as native code (series/native.hpp): the same bits, faster
+    /// Whether the step's compiled maps run native code (series/native.hpp): the same bits, faster steps. automatic: a
+    /// kept library at once, else built in the background once the step has run long enough (series/native_tier.hpp).
+    NativePolicy native = NativePolicy::automatic;
 };
 
 /// How the step was built: the realisation's method and degree, and the size of the neglected
@@ -34,7 +37,7 @@ struct StepInfo {
     std::size_t predictor_order = 0;  // the base point is predicted by its exact series in dt to this order
     NewtonSolver solver =
         NewtonSolver::dense;      // sparse: J, Hess S_dt and the realisation's derivatives on their patterns
-    std::size_t native_maps = 0;  // the compiled maps that run native code (StepOptions::jit)
+    std::size_t native_maps = 0;  // the compiled maps that run native code (StepOptions::native), at the build
     std::size_t hessian_terms =
         0;  // the S_j the Newton matrix's Hess S_dt reads (k unless truncated: compile_gradient)
 };

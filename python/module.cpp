@@ -124,14 +124,26 @@ std::vector<std::string> texts(const std::vector<pgi::Poly>& v, bool latex) {
     return out;
 }
 
+// Python's jit: None (automatic), True (always) or False (never), as the scene's integrator.jit.
+pgi::NativePolicy native_policy(std::optional<bool> jit) {
+    if (!jit) return pgi::NativePolicy::automatic;
+    return *jit ? pgi::NativePolicy::always : pgi::NativePolicy::never;
+}
+
+std::optional<bool> jit_of(pgi::NativePolicy p) {
+    if (p == pgi::NativePolicy::automatic) return std::nullopt;
+    return p == pgi::NativePolicy::always;
+}
+
 PyScheme from_values(std::vector<std::string> coordinates, const py::dict& brackets, std::string hamiltonian,
                      std::vector<std::string> casimirs, long order, std::string realisation, std::optional<double> dt,
                      std::optional<Eigen::VectorXd> x0, std::optional<double> t_end, std::size_t max_terms,
-                     bool trust_jacobi, bool jit, std::vector<std::pair<std::string, std::string>> parameters) {
+                     bool trust_jacobi, std::optional<bool> jit,
+                     std::vector<std::pair<std::string, std::string>> parameters) {
     pgi::SchemeValues v;
     v.parameters = std::move(parameters);
     v.trust_jacobi = trust_jacobi;
-    v.jit = jit;
+    v.jit = native_policy(jit);
     v.coordinates = std::move(coordinates);
     for (auto [k, value] : brackets) {
         if (!py::isinstance<py::str>(k) || !py::isinstance<py::str>(value))
@@ -167,22 +179,21 @@ PyScheme from_scene(const pgi::Scene& scene) {
     return s;
 }
 
-// trust_jacobi and jit as the command line's --trust-jacobi and --jit (jit: native code even where the scene
-// does not ask for it).
-pgi::SceneOverrides overrides(bool trust_jacobi, bool jit) {
+// trust_jacobi and jit as the command line's --trust-jacobi and --jit / --no-jit (None: as the scene says).
+pgi::SceneOverrides overrides(bool trust_jacobi, std::optional<bool> jit) {
     pgi::SceneOverrides o;
     o.trust_jacobi = trust_jacobi;
-    o.jit = jit;
+    if (jit) o.jit = native_policy(jit);
     return o;
 }
 
-PyScheme from_toml(const std::string& path, bool trust_jacobi, bool jit) {
+PyScheme from_toml(const std::string& path, bool trust_jacobi, std::optional<bool> jit) {
     py::gil_scoped_release release;
     return from_scene(pgi::load_scene(path, overrides(trust_jacobi, jit)));
 }
 
 // The scene's text (what a pickled Scheme carries to another process); file only names it in messages.
-PyScheme from_toml_text(const std::string& text, const std::string& file, bool trust_jacobi, bool jit) {
+PyScheme from_toml_text(const std::string& text, const std::string& file, bool trust_jacobi, std::optional<bool> jit) {
     py::gil_scoped_release release;
     return from_scene(pgi::parse_scene(text, file, overrides(trust_jacobi, jit)));
 }
@@ -561,12 +572,13 @@ PYBIND11_MODULE(_pgi, m) {
         .def(py::init(&from_values), "coordinates"_a, "brackets"_a, "hamiltonian"_a,
              "casimirs"_a = std::vector<std::string>{}, "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(),
              "x0"_a = py::none(), "t_end"_a = py::none(), "max_terms"_a = pgi::Ring::default_max_terms,
-             "trust_jacobi"_a = false, "jit"_a = false,
+             "trust_jacobi"_a = false, "jit"_a = py::none(),
              "parameters"_a = std::vector<std::pair<std::string, std::string>>{})
-        .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false, "jit"_a = false)
-        .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a, "trust_jacobi"_a = false, "jit"_a = false)
+        .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false, "jit"_a = py::none())
+        .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a, "trust_jacobi"_a = false,
+                    "jit"_a = py::none())
         .def_property_readonly("jacobi_trusted", [](const PyScheme& s) { return s.scheme->jacobi_trusted(); })
-        .def_property_readonly("jit", [](const PyScheme& s) { return s.scheme->jit(); })
+        .def_property_readonly("jit", [](const PyScheme& s) { return jit_of(s.scheme->jit()); })
         .def_property_readonly("name", [](const PyScheme& s) { return s.name; })
         .def_property_readonly("coordinates", [](const PyScheme& s) { return s.scheme->coordinates(); })
         .def_property_readonly("parameters",

@@ -66,7 +66,7 @@ public:
                     0.1,
                     "1/10",
                     RealisationChoice::automatic,
-                    false,
+                    NativePolicy::automatic,
                     {},
                     std::nullopt,
                     std::nullopt,
@@ -281,9 +281,9 @@ private:
         check_keys(t, "integrator", {"order", "dt", "realisation", "jit"});
         if (const toml::node* n = t.get("jit")) {
             if (!n->is_boolean()) fail("integrator.jit", "must be true or false");
-            scene.jit = *n->value<bool>();
+            scene.jit = *n->value<bool>() ? NativePolicy::always : NativePolicy::never;
         }
-        scene.jit = scene.jit || ov_.jit;
+        if (ov_.jit) scene.jit = *ov_.jit;
         if (ov_.order) {
             try {
                 std::size_t pos = 0;

@@ -33,7 +33,7 @@ struct SceneOverrides {
     double max_seconds = BudgetLimits::default_max_seconds;  // --max-seconds: its algebra's time (none; pgi: 60)
     Budget::ProgressSink progress;                           // progress lines of a long exact phase
     bool trust_jacobi = false;                               // --trust-jacobi: the Jacobi identity is not checked
-    bool jit = false;                                        // --jit: the step's maps as native code (integrator.jit)
+    std::optional<NativePolicy> jit;  // --jit (always) or --no-jit (never): when the step's maps become native code
 };
 
 struct Scene {
@@ -48,7 +48,8 @@ struct Scene {
     double dt = 0.1;
     std::string dt_text = "1/10";  // as written, for reports
     RealisationChoice realisation = RealisationChoice::automatic;
-    bool jit = false;  // [integrator] jit: the step's compiled maps as native code (series/native.hpp)
+    /// [integrator] jit: true always, false never, absent automatic (when the step's maps become native code).
+    NativePolicy jit = NativePolicy::automatic;
     /// The parameters' values of the run: the defaults, or --param's.
     std::vector<double> parameter_values;
     /// The initial state, extended: the coordinates, then parameter_values (what the scheme's stepper steps).

@@ -26,7 +26,7 @@ struct StepperEntry {
     std::uint64_t used;
     bool serves(const StepOptions& o, double x_scale) const {
         return o.dt <= options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order &&
-               o.solver == options.solver && o.jit == options.jit && o.max_degree == options.max_degree &&
+               o.solver == options.solver && o.native == options.native && o.max_degree == options.max_degree &&
                o.newton_max_iter == options.newton_max_iter && o.newton_tol == options.newton_tol &&
                o.truncation_bound == options.truncation_bound;
     }
@@ -96,7 +96,7 @@ struct Scheme::Cache {
 };
 
 Scheme::Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order, RealisationChoice choice,
-               bool trust_jacobi, bool jit, std::vector<Parameter> parameters)
+               bool trust_jacobi, NativePolicy jit, std::vector<Parameter> parameters)
     : pi_(std::move(pi)), H_(std::move(H)), casimirs_(std::move(casimirs)), k_(check_order("order", long(order))),
       choice_(choice), trust_jacobi_(trust_jacobi), jit_(jit), parameters_(std::move(parameters)),
       cache_(std::make_unique<Cache>(choice)) {
@@ -297,7 +297,7 @@ NewtonStepper Scheme::stepper(double dt, const Eigen::VectorXd& x_typical) const
     opt.k = k_;
     opt.dt = dt;
     opt.realisation = choice_;
-    opt.jit = jit_;
+    opt.native = jit_;
     return stepper(opt, x_typical);
 }
 
@@ -327,6 +327,7 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
         best = cache.end() - 1;
     }
     best->used = ++cache_->clock;
+    best->stepper.adopt_native();  // native code the copies' steps had built, from now on in every copy
     NewtonStepper copy = best->stepper;
     copy.set_dt(opt.dt);
     return copy;

@@ -41,7 +41,8 @@ struct SchemeValues {
     std::string realisation = "auto";                           // "auto" | "closed-form" | "radial"
     std::size_t max_terms = Ring::default_max_terms;            // bound on every product of the exact phase
     bool trust_jacobi = false;                                  // skip the Jacobi check: the caller vouches for pi
-    bool jit = false;  // the steps' compiled maps as native code (StepOptions::jit)
+    NativePolicy jit =
+        NativePolicy::automatic;  // when the steps' compiled maps become native code (StepOptions::native)
     /// Parameters and their defaults {{"w1", "1/2"}, {"eps", "0.05"}} (exact: 0.05 is 1/20), usable in H and the
     /// Casimirs polynomially, not in the brackets (InputError naming the bracket).
     std::vector<std::pair<std::string, std::string>> parameters;
@@ -83,8 +84,8 @@ public:
     /// trust_jacobi: the caller vouches for the Jacobi identity of pi, which is then not checked (checks() says
     /// so in jacobi_checked); every other check still runs.
     Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order,
-           RealisationChoice choice = RealisationChoice::automatic, bool trust_jacobi = false, bool jit = false,
-           std::vector<Parameter> parameters = {});
+           RealisationChoice choice = RealisationChoice::automatic, bool trust_jacobi = false,
+           NativePolicy jit = NativePolicy::automatic, std::vector<Parameter> parameters = {});
     /// From strings; InputError names the entry at fault ("brackets.\"x1,x2\"", "hamiltonian.H", ...).
     static Scheme from_values(const SchemeValues& values);
     explicit Scheme(const SchemeValues& values) : Scheme(from_values(values)) {}
@@ -120,8 +121,8 @@ public:
     RealisationChoice realisation_choice() const { return choice_; }
     RealisationForm realisation_form() const;
     bool jacobi_trusted() const { return trust_jacobi_; }
-    /// Whether stepper(dt, x_typical) builds its compiled maps as native code (StepOptions::jit, series/native.hpp).
-    bool jit() const { return jit_; }
+    /// When stepper(dt, x_typical)'s compiled maps become native code (StepOptions::native, series/native.hpp).
+    NativePolicy jit() const { return jit_; }
 
     // The artefacts, each computed once, on first use (thread-safe).
     /// Class, Jacobi, the Casimirs and (when Jacobi holds) the realisation identities below degree k.
@@ -144,7 +145,7 @@ public:
     /// every typical state up to twice its own in norm; only a larger dt or state builds again. At most
     /// stepper_cache_size builds are kept (the least recently used is dropped). Throws what require_valid
     /// throws first: S_1..S_k (terms(), modified_hamiltonian(), every stepper) exist only for a valid scheme.
-    /// Native code when the scheme was made with jit (NativeCodeError if it cannot be built).
+    /// Native code as the scheme's jit policy says (always: NativeCodeError if it cannot be built).
     NewtonStepper stepper(double dt, const Eigen::VectorXd& x_typical) const;
     /// The same with the step's tuning (predictor_order, max_degree, Newton's and the truncation's bounds)
     /// from opt; opt.k and opt.realisation are the scheme's (InputError if they differ), opt.dt is dt.
@@ -182,7 +183,7 @@ private:
     std::size_t k_;
     RealisationChoice choice_;
     bool trust_jacobi_ = false;
-    bool jit_ = false;
+    NativePolicy jit_ = NativePolicy::automatic;
     std::vector<Parameter> parameters_;
     std::unique_ptr<Cache> cache_;
 };

@@ -169,7 +169,7 @@ ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& 
     }
     ::close(write_end.fd), write_end.fd = -1;  // the child's copies are the only writers left
     const auto deadline = std::chrono::steady_clock::now() + options.timeout;
-    bool open = true, timed_out = false;
+    bool open = true, timed_out = false, cancelled = false;
     for (;;) {
         pollfd p{read_end.fd, POLLIN, 0};
         if (open && ::poll(&p, 1, 20) > 0) open = drain(read_end.fd, result.output, options.output_limit);
@@ -178,6 +178,10 @@ ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& 
         if (::waitid(P_PID, id_t(pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == pid) break;
         if (std::chrono::steady_clock::now() > deadline) {
             timed_out = true;
+            break;
+        }
+        if (options.cancel && options.cancel->load(std::memory_order_relaxed)) {
+            cancelled = true;
             break;
         }
     }
@@ -192,8 +196,9 @@ ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& 
         result.output.erase(0, result.output.size() - options.output_limit);
     const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(options.timeout).count();
     result.failure =
-        timed_out ? "stopped after " + (ms % 1000 ? std::to_string(ms) + " ms" : std::to_string(ms / 1000) + " s")
-                  : how_it_ended(status);
+        cancelled   ? std::string("was cancelled")
+        : timed_out ? "stopped after " + (ms % 1000 ? std::to_string(ms) + " ms" : std::to_string(ms / 1000) + " s")
+                    : how_it_ended(status);
     return result;
 }
 

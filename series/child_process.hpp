@@ -4,6 +4,7 @@
 // input, and a bounded capture of its output; past its time-out the whole group is killed and reaped. On SIGINT or
 // SIGTERM the running children's groups are killed and the registered temporary files removed before pgi ends with
 // 130 or 143 (the CLI's handler, or the one run_child installs where the signal's action is the default one).
+#include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <string>
@@ -16,11 +17,14 @@ struct ChildOptions {
     std::chrono::milliseconds timeout{std::chrono::minutes(5)};
     /// At most this many of the last bytes of its output (stdout and stderr together) are kept.
     std::size_t output_limit = std::size_t(64) << 10;
+    /// When set, polled while the child runs: once true, its group is killed and run_child returns "was cancelled"
+    /// (a background build nobody waits for any more, series/native.hpp).
+    const std::atomic<bool>* cancel = nullptr;
 };
 
 struct ChildResult {
     /// "" when the child exited with status 0; else what happened ("cannot be run (...)", "exited with status 1",
-    /// "was killed by signal 9", "stopped after 300 s").
+    /// "was killed by signal 9", "stopped after 300 s", "was cancelled").
     std::string failure;
     /// The tail of its output, raw: pass it through output_tail() (series/message.hpp) before showing it.
     std::string output;

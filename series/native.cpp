@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cerrno>
 #include <cstdint>
 #include <cstdio>
@@ -26,6 +27,7 @@
 #include <optional>
 #include <random>
 #include <sstream>
+#include <thread>
 #include <utility>
 
 namespace pgi {
@@ -383,8 +385,10 @@ std::shared_ptr<void> load_kept(const CacheDir& dir, const std::string& key, con
 // The library of source with the given symbols, loaded: the kept one if its source, digest and symbols check
 // (load_kept), else compiled now into temporaries, loaded and checked, then renamed into place with its digest beside
 // it (a concurrent build of the same source keeps one of the two; a pair that does not match is built again).
+// Only the kept library (null if there is none) when compile is false; cancel, when set, is the compiler's (run_child).
 std::shared_ptr<void> library_for(const std::string& source, const std::vector<std::string>& symbols,
-                                  const NativeOptions& o) {
+                                  const NativeOptions& o, bool compile = true,
+                                  const std::atomic<bool>* cancel = nullptr) {
     std::vector<std::string> argv = compiler_words(compiler_of(o));
     const std::vector<std::string> flags = compiler_flags();
     argv.insert(argv.end(), flags.begin(), flags.end());
@@ -393,13 +397,15 @@ std::shared_ptr<void> library_for(const std::string& source, const std::vector<s
     const CacheDir dir = cache_directory(o);
     const std::string key = key_of(command + "\n" + source);
     if (std::shared_ptr<void> kept = load_kept(dir, key, source, symbols)) return kept;
+    if (!compile) return nullptr;
     const std::string tmp = key + "." + unique_suffix();
     TemporaryFile src((dir.path() / (tmp + ".cpp")).string()), lib((dir.path() / (tmp + ".so")).string()),
         hash((dir.path() / (tmp + ".hash")).string());
     dir.write_new(tmp + ".cpp", source, 0600);
     argv.insert(argv.end(), {"-o", lib.path(), src.path()});
     const std::string compiler = "native code: the compiler `" + printable(command) + "` ";
-    const ChildResult run = run_child(argv, {.timeout = o.timeout, .output_limit = std::size_t(64) << 10});
+    const ChildResult run =
+        run_child(argv, {.timeout = o.timeout, .output_limit = std::size_t(64) << 10, .cancel = cancel});
     if (!run.ok()) {
         const std::string output = output_tail(run.output);
         throw NativeCodeError(compiler + run.failure + (output.empty() ? "" : ": " + output));
@@ -585,31 +591,136 @@ std::string native_source(const CompiledMap& map, const std::string& symbol, Nat
     return preamble() + map_source(map, symbol, vectors);
 }
 
-std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
-    std::vector<CompiledMap*> todo;
-    std::size_t native = 0, budget = options.max_size;
-    for (CompiledMap* m : maps) {
-        const std::size_t size = m->num_terms() + m->num_monomials();
-        if (m->native()) {
-            ++native;
-        } else if (m->num_outputs() > 0 && size <= options.max_map_size && size <= budget) {
-            todo.push_back(m);
+namespace {
+
+// attach_native_code's plan: which maps get native code (the maps in the order given while they fit), their source
+// and symbols, and how many are native already.
+struct NativePlan {
+    std::vector<std::size_t> todo;
+    std::string source;
+    std::vector<std::string> symbols;
+    std::size_t native = 0;
+};
+
+NativePlan plan_native(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
+    NativePlan plan;
+    std::size_t budget = options.max_size;
+    for (std::size_t i = 0; i < maps.size(); ++i) {
+        const CompiledMap& m = *maps[i];
+        const std::size_t size = m.num_terms() + m.num_monomials();
+        if (m.native()) {
+            ++plan.native;
+        } else if (m.num_outputs() > 0 && size <= options.max_map_size && size <= budget) {
+            plan.todo.push_back(i);
             budget -= size;
         }
     }
-    if (todo.empty()) return native;
-    std::string source = preamble();
-    for (std::size_t i = 0; i < todo.size(); ++i)
-        source += map_source(*todo[i], "pgi_map_" + std::to_string(i), options.vectors);
-    std::vector<std::string> symbols;
-    for (std::size_t i = 0; i < todo.size(); ++i) symbols.push_back("pgi_map_" + std::to_string(i));
-    const std::shared_ptr<void> handle = library_for(source, symbols, options);
+    if (plan.todo.empty()) return plan;
+    plan.source = preamble();
+    for (std::size_t i = 0; i < plan.todo.size(); ++i) {
+        plan.symbols.push_back("pgi_map_" + std::to_string(i));
+        plan.source += map_source(*maps[plan.todo[i]], plan.symbols.back(), options.vectors);
+    }
+    return plan;
+}
+
+// The plan's maps in maps (the maps planned, or a copy of them in the same order) given the library's functions;
+// how many maps run native code afterwards.
+std::size_t attach_planned(const std::vector<CompiledMap*>& maps, const NativePlan& plan,
+                           const std::shared_ptr<void>& handle) {
+    std::size_t native = 0;
+    for (const CompiledMap* m : maps) native += m->native() ? 1 : 0;
     const std::shared_ptr<const void> loaded = handle;
-    std::vector<CompiledMap::NativeEval> found;
-    for (const std::string& s : symbols)
-        found.push_back(reinterpret_cast<CompiledMap::NativeEval>(::dlsym(handle.get(), s.c_str())));
-    for (std::size_t i = 0; i < todo.size(); ++i) todo[i]->attach_native(loaded, found[i]);
-    return native + todo.size();
+    for (std::size_t i = 0; i < plan.todo.size(); ++i) {
+        CompiledMap& m = *maps.at(plan.todo[i]);
+        if (m.native()) continue;
+        m.attach_native(loaded,
+                        reinterpret_cast<CompiledMap::NativeEval>(::dlsym(handle.get(), plan.symbols[i].c_str())));
+        ++native;
+    }
+    return native;
+}
+
+}  // namespace
+
+std::string to_string(NativePolicy p) {
+    switch (p) {
+        case NativePolicy::automatic:
+            return "automatic";
+        case NativePolicy::always:
+            return "always";
+        case NativePolicy::never:
+            return "never";
+    }
+    return "?";
+}
+
+std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
+    const NativePlan plan = plan_native(maps, options);
+    if (plan.todo.empty()) return plan.native;
+    return attach_planned(maps, plan, library_for(plan.source, plan.symbols, options));
+}
+
+std::size_t attach_kept_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
+    const NativePlan plan = plan_native(maps, options);
+    if (plan.todo.empty()) return plan.native;
+    try {
+        if (std::shared_ptr<void> kept = library_for(plan.source, plan.symbols, options, false))
+            return attach_planned(maps, plan, kept);
+    } catch (const std::exception&) {
+        // no usable cache (or no readable library in it): the maps stay interpreted, as without a kept library
+    }
+    return plan.native;
+}
+
+struct NativeBuild::State {
+    NativePlan plan;
+    NativeOptions options;
+    std::atomic<bool> cancel{false}, done{false};
+    std::shared_ptr<void> handle;  // written by the build's thread before done, read after
+    std::string failure;
+    std::thread thread;
+};
+
+NativeBuild::NativeBuild(const std::vector<CompiledMap*>& maps, const NativeOptions& options)
+    : state_(std::make_unique<State>()) {
+    State& st = *state_;
+    st.plan = plan_native(maps, options);
+    st.options = options;
+    if (st.plan.todo.empty()) {
+        st.done.store(true, std::memory_order_release);
+        return;
+    }
+    st.thread = std::thread([&st] {
+        try {
+            st.handle = library_for(st.plan.source, st.plan.symbols, st.options, true, &st.cancel);
+        } catch (const std::exception& e) {
+            st.failure = e.what();
+        }
+        st.done.store(true, std::memory_order_release);
+    });
+}
+
+NativeBuild::~NativeBuild() {
+    state_->cancel.store(true, std::memory_order_relaxed);
+    if (state_->thread.joinable()) state_->thread.join();
+}
+
+bool NativeBuild::done() const {
+    return state_->done.load(std::memory_order_acquire);
+}
+
+void NativeBuild::wait() const {
+    while (!done()) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+}
+
+std::size_t NativeBuild::attach(const std::vector<CompiledMap*>& maps) const {
+    if (!done() || !state_->handle) return 0;
+    return attach_planned(maps, state_->plan, state_->handle);
+}
+
+std::string NativeBuild::failure() const {
+    return done() ? state_->failure : std::string();
 }
 
 }  // namespace pgi

@@ -11,6 +11,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -61,6 +62,17 @@ struct NativeOptions {
     std::size_t max_map_size = 3000;
 };
 
+/// Whether a step's compiled maps run native code (StepOptions::native); the choice never changes a number, since
+/// native code gives the interpreter's bits.
+enum class NativePolicy {
+    /// Native code the cache already keeps is attached at once (attach_kept_native_code); a step that has run long
+    /// enough for a build to pay builds it in the background (NativeBuild) and switches to it when it is ready.
+    automatic,
+    always,  ///< built before the first step (attach_native_code); NativeCodeError if it cannot be
+    never,   ///< interpreted
+};
+std::string to_string(NativePolicy p);
+
 /// The C++ source of map's evaluator, a translation unit of its own: extern "C" void symbol(const double* in, double*
 /// out), the interpreter's operations in its order (CompiledMap::eval_with and the lane rows of split_sums).
 std::string native_source(const CompiledMap& map, const std::string& symbol,
@@ -71,5 +83,38 @@ std::string native_source(const CompiledMap& map, const std::string& symbol,
 /// already native and empty ones. Returns how many maps run native code afterwards. Throws NativeCodeError (the maps
 /// then stay interpreted).
 std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
+
+/// attach_native_code without a compiler: attaches the library the cache keeps for these maps, if it keeps one (the
+/// same checks as attach_native_code's). Returns how many maps run native code afterwards. Never throws: without a
+/// usable cache or a kept library the maps stay as they were.
+std::size_t attach_kept_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
+
+/// attach_native_code on a thread of its own, as a JIT's second tier compiles hot code while the interpreter goes on:
+/// the library of the maps (attach_native_code's choice and source) is built or found while the caller keeps
+/// evaluating them interpreted; attach() then gives the maps, or any copy of them, their native code. The destructor
+/// cancels a build still running (its compiler's group is killed) and waits for its thread.
+class NativeBuild {
+public:
+    /// Starts the build of maps' library (the maps are read here, not kept). Throws only std::system_error (no
+    /// thread); the build's own failures are kept (failure()).
+    explicit NativeBuild(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
+    NativeBuild(const NativeBuild&) = delete;
+    NativeBuild& operator=(const NativeBuild&) = delete;
+    ~NativeBuild();
+    /// The build has ended, successfully or not (then attach() does not wait).
+    bool done() const;
+    /// Returns once done() (from any thread).
+    void wait() const;
+    /// Once done and built: attaches each planned map's native code in maps (the maps the build was started from,
+    /// or a copy of them in the same order) and returns how many of maps run native code; before that, or after a
+    /// failure, 0 and nothing attached.
+    std::size_t attach(const std::vector<CompiledMap*>& maps) const;
+    /// Why the build failed: "" while it runs and after a success.
+    std::string failure() const;
+
+private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
 
 }  // namespace pgi

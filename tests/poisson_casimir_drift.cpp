@@ -19,17 +19,7 @@ using namespace pgi;
 namespace {
 
 // 1e5 steps take 0.1-2 s each in a Release build: not under the sanitizers (tools/test_sanitized.sh), ten times slower.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_UNDEFINED__)
-constexpr bool sanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(undefined_behavior_sanitizer)
-constexpr bool sanitized = true;
-#else
-constexpr bool sanitized = false;
-#endif
-#else
-constexpr bool sanitized = false;
-#endif
+using test::sanitized;
 
 constexpr std::size_t steps = 100000, tenth = steps / 10;
 const double u = unit_roundoff;

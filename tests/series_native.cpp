@@ -253,8 +253,9 @@ TEST_CASE("native: the step with jit takes the interpreted step's trajectory bit
         opt.k = s.scheme->order();
         opt.dt = s.dt;
         opt.realisation = s.scheme->realisation_choice();
+        opt.native = NativePolicy::never;
         NewtonStepper interpreted = s.scheme->stepper(opt, x0);
-        opt.jit = true;
+        opt.native = NativePolicy::always;
         NewtonStepper native = s.scheme->stepper(opt, x0);
         CHECK(interpreted.info().native_maps == 0);
         CHECK(native.info().native_maps > 0);  // every scene has at least S_dt's maps

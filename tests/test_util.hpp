@@ -11,6 +11,19 @@
 
 namespace pgi::test {
 
+/// Built with a sanitizer (tools/test_sanitized.sh): ten times slower, so the long runs are skipped.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_UNDEFINED__)
+constexpr bool sanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(undefined_behavior_sanitizer)
+constexpr bool sanitized = true;
+#else
+constexpr bool sanitized = false;
+#endif
+#else
+constexpr bool sanitized = false;
+#endif
+
 /// The whole text of a file (empty if it cannot be read).
 inline std::string slurp(const std::filesystem::path& p) {
     std::ifstream in(p);

@@ -757,8 +757,8 @@ TEST_CASE("--plot: gnuplot failing after the run is an output failure (exit 6), 
 }
 
 TEST_CASE(
-    "cli: integrate --jit (or integrator.jit) ends where the interpreted run ends, bit for bit; a missing compiler is "
-    "exit 7") {
+    "cli: integrate --jit (or integrator.jit) ends where the interpreted run ends, bit for bit; by default a kept "
+    "library is used, --no-jit never; a missing compiler is exit 7 with --jit, and nothing without it") {
     TempDir cache("jit_cache");
     const std::string env = "PGI_JIT_CACHE='" + cache.path.string() + "'";
     const std::string lv = test::scene_path("lotka_volterra");
@@ -774,6 +774,19 @@ TEST_CASE(
     CHECK(b["native_maps"].get<int>() > 0);
     CHECK(a["x"] == b["x"]);  // printed in the shortest form that reads back: equal text, equal doubles
     CHECK(a["steps"] == b["steps"]);
+    // without an option the library --jit kept is used at once; --no-jit keeps the interpreter; not both
+    Run kept = pgi_run(args, env);
+    REQUIRE(kept.exit_code == 0);
+    CHECK(nlohmann::json::parse(kept.out)["native_maps"] == b["native_maps"]);
+    CHECK(nlohmann::json::parse(kept.out)["x"] == a["x"]);
+    std::vector<std::string> no_jit = args;
+    no_jit.push_back("--no-jit");
+    Run never = pgi_run(no_jit, env);
+    REQUIRE(never.exit_code == 0);
+    CHECK(nlohmann::json::parse(never.out)["native_maps"].get<int>() == 0);
+    CHECK(nlohmann::json::parse(never.out)["x"] == a["x"]);
+    no_jit.push_back("--jit");
+    CHECK(pgi_run(no_jit, env).exit_code == 2);
     // the scene's own switch, and a wrong type for it
     std::string text = slurp(lv);
     const auto at = text.find("[integrator]");
@@ -790,4 +803,8 @@ TEST_CASE(
     CHECK(no_compiler.exit_code == 7);
     CHECK(no_compiler.out.empty());
     CHECK(no_compiler.err.find("/nonexistent/pgi-cc") != std::string::npos);
+    TempDir empty("jit_cache_empty");  // by default a short run never needs the compiler
+    Run automatic = pgi_run(args, "PGI_JIT_CACHE='" + empty.path.string() + "' PGI_CXX=/nonexistent/pgi-cc");
+    CHECK(automatic.exit_code == 0);
+    CHECK(nlohmann::json::parse(automatic.out)["x"] == a["x"]);
 }

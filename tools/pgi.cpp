@@ -95,11 +95,17 @@ void scene_options(CLI::App* cmd, Options& o, unsigned uses) {
     if (uses & use::trust)
         cmd->add_flag("--trust-jacobi", o.overrides.trust_jacobi,
                       "do not check the Jacobi identity: you vouch for the structure (reported on stderr and in JSON)");
-    if (uses & use::jit)
-        cmd->add_flag(
-            "--jit", o.overrides.jit,
-            "the step's compiled maps as native code from the system C++ compiler: the same numbers, faster steps, "
-            "0.1-3 s more set-up the first time (kept in ~/.cache/pgi/jit; integrator.jit)");
+    if (uses & use::jit) {
+        const auto policy = [&o](pgi::NativePolicy p) { return [&o, p](std::int64_t) { o.overrides.jit = p; }; };
+        CLI::Option* always = cmd->add_flag_function(
+            "--jit", policy(pgi::NativePolicy::always),
+            "build the step's maps as native code before the first step (system C++ compiler; the same numbers). By "
+            "default pgi uses native code it has kept (~/.cache/pgi/jit) and builds it in the background during a "
+            "long run; integrator.jit = true");
+        cmd->add_flag_function("--no-jit", policy(pgi::NativePolicy::never),
+                               "never native code: the interpreter only (integrator.jit = false)")
+            ->excludes(always);
+    }
     cmd->add_option("--max-terms", o.max_terms, "bound on the terms of any product of the exact phase (default 2e7)");
     cmd->add_option(
         "--max-memory-mb", o.max_memory_mb,
@@ -231,12 +237,12 @@ int run_command(const std::string& name, Options o) {
         emit(o, pgi::section_report(scene, so), pgi::section_text);
     }
     if (name == "integrate") emit(o, pgi::integrate_report(scene, io), pgi::integrate_text);
+    if (name == "lyapunov")
+        emit(o, pgi::lyapunov_report(scene, o.integrate.every, o.integrate.max_steps), pgi::lyapunov_text);
     if (name == "run") {
         print(pgi::check_text(pgi::check_report(scene)) + "\n" + pgi::terms_text(pgi::terms_report(scene)) + "\n");
         if (scene.x0 && scene.t_end) print(pgi::integrate_text(pgi::integrate_report(scene, io)));
     }
-    if (name == "lyapunov")
-        emit(o, pgi::lyapunov_report(scene, o.integrate.every, o.integrate.max_steps), pgi::lyapunov_text);
     if (plot)
         for (const auto& f : plot->write()) std::cerr << "pgi: wrote " << f.string() << "\n";
     return 0;
@@ -303,16 +309,16 @@ int main(int argc, char** argv) {
     scene_options(magnus, o, use::trust | use::json);
     scene_options(modified, o, use::trust | use::json | use::order | use::realisation);
     scene_options(report, o, use::order | use::dt | use::realisation | use::x0 | use::t_end);  // --format json
+    auto* lyapunov = app.add_subcommand("lyapunov", "the Lyapunov exponents along the run (Benettin's method)");
+    scene_options(lyapunov, o,
+                  use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);
+    lyapunov->add_option("--every", o.every, "record the estimates every M steps (default 1)");
+    lyapunov->add_option("--max-steps", o.max_steps,
+                         "refuse a run of more steps than this, before any work (default 1e8)");
     auto* section =
         app.add_subcommand("section", "the crossings of an event polynomial along the run (a Poincare section)");
     scene_options(section, o,
                   use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);
-    auto* lyapunov = app.add_subcommand("lyapunov", "the Lyapunov exponents along the run (Benettin's method)");
-    scene_options(lyapunov, o, use::trust | use::json | use::order | use::dt | use::realisation | use::x0 |
-                                   use::t_end | use::jit);
-    lyapunov->add_option("--every", o.every, "record the estimates every M steps (default 1)");
-    lyapunov->add_option("--max-steps", o.max_steps,
-                         "refuse a run of more steps than this, before any work (default 1e8)");
     section->add_option("--event", o.section.event, "the polynomial g whose zeros are reported")->required();
     section->add_option("--direction", o.section.direction, "1: g rising through 0, -1: falling, 0: both (default)")
         ->check(CLI::IsMember({-1, 0, 1}));

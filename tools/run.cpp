@@ -53,6 +53,16 @@ void warn_energy_drift(const Scene& scene, double energy_error, json& r) {
         scene.file.string(), energy_error, energy_warning_from, scene.dt, scene.order);
 }
 
+// NOTE: said on stderr (one line) and in the JSON document (native_failure): by default native code is built in the
+// background of a long run, and without a compiler the run goes on interpreted, with the same numbers.
+void note_native_failure(const Scene& scene, const NewtonStepper& s, json& r) {
+    if (s.native_failure().empty()) return;
+    const std::string why = s.native_failure().substr(0, s.native_failure().find('\n'));
+    r["native_failure"] = why;
+    std::cerr << fmt::format("pgi: {}: note: native code could not be built, the run stayed interpreted: {}\n",
+                             scene.file.string(), why);
+}
+
 json stepper_info(const Scene& scene, const NewtonStepper& s) {
     return {{"order", scene.order},
             {"realisation", s.info().method},
@@ -61,7 +71,7 @@ json stepper_info(const Scene& scene, const NewtonStepper& s) {
             {"truncation_estimate", s.info().truncation_estimate},
             {"method_order", s.order()},
             {"predictor_order", s.info().predictor_order},
-            {"native_maps", s.info().native_maps},
+            {"native_maps", s.native_maps()},
             {"hessian_terms", s.info().hessian_terms}};
 }
 
@@ -246,6 +256,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     if (options.modified) r["modified_energy_error_max"] = worst.back();
     r.update(stepper_info(scene, s));
     add_parameters(scene, r);
+    note_native_failure(scene, s, r);
     if (end.ok()) warn_energy_drift(scene, worst[0], r);
     if (!end.ok()) {
         std::string message = loop.failure_message(s, end);

@@ -130,6 +130,11 @@ def _flag(name, v):
     raise InputError(f"{name}: must be True or False, got {_shown(v)}")
 
 
+def _jit(v):
+    """jit as given if None, True or False (numpy's bool included), else InputError."""
+    return None if v is None else _flag("jit", v)
+
+
 def _real(name, value):
     """value as a float: a real number (int, float, Fraction, numpy's), not a bool, a string or a complex."""
     if isinstance(value, (bool, _np.bool_)) or not isinstance(value, _numbers.Real):
@@ -331,7 +336,7 @@ class Scheme:
     out of range raises InputError (a ValueError) naming the argument."""
 
     def __init__(self, coordinates, brackets, hamiltonian, casimirs=(), order=2, realisation="auto", dt=None,
-                 x0=None, t_end=None, max_terms=20_000_000, trust_jacobi=False, jit=False, parameters=None):
+                 x0=None, t_end=None, max_terms=20_000_000, trust_jacobi=False, jit=None, parameters=None):
         """coordinates: the names (a list of strings); brackets: {"a,b": "{a,b} as a polynomial"}, the others
         following by skew-symmetry; hamiltonian: H; casimirs: a list of polynomials that Poisson-commute with
         everything; order: k, 1..64; realisation: "auto", "lie-poisson", "radial", ... (as a scene's);
@@ -339,9 +344,11 @@ class Scheme:
 
         trust_jacobi=True: the caller vouches for the Jacobi identity of the brackets, which is then not checked
         (check()["jacobi"] is then {"holds": None, "skipped": "trust_jacobi"}, as `pgi --trust-jacobi` reports it): for large structures known to be Poisson.
-        jit=True: the steps' compiled maps become native code built by the system C++ compiler (as `pgi --jit`): the
-        same numbers bit for bit, faster steps, 0.1-0.5 s more at the first build (kept in ~/.cache/pgi/jit);
-        NativeCodeError if it cannot be built. A scene file says it as `jit = true` under [integrator].
+        jit: when the steps' compiled maps become native code from the system C++ compiler (the same numbers bit for
+        bit, faster steps). None (the default): native code kept in ~/.cache/pgi/jit is used at once, and a long run
+        builds it in the background after its first seconds and switches to it; True: built before the first step
+        (as `pgi --jit`; NativeCodeError if it cannot be); False: never (`pgi --no-jit`). A scene file says
+        `jit = true` or `false` under [integrator].
 
         parameters: {name: default} (a scene's [parameters]): symbols of the exact phase, usable polynomially in H and
         the Casimirs (not in the brackets), each default exact ("2", "-1/3", "0.05" is 1/20; an int; a float is read
@@ -364,7 +371,7 @@ class Scheme:
         x0 = _state("x0", x0, len(coordinates))
         t_end = _nonnegative_float("t_end", t_end)
         max_terms = _count("max_terms", max_terms, 1, _MAX_COUNT)
-        trust_jacobi, jit = _flag("trust_jacobi", trust_jacobi), _flag("jit", jit)
+        trust_jacobi, jit = _flag("trust_jacobi", trust_jacobi), _jit(jit)
         defaults = _parameter_defaults(parameters)
         self._core = _Scheme(coordinates, brackets, hamiltonian, casimirs, order, realisation, dt, x0, t_end, max_terms,
                              trust_jacobi, jit, defaults)
@@ -374,10 +381,10 @@ class Scheme:
                                             trust_jacobi=trust_jacobi, jit=jit, parameters=dict(defaults)))
 
     @classmethod
-    def from_toml(cls, path, trust_jacobi=False, jit=False):
+    def from_toml(cls, path, trust_jacobi=False, jit=None):
         """The scene file's scheme (its dt, x0 and t_end become the defaults). trust_jacobi as for Scheme();
-        jit=True builds native code even where the scene does not ask for it (as `pgi --jit`)."""
-        trust_jacobi, jit = _flag("trust_jacobi", trust_jacobi), _flag("jit", jit)
+        jit=True or False overrides the scene's integrator.jit (as `pgi --jit` and `--no-jit`); None keeps it."""
+        trust_jacobi, jit = _flag("trust_jacobi", trust_jacobi), _jit(jit)
         try:  # the text, so a pickled Scheme carries the scene itself
             with open(path, "rb") as f:
                 text = f.read()
@@ -387,7 +394,7 @@ class Scheme:
         return cls._from_toml_text(text, str(path), trust_jacobi, jit)
 
     @classmethod
-    def _from_toml_text(cls, text, file, trust_jacobi=False, jit=False):
+    def _from_toml_text(cls, text, file, trust_jacobi=False, jit=None):
         s = cls.__new__(cls)
         s._core = _Scheme.from_toml_text(text, file, trust_jacobi, jit)
         s._description = ("toml", text, file, trust_jacobi, jit)
@@ -420,7 +427,8 @@ class Scheme:
     name = property(lambda self: self._core.name, doc="The scene's name (\"\" for a Scheme from values).")
     jacobi_trusted = property(lambda self: self._core.jacobi_trusted,
                               doc="True when made with trust_jacobi=True: the Jacobi identity is not checked.")
-    jit = property(lambda self: self._core.jit, doc="True when the step's maps are native code (jit=True).")
+    jit = property(lambda self: self._core.jit,
+                   doc="The native-code policy: None (automatic, the default), True (always) or False (never).")
 
     def check(self):
         """The checks of the structure, as `pgi check --json`: {"class", "jacobi": {"holds": True} or the failing

@@ -27,7 +27,7 @@ TEST_CASE("newton_step: no allocation in the hot loop, for every realisation for
                 pgi::StepOptions opt;
                 opt.k = k;
                 opt.dt = s.dt;
-                opt.jit = jit;
+                opt.native = jit ? pgi::NativePolicy::always : pgi::NativePolicy::never;
                 auto st = pgi::NewtonStepper::build(s.pi, s.H, opt, x);
                 CHECK((st.info().native_maps > 0) == jit);
                 Eigen::VectorXd inc(x.size());

@@ -136,7 +136,7 @@ int main(int argc, char** argv) {
         opt.dt = s.dt;
         opt.realisation = s.realisation;
         opt.predictor_order = predictor;
-        opt.jit = jit;
+        opt.native = jit ? pgi::NativePolicy::always : pgi::NativePolicy::never;
         auto t0 = Clock::now();
         s.phase_space().ring()->budget().restart();                         // each build has the whole time budget
         const pgi::Scheme scheme(s.pi, s.H, s.casimirs, k, s.realisation);  // the scene's problem at order k

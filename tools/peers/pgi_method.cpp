@@ -20,7 +20,7 @@ PreparedRun prepare_pgi(const Problem& pr, const State& x0, double dt, std::size
     StepOptions opt;
     opt.k = k;
     opt.dt = dt;
-    opt.jit = jit;
+    opt.native = jit ? NativePolicy::always : NativePolicy::automatic;
     opt.realisation = realisation;
     const auto setup = Clock::now();
     pr.scene.phase_space().ring()->budget().restart();  // each stepper's exact phase has the whole time budget

@@ -1,0 +1,69 @@
+#include "series/native_tier.hpp"
+
+#include <exception>
+
+namespace pgi {
+
+namespace {
+
+// The compiler's time for a library: a fixed start, then per term and monomial of the source (the g++ 12 of the
+// reference machine at -O2; tools/bench/bench_native_tier measures both).
+constexpr double build_start_seconds = 0.3, build_seconds_per_term = 2e-4;
+
+}  // namespace
+
+double NativeTier::estimated_build_seconds(const std::vector<CompiledMap*>& maps) {
+    double terms = 0;
+    for (const CompiledMap* m : maps) terms += double(m->num_terms() + m->num_monomials());
+    return build_start_seconds + build_seconds_per_term * terms;
+}
+
+NativeTier::NativeTier(const std::vector<CompiledMap*>& maps, NativeOptions options)
+    : options_(std::move(options)), threshold_ns_(start_share * estimated_build_seconds(maps) * 1e9) {}
+
+bool NativeTier::spend(std::chrono::nanoseconds spent) {
+    const long long total = spent_ns_.fetch_add(spent.count()) + spent.count();
+    return double(total) >= threshold_ns_ && !starting_.load(std::memory_order_relaxed);
+}
+
+void NativeTier::start(const std::vector<CompiledMap*>& maps) {
+    if (starting_.exchange(true)) return;
+    std::lock_guard lock(mutex_);
+    if (build_ || !start_failure_.empty()) return;
+    try {
+        build_ = std::make_shared<NativeBuild>(maps, options_);
+    } catch (const std::exception& e) {
+        start_failure_ = e.what();
+    }
+}
+
+std::shared_ptr<NativeBuild> NativeTier::current() const {
+    std::lock_guard lock(mutex_);
+    return build_;
+}
+
+bool NativeTier::started() const {
+    return current() != nullptr;
+}
+
+bool NativeTier::settled() const {
+    std::lock_guard lock(mutex_);
+    return !start_failure_.empty() || (build_ && build_->done());
+}
+
+std::size_t NativeTier::attach(const std::vector<CompiledMap*>& maps) const {
+    const std::shared_ptr<NativeBuild> b = current();
+    return b ? b->attach(maps) : 0;
+}
+
+void NativeTier::wait() const {
+    if (const std::shared_ptr<NativeBuild> b = current()) b->wait();
+}
+
+std::string NativeTier::failure() const {
+    std::lock_guard lock(mutex_);
+    if (!start_failure_.empty()) return start_failure_;
+    return build_ ? build_->failure() : std::string();
+}
+
+}  // namespace pgi

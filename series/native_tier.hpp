@@ -1,0 +1,58 @@
+#pragma once
+// NativeTier: when a set of compiled maps (a step's) is worth native code under NativePolicy::automatic. A JIT's tier
+// rule: the maps run interpreted (no latency for short runs); the time spent in them is sampled, and once it reaches a
+// share of what the compiler is expected to take, native code is built in the background (NativeBuild) and every user
+// of the maps switches to it when it is ready (the same bits, so a run cannot tell where it switched). Shared by a
+// stepper and its copies (std::shared_ptr), so the time of every run of a Scheme's step counts, from any thread.
+#include "series/native.hpp"
+
+#include <atomic>
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace pgi {
+
+class NativeTier {
+public:
+    /// The maps' compiler time, estimated from their size: a fixed start plus a time per term and monomial (the
+    /// compiler's time grows with the source, NativeOptions::max_size), measured by tools/bench/bench_native_tier.
+    static double estimated_build_seconds(const std::vector<CompiledMap*>& maps);
+    /// The build starts once the time sampled in the maps' steps reaches this share of the estimated build.
+    static constexpr double start_share = 0.5;
+
+    explicit NativeTier(const std::vector<CompiledMap*>& maps, NativeOptions options = {});
+    NativeTier(const NativeTier&) = delete;
+    NativeTier& operator=(const NativeTier&) = delete;
+    /// Adds time spent in the maps' steps (from any thread); true when the total has passed the share and no build
+    /// was started: the caller then start()s it. Allocates nothing.
+    bool spend(std::chrono::nanoseconds spent);
+    /// Starts the build from maps (the maps this tier was made for, or a copy of them in the same order), once: later
+    /// calls do nothing. Never throws: a build that cannot start is a failure().
+    void start(const std::vector<CompiledMap*>& maps);
+    /// The build ended (with native code or a failure): no more spend() is needed.
+    bool settled() const;
+    /// Gives maps their native code once it is built (NativeBuild::attach); how many run native code, 0 before.
+    std::size_t attach(const std::vector<CompiledMap*>& maps) const;
+    /// The time sampled so far, and whether a build was started.
+    std::chrono::nanoseconds spent() const { return std::chrono::nanoseconds(spent_ns_.load()); }
+    bool started() const;
+    /// Waits for a started build to end (tests, benchmarks); returns at once if none was started.
+    void wait() const;
+    /// Why native code could not be built ("" if it was, or is not yet known).
+    std::string failure() const;
+
+private:
+    std::shared_ptr<NativeBuild> current() const;
+    NativeOptions options_;
+    double threshold_ns_;
+    std::atomic<long long> spent_ns_{0};
+    std::atomic<bool> starting_{false};
+    mutable std::mutex mutex_;  // guards build_
+    std::shared_ptr<NativeBuild> build_;
+    std::string start_failure_;
+};
+
+}  // namespace pgi
