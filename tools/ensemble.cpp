@@ -3,6 +3,7 @@
 #include "scheme/ensemble.hpp"
 #include "scheme/trajectory.hpp"
 #include "tools/atomic_file.hpp"
+#include "tools/csv.hpp"
 #include "tools/npy.hpp"
 #include "tools/sample.hpp"
 
@@ -137,12 +138,12 @@ void write_csv(std::ostream& out, const Scene& scene, const RowMatrix& X0, const
     for (std::size_t i = 0; i < r.members.size(); ++i) {
         const auto& e = r.members[i];
         const auto row = Eigen::Index(i);
-        out << fmt::format("{},{},{},{},{},{},{},{},{},{}", i, to_string(e.status), e.steps, e.failed_step, e.failed_t,
-                           e.residual, e.newton_iterations_mean, e.newton_iterations_max, r.energy_error(row),
-                           int(e.energy_warning));
-        for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c) out << fmt::format(",{}", r.casimir_error(row, c));
-        for (Eigen::Index c = 0; c < X0.cols(); ++c) out << fmt::format(",{}", X0(row, c));
-        for (Eigen::Index c = 0; c < X0.cols(); ++c) out << fmt::format(",{}", r.x(row, c));
+        out << fmt::format("{},{},{},{},{},{},{},{},{},{}", i, to_string(e.status), e.steps, e.failed_step,
+                           csv_number(e.failed_t), csv_number(e.residual), csv_number(e.newton_iterations_mean),
+                           e.newton_iterations_max, csv_number(r.energy_error(row)), int(e.energy_warning));
+        for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c) out << ',' << csv_number(r.casimir_error(row, c));
+        for (Eigen::Index c = 0; c < X0.cols(); ++c) out << ',' << csv_number(X0(row, c));
+        for (Eigen::Index c = 0; c < X0.cols(); ++c) out << ',' << csv_number(r.x(row, c));
         out << "\n";
     }
 }

@@ -1,6 +1,7 @@
 // pgi step and pgi integrate: a scene's numerical run, observed and summarised.
 #include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
+#include "tools/csv.hpp"
 
 #include "scheme/run_loop.hpp"
 
@@ -226,11 +227,10 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     const RunEnd end = loop.run(s, x, N, [&](const RunPoint& p) {
         if (options.observe) options.observe(p.step, p.t, p.x, loop.values());
         if (csv && (p.step % options.every == 0 || p.step == N)) {
-            csv->stream() << fmt::format("{:.17g}", p.t);
-            for (Eigen::Index i = 0; i < Eigen::Index(scene.dim()); ++i)
-                csv->stream() << fmt::format(",{:.17g}", p.x[i]);
+            csv->stream() << csv_number(p.t);
+            for (Eigen::Index i = 0; i < Eigen::Index(scene.dim()); ++i) csv->stream() << ',' << csv_number(p.x[i]);
             for (std::size_t i = 0; i < 1 + scene.casimirs.size(); ++i)
-                csv->stream() << fmt::format(",{:.17g}", loop.values()[i]);
+                csv->stream() << ',' << csv_number(loop.values()[i]);
             csv->stream() << "\n";
         }
         progress.update(p.step);

@@ -5,6 +5,7 @@
 #include "scheme/run_loop.hpp"
 #include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
+#include "tools/csv.hpp"
 
 #include <fmt/format.h>
 
@@ -43,8 +44,8 @@ json section_report(const Scene& scene, const SectionOptions& options) {
         for (const auto& name : scene.phase_space().coordinates()) file->stream() << "," << name;
         file->stream() << "\n";
         for (const auto& c : crossings) {
-            file->stream() << fmt::format("{}", c["t"].get<double>());
-            for (double v : c["x"]) file->stream() << fmt::format(",{}", v);
+            file->stream() << csv_number(c["t"].get<double>());
+            for (double v : c["x"]) file->stream() << ',' << csv_number(v);
             file->stream() << "\n";
         }
         file->commit();
