@@ -312,6 +312,16 @@ pgi::TrajectoryEvents trajectory_events(const std::vector<std::tuple<std::string
     return e;
 }
 
+// Where and why a run that ended early stopped (a Trajectory or a LyapunovSpectrum): nothing for one that did not.
+template <class Run>
+void add_failure(py::dict& r, const Run& run) {
+    if (run.status == pgi::StepStatus::ok) return;
+    r["failed_step"] = run.failed_step;
+    r["failed_t"] = run.failed_t;
+    r["residual"] = run.failed_residual;
+    r["message"] = run.message;
+}
+
 py::dict crossings(const pgi::Trajectory& tr) {
     const auto k = static_cast<py::ssize_t>(tr.crossings.size()), n = static_cast<py::ssize_t>(tr.dim);
     py::array_t<std::size_t> index(k), step(k);
@@ -376,12 +386,7 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
         std::copy(tr.jacobian.begin(), tr.jacobian.end(), jacobian.mutable_data());
         r["jacobian"] = jacobian;
     }
-    if (tr.status != pgi::StepStatus::ok) {
-        r["failed_step"] = tr.failed_step;
-        r["failed_t"] = tr.failed_t;
-        r["residual"] = tr.failed_residual;
-        r["message"] = tr.message;
-    }
+    add_failure(r, tr);
     return r;
 }
 
@@ -408,12 +413,7 @@ py::dict lyapunov(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::
                "spectrum"_a = py::array_t<double>(py::ssize_t(l.spectrum.size()), l.spectrum.data()),
                "leaf_dim"_a = l.leaf_dim, "steps"_a = l.steps, "dt"_a = dt,
                "status"_a = pgi::to_string(pgi::status_of(l.status)));
-    if (l.status != pgi::StepStatus::ok) {
-        r["failed_step"] = l.failed_step;
-        r["failed_t"] = l.failed_t;
-        r["residual"] = l.failed_residual;
-        r["message"] = l.message;
-    }
+    add_failure(r, l);
     return r;
 }
 
