@@ -202,6 +202,11 @@ TEST_CASE(
         "cd '" + box.path.string() +
         "' && setpriv --reuid=nobody --regid=nogroup --clear-groups env -u PGI_CXX -u CXX -u XDG_CACHE_HOME ";
     const std::string run = " \"$PGI\" integrate s.toml --jit --t-end 1";
+    // a checkout under a private directory (mktemp -d) cannot be run by nobody at all: nothing to test there
+    if (shell(box.path, "setpriv --reuid=nobody --regid=nogroup --clear-groups test -x \"$PGI\"").exit_code != 0) {
+        MESSAGE("nobody cannot run pgi here (a directory above it is private): not tested");
+        return;
+    }
     const Ran named = shell(box.path, as_nobody + "PGI_JIT_CACHE='" + planted.string() + "' HOME=/nonexistent" + run);
     CHECK(named.exit_code == 7);
     CHECK_MESSAGE(named.err.find(planted.string() + ": it is owned by uid 0, not by the effective user (uid " + uid +
