@@ -160,7 +160,9 @@ RowMatrix Scheme::parameter_rows(const ParameterValues& values, std::size_t m) c
     RowMatrix P(Eigen::Index(std::max<std::size_t>(m, 1)), Eigen::Index(q));
     for (std::size_t a = 0; a < q; ++a) P.col(Eigen::Index(a)).setConstant(parameters_[a].value.to_double());
     std::vector<bool> given(q, false);
-    for (const auto& [name, v] : values) {
+    for (const auto& entry : values) {
+        const std::string& name = entry.first;
+        const auto& v = entry.second;
         const auto it =
             std::find_if(parameters_.begin(), parameters_.end(), [&](const auto& p) { return p.name == name; });
         if (it == parameters_.end()) {
