@@ -89,7 +89,8 @@ TEST_CASE("parameters: a run with values equals the scheme with the values writt
     const Scheme s(rigid_body(true));
     const std::vector<std::array<std::string, 3>> values{
         {"1/2", "1", "3/2"}, {"2/5", "7/10", "9/4"}, {"1", "1/3", "5"}, {"-1/2", "3", "1/7"}};
-    for (const auto& [a, b, c] : values) {
+    for (const auto& row : values) {
+        const std::string &a = row[0], &b = row[1], &c = row[2];  // (names, not bindings: CAPTURE is a lambda)
         CAPTURE(a);
         const Scheme written(rigid_body(false, a, b, c));
         const Eigen::VectorXd expected = final_state(written);

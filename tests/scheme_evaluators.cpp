@@ -64,7 +64,8 @@ RowMatrix run_states(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
 TEST_CASE("Evaluators: the vector field and pi equal pi grad H written by hand, on random states") {
     const std::vector<std::tuple<std::string, Hand, Grad>> cases{
         {"rigid_body", rigid_body_pi, rigid_body_grad_H}, {"lotka_volterra", lotka_volterra_pi, lotka_volterra_grad_H}};
-    for (const auto& [name, pi, grad] : cases) {
+    for (const auto& [scene, pi, grad] : cases) {
+        const std::string& name = scene;  // (a name, not a binding: CAPTURE is a lambda)
         CAPTURE(name);
         const Scene s = test::bundled(name);
         const RowMatrix X = random_states(500, 3, 34);

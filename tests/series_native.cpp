@@ -206,10 +206,11 @@ TEST_CASE("native: the compiler's command is split into words as the shell split
         CHECK(y == 9);
         fs::remove_all(o.cache_dir);
     }
-    for (const auto& [compiler, why] : {std::pair<std::string, std::string>{"c++ $(echo -O0)", "command substitution"},
+    for (const auto& [compiler_, why] : {std::pair<std::string, std::string>{"c++ $(echo -O0)", "command substitution"},
                                         {"c++ 'unbalanced", "syntax"},
                                         {"c++ ; rm -rf /", "unquoted"},
                                         {"  ", "no words"}}) {
+        const std::string& compiler = compiler_;  // (a name, not a binding: CAPTURE is a lambda)
         CAPTURE(compiler);
         CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
         NativeOptions o = test_options("bad-words");
@@ -390,10 +391,11 @@ TEST_CASE("native: a compiler that exits 0 without a usable library is refused b
     // each once left its output in the cache under the kept name, and every later run failed until it was cleaned
     const Scratch scratch("bad-compilers");
     const auto r = make_ring({"x"});
-    for (const auto& [body, why] :
+    for (const auto& [body_, why] :
          {std::pair<std::string, std::string>{"exit 0", "wrote no library"},
           {"echo garbage > \"$out\"", "not a loadable library"},
           {"echo 'int unrelated;' | c++ -shared -fPIC -x c++ - -o \"$out\"", "without the function pgi_map_0"}}) {
+        const std::string& body = body_;  // (a name, not a binding: CAPTURE is a lambda)
         CAPTURE(body);
         CompiledMap map = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
         NativeOptions o = test_options("bad-compiler");

@@ -544,7 +544,8 @@ TEST_CASE("every numeric option is one finite number in its range; lists are str
         {{"step", rb, "--x0", "1,,0"}, "--x0: value 2 of '1,,0' is empty"},
         {{"step", rb, "--x0", "1,0,1e999"}, "--x0:"},
     };
-    for (const auto& [args, message] : cases) {
+    for (const auto& [args_, message] : cases) {
+        const auto& args = args_;  // (a name, not a binding: CAPTURE is a lambda)
         CAPTURE(args[2]);
         CAPTURE(args.size() > 3 ? args[3] : "");
         Run r = pgi_run(args);
