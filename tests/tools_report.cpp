@@ -103,8 +103,9 @@ TEST_CASE("latex_lines: breaks at + and - signs within the width, keeps every te
 
 TEST_CASE("LaTeX reports of the Volterra lattice (k = 6) and Henon-Heiles (through dt^6) fit the page under pdflatex") {
     // any overfull \hbox wider than 1pt is a line running into the margin
-    for (auto [name, order, upto] :
+    for (auto [scene, order, upto] :
          {std::tuple{"volterra_chain", "6", std::size_t(6)}, std::tuple{"henon_heiles", "4", std::size_t(6)}}) {
+        const char* name = scene;  // (a name, not a binding: CHECK_MESSAGE is a lambda)
         SceneOverrides o;
         o.order = order;
         Scene s = load_scene(test::scene_path(name), o);
