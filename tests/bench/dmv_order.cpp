@@ -61,7 +61,8 @@ TEST_CASE("DMV and its preprocessed versions reach orders 2, 4, 6, 8, 10 on the 
     // steps where the error is in the asymptotic range and above round-off (~1e-15) for each order
     const std::vector<std::pair<int, std::vector<double>>> cases{
         {2, {0.2, 0.1, 0.05}}, {4, {0.2, 0.1, 0.05}}, {6, {0.4, 0.2, 0.1}}, {8, {0.4, 0.2, 0.1}}, {10, {0.4, 0.2}}};
-    for (const auto& [order, hs] : cases) {
+    for (const auto& [k, hs] : cases) {
+        const int order = k;  // (a name, not a binding: CAPTURE is a lambda)
         CAPTURE(order);
         const double p = fitted_order(Dmv(order, inertia), hs, T, ref);
         CAPTURE(p);
