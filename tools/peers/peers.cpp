@@ -1,19 +1,24 @@
 // pgi_peers: pgi against GSL's and Boost.Odeint's integrators on one scene, in one run (issue 5). Not
-// part of the core library: only this program links the peers. The same compiled vector field (pi grad
-// H, and its Jacobian for the implicit peers) feeds every method, so the comparison measures the methods.
+// part of the core library: only this program links the peers. Each runs as its users run it (issue 33): the peers
+// on a right-hand side of their own, pi grad H (and its Jacobian for the implicit peers) written in C from the
+// scene's exact polynomials and compiled by the system C compiler ($CC, else cc; -O3 -march=native), loaded before
+// any run; pgi through its C++ API in its default configuration (--jit adds it with native code from the start).
+// --pgi-field PEERS adds these peers fed pgi's compiled field through pgi's interpreter instead ("rk8pd-pgifield": the
+// comparison before issue 33). Timed runs watch nothing (best_of in problem.hpp); the errors of H and the Casimirs
+// come from a monitored run of the same steps.
 //
-//   pgi_peers SCENE [--orders 2,4,6] [--realisations radial] [--jit] [--peers rk4imp,rk8pd,...] [--dts ...] [--tols
-//   ...]
-//                   [--order K] [--dt DT] [--x0 A,B,...] [--t-end T] [--watch POLY]...
+//   pgi_peers SCENE [--orders 2,4,6] [--realisations radial] [--jit] [--peers rk4imp,rk8pd,...] [--pgi-field PEERS]
+//                   [--dts ...] [--tols ...] [--order K] [--dt DT] [--x0 A,B,...] [--t-end T] [--watch POLY]...
 //                   [--csv FILE] [--plot FILE.svg] [--drift FILE] [--drift-t-end T2] [--long T3] [--suite]
+//                   [--rhs-source FILE.c]
 //
 // Work-precision (default): pgi at each order, GSL rk2imp and rk4imp and odeint's rk4 on a step ladder
-// (default 4 dt .. dt/8); GSL rk8pd, rkf45, msbdf and odeint's dopri5 and Bulirsch-Stoer on a tolerance
+// (default 4 dt .. dt/8); GSL rk8pd, rkf45, msbdf and odeint's dopri5, Fehlberg 7(8) and Bulirsch-Stoer on a tolerance
 // ladder (default 1e-4 .. 1e-12); final error against a long double Fehlberg 7(8) reference, whose own
 // accuracy is estimated and printed (errors under 100 times it are marked unusable). Times are the best
-// of up to three runs. --plot draws the work-precision diagram with gnuplot (tools/peers/plot.gp).
-// Drift (--drift): relative energy and Casimir errors along a long run, pgi k = 4 and the peers.
-// Long (--long T3): pgi k = 4 at the scene's dt to T3, then for each peer the cheapest run of its ladder
+// of up to 25 unmonitored runs (while they take under 0.3 s in all). --plot draws the work-precision diagram with
+// gnuplot (tools/peers/plot.gp). Drift (--drift): relative energy and Casimir errors along a long run, pgi k = 4 and
+// the peers. Long (--long T3): pgi k = 4 at the scene's dt to T3, then for each peer the cheapest run of its ladder
 // whose maximum energy and Casimir errors are both at or below pgi's, or "none reaches them".
 // Suite (--suite): one run of every method at the scene's order and dt (adaptive peers at tolerance
 // --tol, default 1e-6) with its outcome: finished or why not, errors, watched quantities (final / initial).
@@ -42,25 +47,39 @@ using nlohmann::json;
 
 // pgi at each order (with the scene's realisation, then with each extra one), then the peers named
 // (all of them if none is); an unknown name is an error.
+// Each peer chosen that pgi_field names is followed by its twin fed pgi's field ("-pgifield").
 std::vector<Method> select_methods(const std::vector<std::size_t>& orders,
                                    const std::vector<pgi::RealisationChoice>& extra,
-                                   const std::vector<std::string>& names, bool jit) {
-    std::vector<Method> peers = gsl_methods(), chosen;
-    for (auto& o : odeint_methods()) peers.push_back(std::move(o));
-    for (const auto& name : names)
-        if (std::none_of(peers.begin(), peers.end(), [&](const Method& m) { return m.name == name; })) {
-            std::string known;
-            for (const auto& m : peers) known += " " + m.name;
-            throw std::invalid_argument("--peers: unknown peer '" + name + "' (known:" + known + ")");
-        }
+                                   const std::vector<std::string>& names, bool jit,
+                                   const std::vector<std::string>& pgi_field) {
+    std::vector<Method> peers, chosen, fed;
+    for (auto& m : gsl_methods()) peers.push_back(std::move(m));
+    for (auto& m : odeint_methods()) peers.push_back(std::move(m));
+    for (auto& m : gsl_methods(true)) fed.push_back(std::move(m));
+    for (auto& m : odeint_methods(true)) fed.push_back(std::move(m));
+    const auto check = [&](const std::vector<std::string>& list, const std::string& option) {
+        for (const auto& name : list)
+            if (std::none_of(peers.begin(), peers.end(), [&](const Method& m) { return m.name == name; })) {
+                std::string known;
+                for (const auto& m : peers) known += " " + m.name;
+                throw std::invalid_argument(option + ": unknown peer '" + name + "' (known:" + known + ")");
+            }
+    };
+    check(names, "--peers");
+    check(pgi_field, "--pgi-field");
+    const auto named = [](const std::vector<std::string>& list, const std::string& name) {
+        return std::find(list.begin(), list.end(), name) != list.end();
+    };
     for (std::size_t k : orders) chosen.push_back(pgi_method(k));
     if (jit)
         for (std::size_t k : orders) chosen.push_back(pgi_method(k, std::nullopt, true));
     for (auto r : extra)
         for (std::size_t k : orders) chosen.push_back(pgi_method(k, r));
-    for (auto& m : peers)
-        if (names.empty() || std::find(names.begin(), names.end(), m.name) != names.end())
-            chosen.push_back(std::move(m));
+    for (std::size_t i = 0; i < peers.size(); ++i) {
+        const std::string name = peers[i].name;
+        if (names.empty() || named(names, name)) chosen.push_back(std::move(peers[i]));
+        if (named(pgi_field, name)) chosen.push_back(std::move(fed[i]));
+    }
     return chosen;
 }
 
@@ -79,7 +98,8 @@ json outcome_json(const Outcome& o) {
             {"watched_final_over_initial", o.watched},
             {"ok", o.ok},
             {"failure", o.failure},
-            {"setup_seconds", o.setup_seconds}};
+            {"setup_seconds", o.setup_seconds},
+            {"native_maps", o.native_maps}};
 }
 
 void log_outcome(const std::string& label, const std::string& parameter, const Outcome& o,
@@ -282,8 +302,10 @@ int main(int argc, char** argv) {
     std::string plot_file;
     app.add_option("scene", scene_file)->required();
     app.add_option("--orders", orders, "pgi's orders k on the step ladder (default 2,4,6)")->delimiter(',');
-    app.add_option("--peers", peer_names,
-                   "the peers to run (default all: rk2imp,rk4imp,rk8pd,rkf45,msbdf,odeint-rk4,odeint-dopri5,odeint-bs)")
+    app.add_option(
+           "--peers", peer_names,
+           "the peers to run (default all: rk2imp,rk4imp,rk8pd,rkf45,msbdf,odeint-rk4,odeint-dopri5,odeint-rkf78,"
+           "odeint-bs)")
         ->delimiter(',');
     app.add_option("--dts", dts, "the step ladder (default 4 dt, 2 dt, dt, dt/2, dt/4, dt/8)")->delimiter(',');
     app.add_option("--tols", tols, "the tolerance ladder (default 1e-4,1e-6,1e-8,1e-10,1e-12)")->delimiter(',');
@@ -302,7 +324,16 @@ int main(int argc, char** argv) {
     app.add_option("--drift-t-end", drift_t_end, "final time of the drift runs (default 1e4)");
     app.add_option("--long", long_t_end, "the long-run table to this final time (e.g. 1e5)");
     bool jit = false;
-    app.add_flag("--jit", jit, "pgi also with its compiled maps as native code (pgi-k4-jit: the same numbers, faster)");
+    std::vector<std::string> pgi_field;
+    std::string rhs_source_file;
+    app.add_flag("--jit", jit,
+                 "pgi also with its compiled maps as native code from the start (jit = always: pgi-k4-jit, the same "
+                 "numbers)");
+    app.add_option("--pgi-field", pgi_field,
+                   "these peers also fed pgi's compiled field through pgi's interpreter (e.g. rk8pd: rk8pd-pgifield, "
+                   "the comparison before issue 33)")
+        ->delimiter(',');
+    app.add_option("--rhs-source", rhs_source_file, "write the peers' generated C right-hand side to this file");
     app.add_flag("--suite", run_suite,
                  "one run of every method with its outcome, instead of the work-precision ladders");
     app.add_option("--tol", suite_tol, "the adaptive peers' tolerance in --suite (default 1e-6)");
@@ -320,8 +351,10 @@ int main(int argc, char** argv) {
             throw std::invalid_argument("--plot draws from the --csv file: give both");
         // output paths are checked before hours of runs, not after (pgi's rules: directory, regular target, not the
         // scene)
-        for (const auto& [option, path] :
-             {std::pair<std::string, std::string>{"--csv", csv_file}, {"--plot", plot_file}, {"--drift", drift_file}})
+        for (const auto& [option, path] : {std::pair<std::string, std::string>{"--csv", csv_file},
+                                           {"--plot", plot_file},
+                                           {"--drift", drift_file},
+                                           {"--rhs-source", rhs_source_file}})
             if (!path.empty()) try {
                     pgi::check_output_path(path, {scene_file});
                 } catch (const std::invalid_argument& e) {
@@ -338,11 +371,25 @@ int main(int argc, char** argv) {
         if (!scene.x0) throw std::invalid_argument(scene_file + ": [run] x0 is needed (or --x0)");
         std::vector<pgi::Poly> watched;
         for (const auto& w : watched_text) watched.push_back(scene.phase_space().parse(w));
-        const Problem pr(scene, watched);
+        // the peers' C right-hand side: its Jacobian only where an implicit peer runs (all peers run without --peers)
+        const bool jacobian = peer_names.empty() || std::any_of(peer_names.begin(), peer_names.end(), needs_jacobian);
+        const Problem pr(scene, watched, jacobian ? Problem::PeerRhs::field_and_jacobian : Problem::PeerRhs::field);
+        if (!rhs_source_file.empty()) {
+            pgi::AtomicFile f(rhs_source_file);
+            f.stream() << pr.rhs.source;
+            f.commit();
+        }
         const State x0 = *scene.x0;
-        json summary{{"scene", scene.name}, {"dt", scene.dt}, {"x0", x0}, {"watched", watched_text}};
+        json summary{{"scene", scene.name},
+                     {"dt", scene.dt},
+                     {"x0", x0},
+                     {"watched", watched_text},
+                     {"peer_rhs",
+                      {{"language", "C, generated from the scene's exact polynomials"},
+                       {"compiler", pr.rhs.command},
+                       {"build_seconds", pr.rhs.build_seconds}}}};
         if (run_suite) {
-            const auto methods = select_methods({scene.order}, extra, peer_names, jit);
+            const auto methods = select_methods({scene.order}, extra, peer_names, jit, pgi_field);
             summary["suite"] = suite(pr, methods, x0, t_end_opt.value_or(scene.t_end.value_or(100.0)), suite_tol);
         } else {
             const double dt = scene.dt, T = t_end_opt.value_or(100.0);
@@ -358,7 +405,7 @@ int main(int argc, char** argv) {
                         "give steps T / N",
                         dts.empty() ? "the scene's step ladder (4 dt .. dt/8)" : "--dts", v, T, steps, steps * v));
             }
-            const auto methods = select_methods(orders, extra, peer_names, jit);
+            const auto methods = select_methods(orders, extra, peer_names, jit, pgi_field);
             summary["work_precision"] = work_precision(pr, methods, ladders, x0, T, csv_file);
             if (!plot_file.empty()) plot_work_precision(csv_file, plot_file, scene.name);
             if (!drift_file.empty()) summary["drift"] = drift(pr, methods, x0, drift_t_end, drift_file);

@@ -1,8 +1,11 @@
 #pragma once
-// What every method in the peer comparison shares: the compiled vector field pi grad H (and its
-// Jacobian, for the implicit peers), the quantities watched along a run, and the outcome of a run.
-#include "series/compile.hpp"
+// What every method in the peer comparison shares: the vector field pi grad H (and its Jacobian, for the implicit
+// peers) as the peers' own compiled C (tools/peers/compiled_rhs.hpp) and as pgi's compiled map (the long double
+// reference, the peers fed through pgi's interpreter on request), the quantities watched along a run, and the
+// outcome of a run.
 #include "scheme/scene.hpp"
+#include "series/compile.hpp"
+#include "tools/peers/compiled_rhs.hpp"
 
 #include <array>
 #include <chrono>
@@ -20,13 +23,26 @@ using State = std::vector<double>;
 struct Problem {
     const Scene& scene;
     std::size_t n;
-    CompiledMap field;       // pi grad H
+    CompiledMap field;       // pi grad H, pgi's compiled map (its interpreter)
     CompiledMap invariants;  // H, the Casimirs, then the watched quantities
     std::vector<Poly> watched;
     std::size_t num_watched;
-    mutable std::size_t evaluations = 0;  // field (or Jacobian) evaluations since the last reset
+    /// pi grad H and its Jacobian as the peers' users write them: C from the same exact polynomials, compiled by the
+    /// system C compiler (cc -O3 -march=native) and loaded; what the peers call, unless fed pgi's field on request.
+    CompiledRhs rhs;
+    mutable std::size_t evaluations = 0;  // field (or Jacobian) evaluations since the last reset (monitored runs)
+    /// Whether runs watch the invariants every step (Monitor) and count evaluations. best_of turns it off for its
+    /// timed runs: a user timing a run to T watches nothing, and no peer's loop then runs any pgi code.
+    mutable bool monitoring = true;
 
-    Problem(const Scene& s, const std::vector<Poly>& watched);
+    /// What the peers run need of their C right-hand side: nothing (pgi alone), the field (explicit peers), or the
+    /// field and its Jacobian (rk2imp, rk4imp, msbdf: needs_jacobian).
+    enum class PeerRhs { none, field, field_and_jacobian };
+    /// Builds pgi's maps and the peers' C right-hand side (NativeCodeError if the C compiler cannot build it).
+    Problem(const Scene& s, const std::vector<Poly>& watched, PeerRhs peer_rhs = PeerRhs::field_and_jacobian,
+            const RhsCompileOptions& rhs_options = {});
+    /// pgi's compiled field through pgi's interpreter, counted: the peers' right-hand side before issue 33, kept for
+    /// the "-pgifield" variants and the long double reference.
     void f(const double* x, double* dxdt) const {
         ++evaluations;
         field.eval(x, dxdt);
@@ -62,6 +78,7 @@ struct Outcome {
     State x;
     double seconds = 0, energy_error = 0, casimir_error = 0;
     double setup_seconds = 0;     // pgi: the exact phase and compilation, before the timed run
+    std::size_t native_maps = 0;  // pgi: the step's compiled maps running native code at the end of the (fastest) run
     std::vector<double> watched;  // final / initial value of each watched quantity
     std::size_t steps = 0, evaluations = 0;
     bool ok = true;
@@ -89,13 +106,17 @@ struct Method {
     std::function<PreparedRun(const Problem&, const State& x0, double value)> prepare = {};
 };
 
-/// Runs a method `repeats` times while runs are short (< 0.2 s), keeping the fastest time: the machines are
-/// shared and noisy, and the best time is the least disturbed. A method with a set-up (Method::prepare) is set up
-/// once and its repeats run on it, so that every timed run after the first steps with warm caches, as the
-/// peers' do (a pgi run of 500 steps after its exact phase otherwise paid ~20 us to bring its maps' code back
-/// into the caches). Every repeat must end at the first run's state: one that does not (a run's state leaking
-/// into the next) is a std::logic_error.
-Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, double value, int repeats = 9);
+/// Whether the peer named (its own name, "rk4imp") calls the Jacobian: GSL's implicit steppers.
+bool needs_jacobian(const std::string& peer);
+
+/// A method's run at one value, as a user times it: a first run with the monitor on (the outcome: final state, steps,
+/// the invariants' errors, evaluations; its time is not used, it warms the caches), then timed runs with the monitor
+/// off (pr.monitoring: nothing but the method's own loop inside the clock), at least one and at most `repeats`, while
+/// their total time is under 0.3 s; the outcome's seconds is the fastest (the machines are shared and noisy: the best
+/// time is the least disturbed). A method with a set-up (Method::prepare) is set up once and every run steps on it.
+/// Every run must end at the first run's state: one that does not (a run's state leaking into the next) is a
+/// std::logic_error. A first run that fails is the outcome, timed as it ran.
+Outcome best_of(const Method& m, const Problem& pr, const State& x0, double T, double value, int repeats = 25);
 
 /// The absolute tolerance matching a relative one at the scale of x0 (its largest component), so the
 /// adaptive peers are asked the same relative accuracy at |x| = 1e-6 and at |x| = 1e6.
