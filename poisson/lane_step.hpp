@@ -53,7 +53,7 @@ private:
     void evaluate(const NewtonStepper& s, Mask F, T* J);
     Mask accept_check(const NewtonStepper& s, Mask C, Mask small);
     void finish(const NewtonStepper& s, Mask E, T* increment);
-    void polish(const NewtonStepper& s, Mask E);
+    void polish(Mask E);
     void factor(Mask F, const T* J);
     void solve_kept(const T* b, T* d) const;
     void restart(Mask R);

@@ -234,8 +234,8 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
         eval_dt(s.gradient_.gradient, xb_, dt_, scratch_.data(), dt_maps_);
         commit<N>(anew, scratch_.data(), p_);
     }
-    s.realisation_.check_lanes<N>(xb_, p_, check_, maps_,
-                                  &values_);  // (values_: this step's last Newton system, nearby)
+    // (values_: this step's last Newton system, nearby; delta is taken once, by finish)
+    s.realisation_.check_lanes<N>(xb_, p_, check_, maps_, &values_, /*with_delta=*/false);
     T r[N], tol[N];
     for (int i = 0; i < N; ++i) {
         r[i] = (xb_[i] - x_[i]) + check_.shift[i];  // alpha - x to below the ulps of x
@@ -266,10 +266,9 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
 }
 
 // NewtonStepper::polish for the lanes of E: where the last correction was above round-off, one more simplified
-// round from the accepted r_ (the kept factors, p updated by the kept Hessian) and delta there (on every lane: the
-// others' inputs are unchanged, so is their delta).
+// round from the accepted r_ (the kept factors, p updated by the kept Hessian).
 template <int N, class T>
-void LaneStep<N, T>::polish(const NewtonStepper& s, Mask E) {
+void LaneStep<N, T>::polish(Mask E) {
     const Mask P = lanes::both(E, newton_rules::polishes(correction_, lanes::max(x_norm_, inf_norm<N>(xb_))));
     if (!lanes::any(P)) return;
     T d[N], p[N];
@@ -283,18 +282,19 @@ void LaneStep<N, T>::polish(const NewtonStepper& s, Mask E) {
     }
     commit<N>(go, p, p_);
     commit<N>(go, d, dx_);
-    s.realisation_.delta_lanes<N>(xb_, p_, check_.delta, maps_, &values_);
 }
 
 // NewtonStepper::finish for the lanes of E (accepted): ill-conditioned when the tolerance exceeds sqrt(u) |x|, else
-// the increment delta (polished), non-finite, above the truncation bound, or ok.
+// the increment delta at the (polished) base point, evaluated here once for every lane, non-finite, above the
+// truncation bound, or ok.
 template <int N, class T>
 void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
     const Mask ill =
         lanes::both(E, newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm_, inf_norm<N>(xb_))));
     end(ill, StepStatus::ill_conditioned);
     const Mask solved = lanes::both(E, lanes::negate(ill));
-    polish(s, solved);
+    polish(solved);
+    s.realisation_.delta_lanes<N>(xb_, p_, check_.delta, maps_, &values_);
     commit<N>(solved, check_.delta, increment);
     const Mask non_finite = lanes::both(solved, lanes::negate(all_finite<N>(check_.delta)));
     end(non_finite, StepStatus::non_finite);

@@ -88,11 +88,11 @@ void RealisationEvaluator::log_canonical_delta(const T* x, const T* p, T* delta,
     }
 }
 
-// alpha and delta as above, and the size of each alpha_j's terms: the rounding of u_j (relative to the sum w_j of
-// its terms' sizes) enters alpha_j multiplied by |alpha_j|; shift_j = alpha_j - x_j = x_j (e^{u_j/2} - 1). With
-// exponent_near and em1_near (a derivatives evaluation's, the Newton iterate this one corrects by a small step),
-// e^{u_j/2} - 1 is taken from them (expm1_near): the acceptance test after a converged Newton correction then calls no
-// exponential.
+// alpha and delta (where delta is not null) as above, and the size of each alpha_j's terms: the rounding of u_j
+// (relative to the sum w_j of its terms' sizes) enters alpha_j multiplied by |alpha_j|; shift_j = alpha_j - x_j = x_j
+// (e^{u_j/2} - 1). With exponent_near and em1_near (a derivatives evaluation's, the Newton iterate this one corrects by
+// a small step), e^{u_j/2} - 1 is taken from them (expm1_near): the acceptance test after a converged Newton correction
+// then calls no exponential.
 template <class T>
 void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift,
                                                const T* exponent_near, const T* em1_near) const {
@@ -107,7 +107,7 @@ void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha,
                 e = 1.0 + em1;
         alpha[j] = x[j] * e;
         shift[j] = x[j] * em1;
-        delta[j] = x[j] * -(em1 + em1 / e);
+        if (delta) delta[j] = x[j] * -(em1 + em1 / e);
         size[j] = lanes::abs(x[j]) + lanes::abs(alpha[j]) * (1.0 + 0.5 * w);
     }
 }

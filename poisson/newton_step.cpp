@@ -235,8 +235,8 @@ bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction
     } else {
         gradient_.gradient.eval(xb_.data(), step_dt_, p_.data());
     }
-    realisation_.check(xb_, p_, check_);
-    r_ = (xb_ - x) + check_.shift;  // alpha - x to below the ulps of x
+    realisation_.check(xb_, p_, check_, /*with_delta=*/false);  // (delta once, by finish)
+    r_ = (xb_ - x) + check_.shift;                              // alpha - x to below the ulps of x
     residual_ = r_.lpNorm<Eigen::Infinity>();
     tol_ = residual_kappa * unit_roundoff * (x.cwiseAbs() + check_.size);
     if (!within_tolerance()) {
@@ -279,20 +279,21 @@ bool NewtonStepper::within_tolerance() {
 }
 
 // The accepted step's status: ill-conditioned when the tolerance itself exceeds sqrt(u) |x|, else the
-// increment (delta at the accepted base point, polished) and the truncation's verdict.
+// increment (delta at the accepted base point, polished: evaluated here, once a step) and the truncation's verdict.
 StepStatus NewtonStepper::finish(double x_norm, Eigen::VectorXd& increment) {
     if (newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm, xb_.lpNorm<Eigen::Infinity>())))
         return StepStatus::ill_conditioned;
     polish(x_norm);
+    realisation_.delta(xb_, p_, check_.delta);
     increment = check_.delta;
     if (!increment.allFinite()) return StepStatus::non_finite;
     return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
 }
 
 // After the acceptance test, where the last correction was above round-off (newton_rules::polishes): one more
-// simplified round from the accepted r_ (kept factors; p updated by the Hessian, as after a small correction) and
-// delta there, the increment. Not an iteration, and not tested again: the
-// accepted residual is what the step reports.
+// simplified round from the accepted r_ (kept factors; p updated by the Hessian, as after a small correction); finish
+// takes delta there, the increment. Not an iteration, and not tested again: the accepted residual is what the step
+// reports.
 void NewtonStepper::polish(double x_norm) {
     if (!newton_rules::polishes(correction_, std::max(x_norm, xb_.lpNorm<Eigen::Infinity>()))) return;
     if (!solve(true) || !dx_.allFinite()) return;
@@ -302,7 +303,6 @@ void NewtonStepper::polish(double x_norm) {
     else
         algebra_.product(hess_, dx_, r_);
     p_ -= r_;
-    realisation_.delta(xb_, p_, check_.delta);
 }
 
 // dx = J^{-1} r_ with the J just assembled (factored and kept), or with the kept factors (again): false when
@@ -478,7 +478,7 @@ double NewtonStepper::residual_at_solution(const Eigen::VectorXd& x) {
 double NewtonStepper::residual_at(const Eigen::VectorXd& x, const Eigen::VectorXd& xb) {
     step_dt_ = dt_;
     gradient_.gradient.eval(xb.data(), step_dt_, p_.data());
-    realisation_.check(xb, p_, check_);
+    realisation_.check(xb, p_, check_, /*with_delta=*/false);
     return (check_.alpha - x).lpNorm<Eigen::Infinity>();
 }
 

@@ -83,10 +83,10 @@ RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi
     for (const auto* f : {&alpha, &delta}) push_derivatives(*f, e.pattern_x_, xs, outputs);
     for (const auto* f : {&alpha, &delta}) push_derivatives(*f, e.pattern_p_, ps, outputs);
     e.map_ = CompiledMap::build(outputs, inputs);
-    // the acceptance test's values: alpha - x (check's shift; alpha = x + shift), delta, the neglected parts
+    // the acceptance test's values: alpha - x (check's shift; alpha = x + shift), the neglected parts; delta apart (the
+    // Newton step reads it once, at the base point it accepts and polishes)
     std::vector<Poly> values, sizes;
     for (std::size_t i = 0; i < n; ++i) values.push_back(alpha[i] - M.x_gen(i));
-    values.insert(values.end(), delta.begin(), delta.end());
     values.insert(values.end(), neglected.begin(), neglected.end());
     for (const auto& a : alpha) sizes.push_back(absolute_coefficients(a));
     e.values_map_ = CompiledMap::build(values, inputs);
@@ -472,7 +472,8 @@ void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::
     for (Eigen::Index j = 0; j < 3; ++j) v.delta_p.col(j) = C_[std::size_t(j)] * x;
 }
 
-void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const {
+void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c,
+                                 bool with_delta) const {
     const auto n = static_cast<Eigen::Index>(n_);
     c.neglected = 0;
     switch (form_) {
@@ -482,9 +483,9 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             values_map_.eval(in_.data(), out_.data());
             c.shift = out_.segment(0, n);
             c.alpha = x + c.shift;
-            c.delta = out_.segment(n, n);
-            for (std::size_t o = 2 * n_; o < values_map_.num_outputs(); ++o)
+            for (std::size_t o = n_; o < values_map_.num_outputs(); ++o)
                 c.neglected = std::max(c.neglected, std::abs(out_[Eigen::Index(o)]));
+            if (with_delta) delta_map_.eval(in_.data(), c.delta.data());
             in_ = in_.cwiseAbs();
             size_map_.eval(in_.data(), c.size.data());
             c.size += x.cwiseAbs();
@@ -533,7 +534,8 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             return;
         }
         case Form::log_canonical:
-            log_canonical_check(x.data(), p.data(), c.alpha.data(), c.delta.data(), c.size.data(), c.shift.data());
+            log_canonical_check(x.data(), p.data(), c.alpha.data(), with_delta ? c.delta.data() : nullptr,
+                                c.size.data(), c.shift.data());
             return;
     }
 }

@@ -96,8 +96,10 @@ public:
     SparseRealisationValues sparse_values() const;
     /// Writes every block of v on the patterns (poisson/realisation_eval_sparse.cpp). Allocates nothing.
     void eval(const Eigen::VectorXd& x, const Eigen::VectorXd& p, SparseRealisationValues& v) const;
-    /// Writes every field of c (alpha and delta as eval writes them). Allocates nothing.
-    void check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c) const;
+    /// Writes every field of c (alpha and delta as eval writes them); without with_delta every field but delta, which
+    /// the polynomial and log-canonical forms then do not compute (the Newton step takes delta once, at its end).
+    /// Allocates nothing.
+    void check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c, bool with_delta = true) const;
     /// delta alone, as check writes it: the increment after the Newton step's last (polishing) round.
     void delta(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& delta) const;
     /// Whether eval_lanes and check_lanes serve this form: the so(3) and log-canonical closed forms and the compiled
@@ -114,7 +116,7 @@ public:
     void eval_lanes(const T* x, const T* p, LaneRealisation<N, T>& v, LaneMapScratch<T>& s) const;
     template <int N, class T>
     void check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s,
-                     const LaneRealisation<N, T>* near = nullptr) const;
+                     const LaneRealisation<N, T>* near = nullptr, bool with_delta = true) const;
     /// check_lanes' delta alone.
     template <int N, class T>
     void delta_lanes(const T* x, const T* p, T* delta, LaneMapScratch<T>& s,
@@ -135,7 +137,7 @@ private:
     void log_canonical_delta(const T* x, const T* p, T* delta, const T* exponent_near = nullptr,
                              const T* em1_near = nullptr) const;
     template <class T>
-    void log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift,
+    void log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift,  // (delta may be null)
                              const T* exponent_near = nullptr, const T* em1_near = nullptr) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
@@ -161,7 +163,7 @@ private:
     std::vector<double> q_;    // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
     double radius_ = 0;        // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off
     CompiledMap map_;          // polynomial: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
-    CompiledMap values_map_;   // polynomial: alpha, delta, then the neglected parts
+    CompiledMap values_map_;   // polynomial: alpha - x, then the neglected parts
     CompiledMap size_map_;     // polynomial: alpha with every coefficient replaced by its absolute value
     CompiledMap delta_map_;    // polynomial: delta alone
     mutable Eigen::VectorXd in_, out_, u_, v_prev_, v_next_;

@@ -198,11 +198,12 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
 }
 
 // so(3): alpha and delta as eval_lanes, the sizes of alpha's three terms. Polynomial: the compiled values (alpha - x,
-// delta, the neglected parts: their largest |value| in `neglected`) and the sizes (every coefficient made
-// positive, at (|x|, |p|)) plus |x|.
+// the neglected parts: their largest |value| in `neglected`), delta (with_delta) and the sizes (every coefficient
+// made positive, at (|x|, |p|)) plus |x|. Without with_delta the polynomial and log-canonical forms leave c.delta as
+// it was (so(3) writes it: L x is part of alpha).
 template <int N, class T>
 void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s,
-                                       const LaneRealisation<N, T>* near) const {
+                                       const LaneRealisation<N, T>* near, bool with_delta) const {
     c.neglected = T{};
     if constexpr (N == 3) {
         if (form_ == Form::rotation) {
@@ -220,16 +221,16 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
         }
     }
     if (form_ == Form::log_canonical) {
-        log_canonical_check(x, p, c.alpha, c.delta, c.size, c.shift, near ? near->exponent : nullptr,
-                            near ? near->em1 : nullptr);
+        log_canonical_check(x, p, c.alpha, with_delta ? c.delta : nullptr, c.size, c.shift,
+                            near ? near->exponent : nullptr, near ? near->em1 : nullptr);
         return;
     }
     for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
     eval_map(values_map_, s.in.data(), s.out.data(), s.map);
-    for (int i = 0; i < N; ++i)
-        c.shift[i] = s.out[std::size_t(i)], c.alpha[i] = x[i] + c.shift[i], c.delta[i] = s.out[std::size_t(N + i)];
-    for (std::size_t o = 2 * N; o < values_map_.num_outputs(); ++o)
+    for (int i = 0; i < N; ++i) c.shift[i] = s.out[std::size_t(i)], c.alpha[i] = x[i] + c.shift[i];
+    for (std::size_t o = N; o < values_map_.num_outputs(); ++o)
         c.neglected = lanes::max(c.neglected, lanes::abs(s.out[o]));
+    if (with_delta) eval_map(delta_map_, s.in.data(), c.delta, s.map);
     for (auto& e : s.in) e = lanes::abs(e);
     eval_map(size_map_, s.in.data(), c.size, s.map);
     for (int i = 0; i < N; ++i) c.size[i] = c.size[i] + lanes::abs(x[i]);
@@ -264,7 +265,7 @@ void RealisationEvaluator::delta_lanes(const T* x, const T* p, T* delta, LaneMap
     template void RealisationEvaluator::eval_lanes<N, T>(const T*, const T*, LaneRealisation<N, T>&,                \
                                                          LaneMapScratch<T>&) const;                                 \
     template void RealisationEvaluator::check_lanes<N, T>(const T*, const T*, LaneCheck<N, T>&, LaneMapScratch<T>&, \
-                                                          const LaneRealisation<N, T>*) const;                      \
+                                                          const LaneRealisation<N, T>*, bool) const;                \
     template void RealisationEvaluator::delta_lanes<N, T>(const T*, const T*, T*, LaneMapScratch<T>&,               \
                                                           const LaneRealisation<N, T>*) const;
 
