@@ -293,6 +293,7 @@ void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
         lanes::both(E, newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm_, inf_norm<N>(xb_))));
     end(ill, StepStatus::ill_conditioned);
     const Mask solved = lanes::both(E, lanes::negate(ill));
+    if (!lanes::any(solved)) return;  // (a failed test: no delta to take)
     polish(solved);
     s.realisation_.delta_lanes<N>(xb_, p_, check_.delta, maps_, &values_);
     commit<N>(solved, check_.delta, increment);
