@@ -57,9 +57,7 @@ Outcome run_gsl(const gsl_odeiv2_step_type* type, bool fixed, bool pgi_field, co
     if (!sys.jacobian && needs_jacobian(type->name))
         throw std::logic_error("the peers' C right-hand side was compiled without its Jacobian");
     // the implicit steppers read the Jacobian: pgi's is built here, outside the timed run (once per problem)
-    if (pgi_field &&
-        (type == gsl_odeiv2_step_rk2imp || type == gsl_odeiv2_step_rk4imp || type == gsl_odeiv2_step_msbdf))
-        pr.jacobian();
+    if (pgi_field && needs_jacobian(type->name)) pr.jacobian();
     double h = fixed ? value : pr.scene.dt;
     const double eps_rel = fixed ? 1e-14 : value, eps_abs = absolute_tolerance(eps_rel, x0);
     // NOTE: GSL's implicit steppers (rk4imp, msbdf) work only through a driver, which owns step, control and evolve.
