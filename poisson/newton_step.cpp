@@ -62,6 +62,13 @@ HessianTruncation newton_matrix_truncation(const PoissonStructure& pi, const Ste
     return t;
 }
 
+// The coordinates whose rows of pi are zero (compile_gradient's passive ones: a scheme's parameters, say).
+std::vector<bool> zero_rows(const PoissonStructure& pi) {
+    std::vector<bool> zero(pi.dim());
+    for (std::size_t i = 0; i < pi.dim(); ++i) zero[i] = pi.row_support(i).empty();
+    return zero;
+}
+
 }  // namespace
 
 NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector<Poly>& S,
@@ -74,7 +81,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.k_ = opt.k;
     s.dt_ = s.step_dt_ = opt.dt;
     s.opt_ = opt;
-    s.gradient_ = compile_gradient(M, S, opt.dt, newton_matrix_truncation(pi, opt, x_typical));
+    s.gradient_ = compile_gradient(M, S, opt.dt, newton_matrix_truncation(pi, opt, x_typical), zero_rows(pi));
 
     // the truncation degree (and evaluator), sized at p0 = grad S_dt(x_typical): docs/math.md 4 and 6
     Eigen::VectorXd p0(static_cast<Eigen::Index>(n));
