@@ -110,7 +110,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.attach_native(opt.native);
     s.size_scratch(n);
     if (!s.sparse_ && s.realisation_.has_lane_form()) {
-        switch (n) {
+        switch (s.realisation_.leading_dimension()) {  // (the coordinates past it step by zero: LaneStep)
             case 2:
                 s.lane_.emplace<LaneStep<2, double>>(s);
                 break;
@@ -443,7 +443,10 @@ StepStatus NewtonStepper::lane_step(const Eigen::VectorXd& x, double dt, Eigen::
     std::visit(
         [&](auto& lane) {
             if constexpr (!std::is_same_v<std::decay_t<decltype(lane)>, std::monostate>) {
+                const Eigen::Index N = Eigen::Index(lane_dimension()), passive = x.size() - N;
+                std::copy(x.data() + N, x.data() + x.size(), lane.passive());
                 lane.step(*this, x.data(), dt, increment.data(), &status);
+                increment.tail(passive).setZero();
                 iterations_ = lane.iterations(0);
                 residual_ = lane.residual(0), tolerance_ = lane.tolerance(0), ratio_ = lane.ratio(0);
                 truncation_ = lane.truncation(0), correction_ = lane.correction(0);

@@ -107,9 +107,15 @@ public:
     bool has_lane_form() const {
         return form_ == Form::rotation || form_ == Form::log_canonical || form_ == Form::polynomial;
     }
-    /// eval's alpha, delta, alpha_x and alpha_p (and check's values) at N = dim() states at once or one
-    /// (poisson/realisation_lanes.cpp): each lane's numbers are those of the double instantiation on it, bit for bit.
-    /// Allocates nothing with s from lane_scratch<T>(). Requires has_lane_form().
+    /// The leading coordinates eval_lanes, check_lanes and delta_lanes act on (their N): every one but for the so(3)
+    /// form, whose three coordinates when they lead the others (which it leaves alone: alpha_w = x_w, delta_w = 0).
+    std::size_t leading_dimension() const {
+        return form_ == Form::rotation && block_[0] == 0 && block_[1] == 1 && block_[2] == 2 ? 3 : n_;
+    }
+    /// eval's alpha, delta, alpha_x and alpha_p (and check's values) on N coordinates (all, or leading_dimension()
+    /// of them), for lanes::width states at once or one (poisson/realisation_lanes.ipp): each lane's numbers are those
+    /// of the double instantiation on it, bit for bit. Allocates nothing with s from lane_scratch<T>(). Requires
+    /// has_lane_form().
     template <class T>
     LaneMapScratch<T> lane_scratch() const;
     template <int N, class T>
