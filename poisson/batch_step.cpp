@@ -59,25 +59,30 @@ void BatchStepper::step(const double* X, std::size_t m, double dt, double* incre
         lane_);
 }
 
-// lanes::width states at a time, the last pack padded with copies of its last state (their results dropped).
+// lanes::width states at a time, the last pack padded with copies of its last state (their results dropped). The
+// coordinates past N go to the lane step's passive values, their increments zero.
 template <int N, class Pack>
 void BatchStepper::step_lanes(LaneStep<N, Pack>& lane, const double* X, std::size_t m, double dt, double* increments,
                               StepStatus* status) {
     constexpr std::size_t W = lanes::width;
+    const std::size_t n = dim();
     for (std::size_t j = 0; j < m; j += W) {
         const std::size_t count = std::min(W, m - j);
         Pack x[N], increment[N];
         StepStatus st[W];
-        for (std::size_t v = 0; v < std::size_t(N); ++v) {
-            for (std::size_t w = 0; w < W; ++w) lanes::set_lane(x[v], w, X[v * m + j + std::min(w, count - 1)]);
-            increment[v] = Pack{};  // (every lane written: no uninitialised bits reach the kernel)
+        for (std::size_t v = 0; v < n; ++v) {
+            Pack& to = v < std::size_t(N) ? x[v] : lane.passive()[v - std::size_t(N)];
+            for (std::size_t w = 0; w < W; ++w) lanes::set_lane(to, w, X[v * m + j + std::min(w, count - 1)]);
+            if (v < std::size_t(N))
+                increment[v] = Pack{};  // (every lane written: no uninitialised bits reach the kernel)
         }
         lane.step(stepper_.front(), x, dt, increment, st);
         for (std::size_t w = 0; w < count; ++w) {
             status[j + w] = st[w];
             iterations_[j + w] = lane.iterations(w);
             residuals_[j + w] = lane.residual(w);
-            for (std::size_t v = 0; v < std::size_t(N); ++v) increments[v * m + j + w] = lanes::lane(increment[v], w);
+            for (std::size_t v = 0; v < n; ++v)
+                increments[v * m + j + w] = v < std::size_t(N) ? lanes::lane(increment[v], w) : 0.0;
         }
     }
 }

@@ -1,6 +1,9 @@
 #pragma once
 // LaneStep: NewtonStepper's dense step at a small fixed dimension N (2, 3, 4, 6), written once over lanes
-// (poisson/lanes.hpp). T = double steps one state: it is NewtonStepper::step there. T = lanes::Pack steps
+// (poisson/lanes.hpp). N is the number of the stepper's leading coordinates Newton solves for
+// (RealisationEvaluator::leading_dimension): the others, which its realisation leaves alone (a scheme's parameters),
+// are inputs of its maps and step by exactly zero (their rows of the Newton matrix are e_w, and its columns for them
+// multiply a zero correction). T = double steps one state: it is NewtonStepper::step there. T = lanes::Pack steps
 // lanes::width states together (BatchStepper): every evaluation, the Jacobian, its LU (its inverse for N <= 3) and the
 // acceptance test run on all lanes at once, and each lane keeps its own Newton control (its iteration, backtracking,
 // simplified Newton, second attempt from xb = x) as masks. A lane's operations are the double instantiation's
@@ -37,7 +40,10 @@ public:
     explicit LaneStep(const NewtonStepper& stepper);
     /// x (N values over lanes) one step of dt further with stepper's maps and options: increment[i] (lane w)
     /// = phi_dt(x) - x and status[w], each as NewtonStepper::step's; a lane whose step fails keeps its increment.
+    /// The coordinates past the first N take the values in passive() (their increment is zero).
     void step(const NewtonStepper& stepper, const T* x, double dt, T* increment, StepStatus* status);
+    /// The values of the stepper's coordinates past the first N (dim - N of them), for the caller to set.
+    T* passive() { return passive_.data(); }
 
     /// Lane w's statistics after the last step (NewtonStepper's last_* accessors).
     int iterations(std::size_t w) const { return static_cast<int>(lanes::lane(iterations_, w)); }
@@ -46,7 +52,9 @@ public:
     double ratio(std::size_t w) const { return lanes::lane(ratio_, w); }
     double truncation(std::size_t w) const { return lanes::lane(truncation_, w); }
     double correction(std::size_t w) const { return lanes::lane(correction_, w); }
-    double base_point(std::size_t i, std::size_t w) const { return lanes::lane(xb_[i], w); }
+    double base_point(std::size_t i, std::size_t w) const {
+        return lanes::lane(i < std::size_t(N) ? xb_[i] : passive_[i - std::size_t(N)], w);
+    }
 
 private:
     void round(const NewtonStepper& s, T* increment);
@@ -55,6 +63,7 @@ private:
     void finish(const NewtonStepper& s, Mask E, T* increment);
     void polish(Mask E);
     void factor(Mask F, const T* J);
+    const T* inputs(const T* point, bool magnitudes);
     void solve_kept(const T* b, T* d) const;
     void restart(Mask R);
     [[gnu::always_inline]] inline void end(Mask E, StepStatus st);
@@ -66,7 +75,8 @@ private:
     Mask swaps_[N * (N - 1) / 2 + 1];  // the LU's row exchanges, as masks, in the order it made them
     LaneRealisation<N, T> values_;
     LaneCheck<N, T> check_;
-    std::vector<T> gh_, scratch_;  // grad and Hess S_dt on its pattern; grad S_dt or its sizes
+    std::vector<T> gh_, scratch_;      // grad and Hess S_dt on its pattern; grad S_dt or its sizes (every coordinate's)
+    std::vector<T> passive_, inputs_;  // the coordinates past N; the maps' inputs, when there are such coordinates
     LaneMapScratch<T> maps_;
     BatchScratch dt_maps_;
     // each lane's Newton: its statistics, its control (NewtonStepper::newton's locals) and whether it runs

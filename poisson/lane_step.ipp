@@ -111,7 +111,8 @@ PGI_LANE_INLINE void small_inverse(const T* J, T* inverse) {
 
 template <int N, class T>
 LaneStep<N, T>::LaneStep(const NewtonStepper& s)
-    : gh_(s.with_hessian().width(), T{}), scratch_(N, T{}), maps_(s.realisation_.lane_scratch<T>()) {
+    : gh_(s.with_hessian().width(), T{}), scratch_(s.dim(), T{}), passive_(s.dim() - N, T{}), inputs_(s.dim(), T{}),
+      maps_(s.realisation_.lane_scratch<T>()) {
     if constexpr (lanes != 1) s.size_lane_maps(dt_maps_);
     for (auto& e : H_) e = T{};
     for (auto& e : lu_) e = T{};
@@ -119,6 +120,17 @@ LaneStep<N, T>::LaneStep(const NewtonStepper& s)
     for (auto* v : {x_, xb_, good_, p_, r_, dx_})
         for (int i = 0; i < N; ++i) v[i] = T{};
     for (auto& m : swaps_) m = lanes::none_mask<T>();
+}
+
+// The maps' inputs at point (N values): point itself, or when the stepper has coordinates past N, point then their
+// values (magnitudes: their absolute values, for the sizes' map read at |x|).
+template <int N, class T>
+const T* LaneStep<N, T>::inputs(const T* point, bool magnitudes) {
+    if (passive_.empty()) return point;
+    for (int i = 0; i < N; ++i) inputs_[std::size_t(i)] = point[i];
+    for (std::size_t i = 0; i < passive_.size(); ++i)
+        inputs_[N + i] = magnitudes ? lanes::abs(passive_[i]) : passive_[i];
+    return inputs_.data();
 }
 
 // J's LU with partial pivoting, the row exchanges as masks: for column k, row i > k is exchanged with row k where
@@ -185,17 +197,19 @@ void LaneStep<N, T>::solve_kept(const T* b, T* d) const {
     }
 }
 
-// At xb for the lanes of F: p = grad S_dt, H = Hess S_dt, the realisation and its derivatives, and J = alpha_x +
-// alpha_p H (written to J for every lane; the rest kept for F's).
+// At xb for the lanes of F: p = grad S_dt, H = Hess S_dt (on the first N coordinates), the realisation and its
+// derivatives, and J = alpha_x + alpha_p H (written to J for every lane; the rest kept for F's).
 template <int N, class T>
 void LaneStep<N, T>::evaluate(const NewtonStepper& s, Mask F, T* J) {
-    eval_dt(s.with_hessian(), xb_, dt_, gh_.data(), dt_maps_);
+    eval_dt(s.with_hessian(), inputs(xb_, false), dt_, gh_.data(), dt_maps_);
     T H[N * N];
     for (auto& e : H) e = T{};
     const SparsePattern& P = s.gradient_.hessian;
-    for (std::size_t col = 0; col < P.cols; ++col)
+    const std::size_t hessian_from = P.cols;  // with_hessian's outputs: grad S_dt (every coordinate's), then Hess
+    for (std::size_t col = 0; col < std::size_t(N); ++col)
         for (int k = P.outer[col]; k < P.outer[col + 1]; ++k)
-            H[std::size_t(P.inner[std::size_t(k)]) + N * col] = gh_[N + s.gradient_.hessian_value[std::size_t(k)]];
+            if (const auto row = std::size_t(P.inner[std::size_t(k)]); row < std::size_t(N))
+                H[row + N * col] = gh_[hessian_from + s.gradient_.hessian_value[std::size_t(k)]];
     LaneRealisation<N, T> v;
     for (int i = 0; i < N; ++i) v.exponent[i] = v.em1[i] = T{};  // (written by the log-canonical form only)
     s.realisation_.eval_lanes<N>(xb_, gh_.data(), v, maps_);
@@ -231,7 +245,7 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
         commit<N>(by_hessian, p, p_);
     }
     if (lanes::any(anew)) {
-        eval_dt(s.gradient_.gradient, xb_, dt_, scratch_.data(), dt_maps_);
+        eval_dt(s.gradient_.gradient, inputs(xb_, false), dt_, scratch_.data(), dt_maps_);
         commit<N>(anew, scratch_.data(), p_);
     }
     // (values_: this step's last Newton system, nearby; delta is taken once, by finish)
@@ -244,9 +258,10 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
     T ratio = tolerance_ratio<N>(r, tol);
     const Mask strict_fails = lanes::both(C, lanes::negate(ratio <= 1.0));
     if (lanes::any(strict_fails)) {
-        T absolute[N], sizes[N], wide[N];
+        T absolute[N], wide[N];
         for (int i = 0; i < N; ++i) absolute[i] = lanes::abs(xb_[i]);
-        eval_dt(s.gradient_.gradient_size, absolute, std::abs(dt_), sizes, dt_maps_);
+        eval_dt(s.gradient_.gradient_size, inputs(absolute, true), std::abs(dt_), scratch_.data(), dt_maps_);
+        const T* sizes = scratch_.data();
         constexpr double c = residual_kappa * unit_roundoff;
         for (int i = 0; i < N; ++i) {
             wide[i] = tol[i];
@@ -435,10 +450,19 @@ void LaneStep<N, T>::step(const NewtonStepper& s, const T* x, double dt, T* incr
     if (!std::isfinite(dt)) return;
     dt_ = dt;
     for (int i = 0; i < N; ++i) x_[i] = x[i];
-    const Mask finite = all_finite<N>(x_);
-    if (!lanes::any(finite)) return;
-    predict(s.predictor(), x_, dt, xb_, dt_maps_);
+    Mask finite = all_finite<N>(x_);
     x_norm_ = inf_norm<N>(x_);
+    for (const T& w : passive_) {  // (NewtonStepper's norms and checks read every coordinate)
+        finite = lanes::both(finite, lanes::is_finite(w));
+        x_norm_ = lanes::max_nan(x_norm_, lanes::abs(w));
+    }
+    if (!lanes::any(finite)) return;
+    if (passive_.empty()) {
+        predict(s.predictor(), x_, dt, xb_, dt_maps_);
+    } else {  // the predictor's series is every coordinate's (the passive ones' zero)
+        predict(s.predictor(), inputs(x_, false), dt, scratch_.data(), dt_maps_);
+        for (int i = 0; i < N; ++i) xb_[i] = scratch_[std::size_t(i)];
+    }
     restart(finite);
     while (lanes::any(running_)) {
         round(s, increment);

@@ -62,6 +62,13 @@ HessianTruncation newton_matrix_truncation(const PoissonStructure& pi, const Ste
     return t;
 }
 
+// The coordinates whose rows of pi are zero (compile_gradient's passive ones: a scheme's parameters, say).
+std::vector<bool> zero_rows(const PoissonStructure& pi) {
+    std::vector<bool> zero(pi.dim());
+    for (std::size_t i = 0; i < pi.dim(); ++i) zero[i] = pi.row_support(i).empty();
+    return zero;
+}
+
 }  // namespace
 
 NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector<Poly>& S,
@@ -74,7 +81,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.k_ = opt.k;
     s.dt_ = s.step_dt_ = opt.dt;
     s.opt_ = opt;
-    s.gradient_ = compile_gradient(M, S, opt.dt, newton_matrix_truncation(pi, opt, x_typical));
+    s.gradient_ = compile_gradient(M, S, opt.dt, newton_matrix_truncation(pi, opt, x_typical), zero_rows(pi));
 
     // the truncation degree (and evaluator), sized at p0 = grad S_dt(x_typical): docs/math.md 4 and 6
     Eigen::VectorXd p0(static_cast<Eigen::Index>(n));
@@ -103,7 +110,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.attach_native(opt.native);
     s.size_scratch(n);
     if (!s.sparse_ && s.realisation_.has_lane_form()) {
-        switch (n) {
+        switch (s.realisation_.leading_dimension()) {  // (the coordinates past it step by zero: LaneStep)
             case 2:
                 s.lane_.emplace<LaneStep<2, double>>(s);
                 break;
@@ -436,7 +443,10 @@ StepStatus NewtonStepper::lane_step(const Eigen::VectorXd& x, double dt, Eigen::
     std::visit(
         [&](auto& lane) {
             if constexpr (!std::is_same_v<std::decay_t<decltype(lane)>, std::monostate>) {
+                const Eigen::Index N = Eigen::Index(lane_dimension()), passive = x.size() - N;
+                std::copy(x.data() + N, x.data() + x.size(), lane.passive());
                 lane.step(*this, x.data(), dt, increment.data(), &status);
+                increment.tail(passive).setZero();
                 iterations_ = lane.iterations(0);
                 residual_ = lane.residual(0), tolerance_ = lane.tolerance(0), ratio_ = lane.ratio(0);
                 truncation_ = lane.truncation(0), correction_ = lane.correction(0);

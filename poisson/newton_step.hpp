@@ -122,9 +122,10 @@ public:
     double built_dt() const { return opt_.dt; }
     std::size_t dim() const { return static_cast<std::size_t>(xb_.size()); }
     const StepInfo& info() const { return info_; }
-    /// N when the step is LaneStep<N, double> (the dense step at N = 2, 3, 4, 6 with the so(3) or the compiled
-    /// polynomial realisation), which BatchStepper runs on lanes::width states at once; 0 otherwise.
-    std::size_t lane_dimension() const { return lane_.index() == 0 ? 0 : dim(); }
+    /// N when the step is LaneStep<N, double> (the dense step at N = 2, 3, 4, 6 with the so(3), log-canonical or
+    /// compiled polynomial realisation; N = 3 for the so(3) form on the first three coordinates whatever dim(), the
+    /// others having zero rows), which BatchStepper runs on lanes::width states at once; 0 otherwise.
+    std::size_t lane_dimension() const { return lane_.index() == 0 ? 0 : realisation_.leading_dimension(); }
     /// Sizes scratch for the lane kernel (series/compile_lanes.ipp) of the planned maps LaneStep runs on packs: grad
     /// and Hess S_dt, grad S_dt and the predictor. Here, in the baseline library, because a std::vector's growth must
     /// not be compiled for AVX2 (tests/lane_isa.sh).

@@ -6,8 +6,10 @@
 #include <flint/fmpq.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace pgi {
 
@@ -209,28 +211,53 @@ std::size_t RealisationEvaluator::series_degree_for(double norm, std::size_t D_m
     return D;
 }
 
+namespace {
+
+// The so(3) form's three coordinates (RealisationEvaluator::has_rotation_form), if pi has them: the coordinates of its
+// non-zero rows, each C_j skew on them and zero off them (an entry that holds another coordinate is refused).
+std::optional<std::array<int, 3>> rotation_block(const PoissonStructure& pi) {
+    if (pi.dim() < 3 || pi.structure_class() != StructureClass::linear) return std::nullopt;
+    std::vector<int> rows;
+    for (std::size_t i = 0; i < pi.dim(); ++i)
+        if (!pi.row_support(i).empty()) rows.push_back(static_cast<int>(i));
+    if (rows.size() != 3) return std::nullopt;
+    const std::array<int, 3> block{rows[0], rows[1], rows[2]};
+    const std::vector<Eigen::MatrixXd> Cs = structure_matrices(pi);
+    for (const int j : block) {
+        Eigen::MatrixXd C = Cs[std::size_t(j)];
+        Eigen::Matrix3d on;
+        for (int i = 0; i < 3; ++i)
+            for (int k = 0; k < 3; ++k) on(i, k) = C(block[i], block[k]), C(block[i], block[k]) = 0;
+        if (on != -on.transpose() || !C.isZero(0)) return std::nullopt;
+    }
+    return block;
+}
+
+}  // namespace
+
 bool RealisationEvaluator::has_rotation_form(const PoissonStructure& pi) {
-    if (pi.dim() != 3 || pi.structure_class() != StructureClass::linear) return false;
-    for (const auto& C : structure_matrices(pi))
-        if (C != -C.transpose()) return false;
-    return true;
+    return rotation_block(pi).has_value();
 }
 
 RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) {
-    if (!has_rotation_form(pi)) throw std::invalid_argument("RealisationEvaluator::rotation: pi is not of so(3) type");
+    const auto block = rotation_block(pi);
+    if (!block) throw std::invalid_argument("RealisationEvaluator::rotation: pi is not of so(3) type");
     RealisationEvaluator e;
-    e.n_ = 3;
+    e.n_ = pi.dim();
     e.form_ = Form::rotation;
     e.C_ = structure_matrices(pi);
     // the even Bernoulli coefficients b_2j = B_2j/(2j)!, j = 1..20, for h(s) near s = 0
     for (std::size_t j = 1; j <= 20; ++j) e.b_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
+    const int a = (*block)[0], b = (*block)[1], c = (*block)[2];
     for (std::size_t j = 0; j < 3; ++j) {  // once here, not at every evaluation
-        e.axial_[j][0] = e.C_[j](2, 1);
-        e.axial_[j][1] = e.C_[j](0, 2);
-        e.axial_[j][2] = e.C_[j](1, 0);
+        const Eigen::MatrixXd& C = e.C_[std::size_t((*block)[j])];
+        e.block_[j] = (*block)[j];
+        e.axial_[j][0] = C(c, b);
+        e.axial_[j][1] = C(a, c);
+        e.axial_[j][2] = C(b, a);
     }
-    e.pattern_x_ = e.pattern_p_ = SparsePattern::dense(3, 3);
-    e.dense_ = RealisationValues(3);
+    e.pattern_x_ = e.pattern_p_ = SparsePattern::dense(e.n_, e.n_);
+    e.dense_ = RealisationValues(e.n_);
     return e;
 }
 
@@ -457,19 +484,36 @@ void RealisationEvaluator::eval_lie_poisson(const Eigen::VectorXd& x, const Eige
         matvec<0>(C_[static_cast<std::size_t>(j)].data(), x.data(), v.delta_p.col(j).data(), n);
 }
 
-// The so(3) closed form (poisson/realisation_lanes.cpp, one lane) and delta's derivatives: delta = L(p) x, so
-// delta_x = L(p) and delta_p e_j = C_j x.
+namespace {
+
+// x and p at the so(3) form's three coordinates.
+void gather_block(const int (&block)[3], const Eigen::VectorXd& x, const Eigen::VectorXd& p, double* x3, double* p3) {
+    for (int i = 0; i < 3; ++i) x3[i] = x[block[i]], p3[i] = p[block[i]];
+}
+
+}  // namespace
+
+// The so(3) closed form on its three coordinates (poisson/realisation_lanes.ipp, one lane), the others left alone,
+// and delta's derivatives: delta = L(p) x, so delta_x = L(p) and delta_p e_j = C_j x.
 void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p,
                                          RealisationValues& v) const {
-    LaneRealisation<3, double> r;
-    LaneMapScratch<double> unused;
-    eval_lanes<3>(x.data(), p.data(), r, unused);
-    v.alpha = Eigen::Map<const Eigen::Vector3d>(r.alpha);
-    v.delta = Eigen::Map<const Eigen::Vector3d>(r.delta);
-    v.alpha_x = Eigen::Map<const Eigen::Matrix3d>(r.alpha_x);
-    v.alpha_p = Eigen::Map<const Eigen::Matrix3d>(r.alpha_p);
-    v.delta_x = p[0] * C_[0] + p[1] * C_[1] + p[2] * C_[2];
-    for (Eigen::Index j = 0; j < 3; ++j) v.delta_p.col(j) = C_[std::size_t(j)] * x;
+    double x3[3], p3[3], alpha[3], delta[3], alpha_x[9], alpha_p[9];
+    gather_block(block_, x, p, x3, p3);
+    rotation_eval(x3, p3, alpha, delta, alpha_x, alpha_p);
+    v.alpha = x;
+    v.delta.setZero();
+    v.alpha_x.setIdentity();
+    v.alpha_p.setZero();
+    for (int i = 0; i < 3; ++i) {
+        v.alpha[block_[i]] = alpha[i], v.delta[block_[i]] = delta[i];
+        for (int k = 0; k < 3; ++k)
+            v.alpha_x(block_[i], block_[k]) = alpha_x[i + 3 * k], v.alpha_p(block_[i], block_[k]) = alpha_p[i + 3 * k];
+    }
+    v.delta_x.setZero();
+    for (Eigen::Index j = 0; j < x.size(); ++j) {
+        v.delta_x += p[j] * C_[std::size_t(j)];
+        v.delta_p.col(j).noalias() = C_[std::size_t(j)] * x;
+    }
 }
 
 void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationCheck& c,
@@ -523,14 +567,18 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
             c.delta.noalias() = L_ * x;
             return;
         }
-        case Form::rotation: {
-            LaneCheck<3, double> r;
-            LaneMapScratch<double> unused;
-            check_lanes<3>(x.data(), p.data(), r, unused);
-            c.alpha = Eigen::Map<const Eigen::Vector3d>(r.alpha);
-            c.delta = Eigen::Map<const Eigen::Vector3d>(r.delta);
-            c.size = Eigen::Map<const Eigen::Vector3d>(r.size);
-            c.shift = Eigen::Map<const Eigen::Vector3d>(r.shift);
+        case Form::rotation: {  // the three coordinates', the others' alpha_w = x_w and delta_w = 0
+            double x3[3], p3[3], alpha[3], delta[3], size[3], shift[3];
+            gather_block(block_, x, p, x3, p3);
+            rotation_check(x3, p3, alpha, delta, size, shift);
+            c.alpha = x;
+            c.size = x.cwiseAbs();
+            c.delta.setZero();
+            c.shift.setZero();
+            for (int i = 0; i < 3; ++i) {
+                const int b = block_[i];
+                c.alpha[b] = alpha[i], c.delta[b] = delta[i], c.size[b] = size[i], c.shift[b] = shift[i];
+            }
             return;
         }
         case Form::log_canonical:
@@ -553,8 +601,11 @@ void RealisationEvaluator::delta(const Eigen::VectorXd& x, const Eigen::VectorXd
             delta.noalias() = L_ * x;
             return;
         case Form::rotation: {
-            LaneMapScratch<double> unused;
-            delta_lanes<3>(x.data(), p.data(), delta.data(), unused);
+            double x3[3], p3[3], d[3];
+            gather_block(block_, x, p, x3, p3);
+            rotation_delta(x3, p3, d);
+            delta.setZero();
+            for (int i = 0; i < 3; ++i) delta[block_[i]] = d[i];
             return;
         }
         case Form::log_canonical:

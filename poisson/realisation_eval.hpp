@@ -74,8 +74,10 @@ public:
                                            const std::vector<Poly>& neglected = {});
     static RealisationEvaluator log_canonical(const PoissonStructure& pi);
     static RealisationEvaluator lie_poisson(const PoissonStructure& pi, std::size_t D);
-    /// so(3)*-type structures (n = 3, linear, every C_j skew, so L(p) is skew and L^3 = -s L): the
-    /// series summed in closed form, alpha = x - L x / 2 + h(s) L^2 x, exact in floating point.
+    /// so(3)*-type structures (linear, exactly three coordinates with non-zero rows, every C_j skew on them and zero
+    /// elsewhere, so L(p) is skew and L^3 = -s L): the series summed in closed form on those three, alpha = x - L x / 2
+    /// + h(s) L^2 x, exact in floating point; the other coordinates (Casimirs with zero rows, such as a scheme's
+    /// parameters) are left alone exactly: alpha_w = x_w, delta_w = 0, and no p_w enters.
     static bool has_rotation_form(const PoissonStructure& pi);
     static RealisationEvaluator rotation(const PoissonStructure& pi);
 
@@ -107,9 +109,15 @@ public:
     bool has_lane_form() const {
         return form_ == Form::rotation || form_ == Form::log_canonical || form_ == Form::polynomial;
     }
-    /// eval's alpha, delta, alpha_x and alpha_p (and check's values) at N = dim() states at once or one
-    /// (poisson/realisation_lanes.cpp): each lane's numbers are those of the double instantiation on it, bit for bit.
-    /// Allocates nothing with s from lane_scratch<T>(). Requires has_lane_form().
+    /// The leading coordinates eval_lanes, check_lanes and delta_lanes act on (their N): every one but for the so(3)
+    /// form, whose three coordinates when they lead the others (which it leaves alone: alpha_w = x_w, delta_w = 0).
+    std::size_t leading_dimension() const {
+        return form_ == Form::rotation && block_[0] == 0 && block_[1] == 1 && block_[2] == 2 ? 3 : n_;
+    }
+    /// eval's alpha, delta, alpha_x and alpha_p (and check's values) on N coordinates (all, or leading_dimension()
+    /// of them), for lanes::width states at once or one (poisson/realisation_lanes.ipp): each lane's numbers are those
+    /// of the double instantiation on it, bit for bit. Allocates nothing with s from lane_scratch<T>(). Requires
+    /// has_lane_form().
     template <class T>
     LaneMapScratch<T> lane_scratch() const;
     template <int N, class T>
@@ -141,6 +149,14 @@ private:
                              const T* exponent_near = nullptr, const T* em1_near = nullptr) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
+    /// so(3) on its three coordinates (x3, p3: their values; the blocks 3 x 3, column-major): eval_lanes' alpha,
+    /// delta, alpha_x and alpha_p, check_lanes' values and delta_lanes' delta there (poisson/realisation_lanes.ipp).
+    template <class T>
+    void rotation_eval(const T* x3, const T* p3, T* alpha, T* delta, T* alpha_x, T* alpha_p) const;
+    template <class T>
+    void rotation_check(const T* x3, const T* p3, T* alpha, T* delta, T* size, T* shift) const;
+    template <class T>
+    void rotation_delta(const T* x3, const T* p3, T* delta) const;
     /// The compiled polynomial form at (x, p): alpha and delta written, the derivatives' values returned
     /// (alpha_x, delta_x on pattern_x_, then alpha_p, delta_p on pattern_p_, in pattern order).
     const double* eval_polynomial(const Eigen::VectorXd& x, const Eigen::VectorXd& p, Eigen::VectorXd& alpha,
@@ -159,13 +175,14 @@ private:
     mutable RealisationValues dense_;  // Lie-Poisson forms: evaluated dense, then gathered on the (full) patterns
     std::vector<Eigen::MatrixXd> C_;   // Lie-Poisson: C_[j](i, k) = c_ij^k = dL(p)/dp_j
     std::vector<double> b_;            // Lie-Poisson: B_m / m!, m = 0..D; rotation: B_2j / (2j)!, j = 1..20
-    double axial_[3][3] = {};  // rotation: the axial vector c_j of each C_j (C_j v = c_j x v), read at every step
-    std::vector<double> q_;    // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
-    double radius_ = 0;        // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off
-    CompiledMap map_;          // polynomial: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
-    CompiledMap values_map_;   // polynomial: alpha - x, then the neglected parts
-    CompiledMap size_map_;     // polynomial: alpha with every coefficient replaced by its absolute value
-    CompiledMap delta_map_;    // polynomial: delta alone
+    double axial_[3][3] = {};   // rotation: the axial vector c_j of each C_j (C_j v = c_j x v), read at every step
+    int block_[3] = {0, 1, 2};  // rotation: the coordinates of its three non-zero rows, in order
+    std::vector<double> q_;     // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
+    double radius_ = 0;         // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off
+    CompiledMap map_;         // polynomial: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
+    CompiledMap values_map_;  // polynomial: alpha - x, then the neglected parts
+    CompiledMap size_map_;    // polynomial: alpha with every coefficient replaced by its absolute value
+    CompiledMap delta_map_;   // polynomial: delta alone
     mutable Eigen::VectorXd in_, out_, u_, v_prev_, v_next_;
     mutable Eigen::MatrixXd L_, W_prev_, W_next_, power_, tmp_;
     // Lie-Poisson, scaling and squaring: Z, its square, Q and its next, a^2, and dQ/dp_j for each j

@@ -143,32 +143,90 @@ struct RotationAt {
 
 }  // namespace
 
-// so(3): alpha = x - L x / 2 + h(s) L^2 x (docs/math.md 3), alpha_x = (1 - h s) I - L/2 + h w w^T (L^2 = w w^T - s I),
-// alpha_p e_j = -C_j x / 2 + h (c_j x L x + w x C_j x) + dh (2 w . c_j) L^2 x (ds/dp_j = 2 w . c_j), delta = L x.
+// so(3) on its three coordinates: alpha = x - L x / 2 + h(s) L^2 x (docs/math.md 3), alpha_x = (1 - h s) I - L/2 +
+// h w w^T (L^2 = w w^T - s I), alpha_p e_j = -C_j x / 2 + h (c_j x L x + w x C_j x) + dh (2 w . c_j) L^2 x (ds/dp_j =
+// 2 w . c_j), delta = L x.
+template <class T>
+void RealisationEvaluator::rotation_eval(const T* x3, const T* p3, T* alpha, T* delta, T* alpha_x, T* alpha_p) const {
+    const RotationAt<T> r(axial_, x3, p3);
+    T h, dh;
+    rotation_coefficient<true>(r.s, b_, h, dh);
+    const T diagonal = 1.0 - h * r.s;
+    for (int i = 0; i < 3; ++i) {
+        alpha[i] = (r.X.v[i] - 0.5 * r.Lx.v[i]) + h * r.L2x.v[i];
+        delta[i] = r.Lx.v[i];
+        for (int k = 0; k < 3; ++k) {
+            // L(i, k) = (w x e_k)_i: -w_m on the cycle (0,1), (1,2), (2,0), +w_m off it, m the third index
+            const T L_ik = i == k ? T{} : ((i + 1) % 3 == k ? -r.w.v[3 - i - k] : r.w.v[3 - i - k]);
+            alpha_x[i + 3 * k] = ((i == k ? diagonal : T{}) - 0.5 * L_ik) + h * (r.w.v[i] * r.w.v[k]);
+        }
+    }
+    for (int j = 0; j < 3; ++j) {
+        const double* c = axial_[j];
+        const Vec3<T> Cx = cross(c, r.X), a = cross(c, r.Lx), b = cross(r.w, Cx);
+        const T slope = dh * (2.0 * ((r.w.v[0] * c[0] + r.w.v[1] * c[1]) + r.w.v[2] * c[2]));
+        for (int i = 0; i < 3; ++i) alpha_p[i + 3 * j] = (-0.5 * Cx.v[i] + h * (a.v[i] + b.v[i])) + slope * r.L2x.v[i];
+    }
+}
+
+// so(3) on its three coordinates: alpha and delta as rotation_eval, the sizes of alpha's three terms.
+template <class T>
+void RealisationEvaluator::rotation_check(const T* x3, const T* p3, T* alpha, T* delta, T* size, T* shift) const {
+    const RotationAt<T> r(axial_, x3, p3);
+    T h, dh;
+    rotation_coefficient<false>(r.s, b_, h, dh);
+    for (int i = 0; i < 3; ++i) {
+        alpha[i] = (r.X.v[i] - 0.5 * r.Lx.v[i]) + h * r.L2x.v[i];
+        shift[i] = h * r.L2x.v[i] - 0.5 * r.Lx.v[i];
+        delta[i] = r.Lx.v[i];
+        size[i] = (lanes::abs(r.X.v[i]) + 0.5 * lanes::abs(r.Lx.v[i])) + lanes::abs(h) * lanes::abs(r.L2x.v[i]);
+    }
+}
+
+// so(3) on its three coordinates: delta = L x = w x x (RotationAt's Lx).
+template <class T>
+void RealisationEvaluator::rotation_delta(const T* x3, const T* p3, T* delta) const {
+    Vec3<T> w;
+    for (int i = 0; i < 3; ++i) w.v[i] = (p3[0] * axial_[0][i] + p3[1] * axial_[1][i]) + p3[2] * axial_[2][i];
+    const Vec3<T> Lx = cross(w, Vec3<T>{{x3[0], x3[1], x3[2]}});
+    for (int i = 0; i < 3; ++i) delta[i] = Lx.v[i];
+}
+
+namespace {
+
+// x and p at the so(3) form's three coordinates.
+template <class T>
+PGI_LANE_INLINE void gather_block(const int (&block)[3], const T* x, const T* p, T* x3, T* p3) {
+    for (int i = 0; i < 3; ++i) x3[i] = x[block[i]], p3[i] = p[block[i]];
+}
+
+}  // namespace
+
+// so(3): rotation_eval on its three coordinates (written in place when they are all of them, N = 3), the others left
+// alone (alpha_w = x_w, delta_w = 0, row e_w of alpha_x, no p_w). Log-canonical: poisson/log_canonical.ipp.
 // Polynomial: the compiled map's outputs, the derivatives scattered from their patterns.
 template <int N, class T>
 void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N, T>& v, LaneMapScratch<T>& s) const {
     if constexpr (N == 3) {
         if (form_ == Form::rotation) {
-            const RotationAt<T> r(axial_, x, p);
-            T h, dh;
-            rotation_coefficient<true>(r.s, b_, h, dh);
-            const T diagonal = 1.0 - h * r.s;
+            rotation_eval(x, p, v.alpha, v.delta, v.alpha_x, v.alpha_p);
+            return;
+        }
+    } else if constexpr (N > 3) {
+        if (form_ == Form::rotation) {
+            T x3[3], p3[3], alpha[3], delta[3], alpha_x[9], alpha_p[9];
+            gather_block(block_, x, p, x3, p3);
+            rotation_eval(x3, p3, alpha, delta, alpha_x, alpha_p);
+            for (int i = 0; i < N; ++i) v.alpha[i] = x[i], v.delta[i] = T{};
+            for (auto& e : v.alpha_x) e = T{};
+            for (auto& e : v.alpha_p) e = T{};
+            for (int i = 0; i < N; ++i) v.alpha_x[i + N * i] = lanes::splat<T>(1.0);
             for (int i = 0; i < 3; ++i) {
-                v.alpha[i] = (r.X.v[i] - 0.5 * r.Lx.v[i]) + h * r.L2x.v[i];
-                v.delta[i] = r.Lx.v[i];
+                v.alpha[block_[i]] = alpha[i], v.delta[block_[i]] = delta[i];
                 for (int k = 0; k < 3; ++k) {
-                    // L(i, k) = (w x e_k)_i: -w_m on the cycle (0,1), (1,2), (2,0), +w_m off it, m the third index
-                    const T L_ik = i == k ? T{} : ((i + 1) % 3 == k ? -r.w.v[3 - i - k] : r.w.v[3 - i - k]);
-                    v.alpha_x[i + 3 * k] = ((i == k ? diagonal : T{}) - 0.5 * L_ik) + h * (r.w.v[i] * r.w.v[k]);
+                    v.alpha_x[block_[i] + N * block_[k]] = alpha_x[i + 3 * k];
+                    v.alpha_p[block_[i] + N * block_[k]] = alpha_p[i + 3 * k];
                 }
-            }
-            for (int j = 0; j < 3; ++j) {
-                const double* c = axial_[j];
-                const Vec3<T> Cx = cross(c, r.X), a = cross(c, r.Lx), b = cross(r.w, Cx);
-                const T slope = dh * (2.0 * ((r.w.v[0] * c[0] + r.w.v[1] * c[1]) + r.w.v[2] * c[2]));
-                for (int i = 0; i < 3; ++i)
-                    v.alpha_p[i + 3 * j] = (-0.5 * Cx.v[i] + h * (a.v[i] + b.v[i])) + slope * r.L2x.v[i];
             }
             return;
         }
@@ -197,25 +255,28 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
     }
 }
 
-// so(3): alpha and delta as eval_lanes, the sizes of alpha's three terms. Polynomial: the compiled values (alpha - x,
-// the neglected parts: their largest |value| in `neglected`), delta (with_delta) and the sizes (every coefficient
-// made positive, at (|x|, |p|)) plus |x|. Without with_delta the polynomial and log-canonical forms leave c.delta as
-// it was (so(3) writes it: L x is part of alpha).
+// so(3): rotation_check on its three coordinates, the others' alpha_w = x_w (size |x_w|, shift and delta 0).
+// Polynomial: the compiled values (alpha - x, the neglected parts: their largest |value| in `neglected`), delta
+// (with_delta) and the sizes (every coefficient made positive, at (|x|, |p|)) plus |x|. Without with_delta the
+// polynomial and log-canonical forms leave c.delta as it was (so(3) writes it: L x is part of alpha).
 template <int N, class T>
 void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& c, LaneMapScratch<T>& s,
                                        const LaneRealisation<N, T>* near, bool with_delta) const {
     c.neglected = T{};
     if constexpr (N == 3) {
         if (form_ == Form::rotation) {
-            const RotationAt<T> r(axial_, x, p);
-            T h, dh;
-            rotation_coefficient<false>(r.s, b_, h, dh);
+            rotation_check(x, p, c.alpha, c.delta, c.size, c.shift);
+            return;
+        }
+    } else if constexpr (N > 3) {
+        if (form_ == Form::rotation) {
+            T x3[3], p3[3], alpha[3], delta[3], size[3], shift[3];
+            gather_block(block_, x, p, x3, p3);
+            rotation_check(x3, p3, alpha, delta, size, shift);
+            for (int i = 0; i < N; ++i) c.alpha[i] = x[i], c.size[i] = lanes::abs(x[i]), c.delta[i] = c.shift[i] = T{};
             for (int i = 0; i < 3; ++i) {
-                c.alpha[i] = (r.X.v[i] - 0.5 * r.Lx.v[i]) + h * r.L2x.v[i];
-                c.shift[i] = h * r.L2x.v[i] - 0.5 * r.Lx.v[i];
-                c.delta[i] = r.Lx.v[i];
-                c.size[i] =
-                    (lanes::abs(r.X.v[i]) + 0.5 * lanes::abs(r.Lx.v[i])) + lanes::abs(h) * lanes::abs(r.L2x.v[i]);
+                const int b = block_[i];
+                c.alpha[b] = alpha[i], c.delta[b] = delta[i], c.size[b] = size[i], c.shift[b] = shift[i];
             }
             return;
         }
@@ -240,11 +301,17 @@ template <int N, class T>
 void RealisationEvaluator::delta_lanes(const T* x, const T* p, T* delta, LaneMapScratch<T>& s,
                                        const LaneRealisation<N, T>* near) const {
     if constexpr (N == 3) {
-        if (form_ == Form::rotation) {  // delta = L x = w x x (RotationAt's Lx)
-            Vec3<T> w;
-            for (int i = 0; i < 3; ++i) w.v[i] = (p[0] * axial_[0][i] + p[1] * axial_[1][i]) + p[2] * axial_[2][i];
-            const Vec3<T> Lx = cross(w, Vec3<T>{{x[0], x[1], x[2]}});
-            for (int i = 0; i < 3; ++i) delta[i] = Lx.v[i];
+        if (form_ == Form::rotation) {
+            rotation_delta(x, p, delta);
+            return;
+        }
+    } else if constexpr (N > 3) {
+        if (form_ == Form::rotation) {  // (the other coordinates' delta_w = 0)
+            T x3[3], p3[3], d[3];
+            gather_block(block_, x, p, x3, p3);
+            rotation_delta(x3, p3, d);
+            for (int i = 0; i < N; ++i) delta[i] = T{};
+            for (int i = 0; i < 3; ++i) delta[block_[i]] = d[i];
             return;
         }
     }
@@ -256,10 +323,13 @@ void RealisationEvaluator::delta_lanes(const T* x, const T* p, T* delta, LaneMap
     eval_map(delta_map_, s.in.data(), delta, s.map);
 }
 
-#define PGI_REALISATION_LANES(T) \
-    PGI_LANE_FORMS(2, T)         \
-    PGI_LANE_FORMS(3, T)         \
-    PGI_LANE_FORMS(4, T)         \
+#define PGI_REALISATION_LANES(T)                                                                     \
+    template void RealisationEvaluator::rotation_eval<T>(const T*, const T*, T*, T*, T*, T*) const;  \
+    template void RealisationEvaluator::rotation_check<T>(const T*, const T*, T*, T*, T*, T*) const; \
+    template void RealisationEvaluator::rotation_delta<T>(const T*, const T*, T*) const;             \
+    PGI_LANE_FORMS(2, T)                                                                             \
+    PGI_LANE_FORMS(3, T)                                                                             \
+    PGI_LANE_FORMS(4, T)                                                                             \
     PGI_LANE_FORMS(6, T)
 #define PGI_LANE_FORMS(N, T)                                                                                        \
     template void RealisationEvaluator::eval_lanes<N, T>(const T*, const T*, LaneRealisation<N, T>&,                \

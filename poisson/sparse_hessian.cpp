@@ -38,7 +38,7 @@ std::size_t hessian_terms_needed(const PhaseSpace& M, const CompiledGradient& g,
 }  // namespace
 
 CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt,
-                                  const HessianTruncation& truncation) {
+                                  const HessianTruncation& truncation, const std::vector<bool>& passive) {
     const std::size_t n = M.dim();
     std::vector<std::vector<Poly>> grad(S.size()), sizes(S.size()), with_hessian(S.size());
     std::vector<std::vector<int>> columns(n);
@@ -66,7 +66,13 @@ CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& 
             if (mirror < 0) throw std::logic_error("compile_gradient: the Hessian's pattern is not symmetric");
             g.hessian_value[std::size_t(k)] = g.hessian_value[std::size_t(mirror)];
         }
+    const auto is_passive = [&](std::size_t i) { return i < passive.size() && passive[i]; };
     std::vector<std::vector<Poly>> hessians(S.size());
+    std::vector<bool> kept;  // the Newton matrix reads entry r <= c (numbered as hessians[j]): neither is passive
+    for (std::size_t c = 0; c < n; ++c)
+        for (int k = P.outer[c]; k < P.outer[c + 1]; ++k)
+            if (const auto r = std::size_t(P.inner[std::size_t(k)]); r <= c)
+                kept.push_back(!is_passive(r) && !is_passive(c));
     for (std::size_t j = 0; j < S.size(); ++j)
         for (std::size_t c = 0; c < n; ++c)
             for (int k = P.outer[c]; k < P.outer[c + 1]; ++k)
@@ -76,13 +82,18 @@ CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& 
     if (!truncation.x_typical.empty() && n <= hessian_truncation_dim && planned_dt > 0 && truncation.bound > 0)
         g.hessian_terms = hessian_terms_needed(M, g, hessians, planned_dt, truncation);
     const auto inputs = M.coordinate_vars();
+    const Poly zero(M.ring());
+    std::vector<std::vector<Poly>> newton_grad(S.size());  // grad S_j without the passive components
     for (std::size_t j = 0; j < S.size(); ++j) {
-        with_hessian[j] = grad[j];
-        for (const Poly& h : hessians[j]) with_hessian[j].push_back(j < g.hessian_terms ? h : Poly(M.ring()));
+        for (std::size_t l = 0; l < n; ++l) newton_grad[j].push_back(is_passive(l) ? zero : grad[j][l]);
+        with_hessian[j] = newton_grad[j];
+        for (std::size_t e = 0; e < hessians[j].size(); ++e)
+            with_hessian[j].push_back(j < g.hessian_terms && kept[e] ? hessians[j][e] : zero);
     }
-    if (g.hessian_terms < S.size()) g.full_hessian = DtSeriesMap::build(hessians, inputs, planned_dt);
+    const bool all_kept = std::all_of(kept.begin(), kept.end(), [](bool k) { return k; });
+    if (g.hessian_terms < S.size() || !all_kept) g.full_hessian = DtSeriesMap::build(hessians, inputs, planned_dt);
     g.with_hessian = DtSeriesMap::build(with_hessian, inputs, planned_dt);
-    g.gradient = DtSeriesMap::build(grad, inputs, planned_dt);
+    g.gradient = DtSeriesMap::build(newton_grad, inputs, planned_dt);
     g.gradient_size = DtSeriesMap::build(sizes, inputs);  // read at |x| and |dt|: no planned sum
     return g;
 }

@@ -22,8 +22,9 @@ struct CompiledGradient {
     DtSeriesMap with_hessian;   // (x, dt) -> grad S_dt (n values), then Hess S_dt's entries r <= c (pattern order)
     DtSeriesMap gradient;       // (x, dt) -> grad S_dt
     DtSeriesMap gradient_size;  // (|x|, dt) -> the sizes of grad S_dt's terms (every coefficient made positive)
-    /// How many of S_1..S_k with_hessian's Hessian reads (k unless truncated, see compile_gradient), and, when fewer,
-    /// the whole Hess S_dt's entries r <= c (what the tangent map needs; empty otherwise).
+    /// How many of S_1..S_k with_hessian's Hessian reads (k unless truncated, see compile_gradient), and, when fewer or
+    /// when passive coordinates' entries are left out, the whole Hess S_dt's entries r <= c (what the tangent map
+    /// needs; empty otherwise).
     std::size_t hessian_terms = 0;
     DtSeriesMap full_hessian;
 };
@@ -48,8 +49,12 @@ struct HessianTruncation {
 /// Hessian reads only S_1..S_m, the fewest with alpha_p_size sum_{j>m} dt^j |Hess S_j(x_typical)|_inf <= bound
 /// (dt = planned_dt). The Hessian serves only the Newton matrix, which sets how fast Newton
 /// converges, not where: grad S_dt stays whole, and the acceptance test certifies every step as before.
+/// passive[w] (empty: none) marks the coordinates whose rows of pi are zero: every realisation leaves them alone
+/// (alpha_w = x_w, and no p_w enters alpha or delta), so the Newton matrix's rows for them are e_w and its columns
+/// for them multiply a zero correction; with_hessian and gradient then leave out their components of grad S_dt and
+/// every Hessian entry in their rows or columns (outputs 0), and full_hessian keeps the whole Hessian.
 CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& S, double planned_dt = 0,
-                                  const HessianTruncation& truncation = {});
+                                  const HessianTruncation& truncation = {}, const std::vector<bool>& passive = {});
 inline constexpr std::size_t hessian_truncation_dim = 8;
 
 }  // namespace pgi

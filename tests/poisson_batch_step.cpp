@@ -110,6 +110,32 @@ TEST_CASE(
     }
 }
 
+TEST_CASE("BatchStepper: the rigid body with parameters steps on lanes (N = 3, so(3) closed form), bit for bit") {
+    // the parameters are the last three coordinates, with zero rows: the closed form leaves them alone, and Newton
+    // solves for the three others (the parameters are inputs of the maps)
+    const Scene s = test::bundled("rigid_body_parameters");
+    Eigen::VectorXd x0(6);
+    x0 << Eigen::Map<const Eigen::Vector3d>(s.x0->data()), 0.5, 1.0, 1.5;
+    const NewtonStepper stepper = s.scheme->stepper(s.dt, x0);
+    CHECK(stepper.lane_dimension() == 3);
+    CHECK(stepper.info().method.find("so(3)") != std::string::npos);
+    for (const double h : {s.dt, 0.7 * s.dt})
+        for (const std::size_t m : {1, 5, 13})
+            for (const LaneInstructions instructions : instruction_sets()) {
+                CAPTURE(h);
+                CAPTURE(m);
+                require_lanes_equal_single(stepper, 16, states_around(x0, m), h, instructions);
+            }
+    // each state's parameters stay bit for bit: their increments are exactly zero
+    NewtonStepper single = stepper;
+    Eigen::VectorXd increment(6);
+    for (const Eigen::VectorXd& x : states_around(x0, 13)) {
+        REQUIRE(single.step(x, s.dt, increment) == StepStatus::ok);
+        CHECK(increment.tail(3).isZero(0));
+        CHECK(increment.head(3).lpNorm<Eigen::Infinity>() > 0);
+    }
+}
+
 TEST_CASE("BatchStepper: a failing and a non-finite state fail alone, with the single step's status") {
     const Scene s = test::bundled("rigid_body");
     const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), 3);

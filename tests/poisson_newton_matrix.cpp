@@ -246,3 +246,38 @@ TEST_CASE("sparse hessian: grad S_dt and Hess S_dt on its whole pattern from the
     CHECK(g.with_hessian.width() == 4 + upper);       // only the upper triangle compiled
     CHECK(g.hessian.outer[4] == g.hessian.outer[3]);  // d holds nothing
 }
+
+TEST_CASE("sparse hessian: a passive coordinate's gradient and Hessian entries are left out of the Newton maps only") {
+    // S_1, S_2 in (a, b, w), w passive (its row of pi zero, as a parameter's): dyadic values, so exact in double
+    PhaseSpace M({"a", "b", "w"});
+    const std::vector<Poly> S{M.parse("a^2*w + b*w^2 + a*b"), M.parse("a*b*w + 3*w^3 + b^2")};
+    const double dt = 0.5;
+    const CompiledGradient g = compile_gradient(M, S, dt, {}, {false, false, true});
+    const Poly S_dt = sum_powers(S, Rational::from_double(dt), 1);
+    const std::vector<double> x{0.5, -1, 1.5};
+    std::vector<double> point(M.ring()->size(), 0.0);
+    std::copy(x.begin(), x.end(), point.begin());
+    std::vector<double> gh(g.with_hessian.width()), grad(3), upper(g.with_hessian.width() - 3);
+    g.with_hessian.eval(x.data(), dt, gh.data());
+    g.gradient.eval(x.data(), dt, grad.data());
+    REQUIRE_FALSE(g.full_hessian.empty());
+    g.full_hessian.eval(x.data(), dt, upper.data());
+    std::vector<double> newton(g.hessian.nonzeros()), whole(g.hessian.nonzeros());
+    expand_hessian(g, gh.data() + 3, newton.data());
+    expand_hessian(g, upper.data(), whole.data());
+    for (std::size_t c = 0; c < 3; ++c) {
+        const Poly dc = derivative(S_dt, M.x(c));
+        CHECK(gh[c] == (c == 2 ? 0.0 : evaluate(dc, point)));
+        CHECK(grad[c] == gh[c]);
+        for (int k = g.hessian.outer[c]; k < g.hessian.outer[c + 1]; ++k) {
+            const auto r = std::size_t(g.hessian.inner[std::size_t(k)]);
+            CAPTURE(r);
+            CAPTURE(c);
+            const double exact = evaluate(derivative(dc, M.x(r)), point);
+            CHECK(exact != 0);
+            CHECK(whole[std::size_t(k)] == exact);
+            CHECK(newton[std::size_t(k)] == (r == 2 || c == 2 ? 0.0 : exact));
+        }
+    }
+    CHECK(g.hessian.find(2, 2) >= 0);  // the pattern keeps every entry: only the values are left out
+}

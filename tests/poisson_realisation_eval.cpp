@@ -52,13 +52,75 @@ TEST_CASE("realisation_eval: the so(3)* closed form equals the Bernoulli series,
     }
 }
 
-TEST_CASE("realisation_eval: the closed form is offered only for skew structure matrices in dimension 3") {
+TEST_CASE("realisation_eval: the closed form is offered only for skew structure matrices on three coordinates") {
     // [e1, e2] = e2, [e1, e3] = e3: a Lie algebra whose L(p) is not skew
     const auto book = structure({"x1", "x2", "x3"}, {{0, 1, "x2"}, {0, 2, "x3"}});
     CHECK(book.structure_class() == StructureClass::linear);
     CHECK_FALSE(RealisationEvaluator::has_rotation_form(book));
     CHECK_THROWS_AS(RealisationEvaluator::rotation(book), std::invalid_argument);
     CHECK_FALSE(RealisationEvaluator::has_rotation_form(test::bundled("lotka_volterra").pi));
+    // so(3)* whose bracket holds a fourth coordinate w (its row zero): C_j is not zero off the three
+    const auto held = structure({"x1", "x2", "x3", "w"}, {{0, 1, "-x3 + w"}, {1, 2, "-x1"}, {2, 0, "-x2"}});
+    CHECK(held.structure_class() == StructureClass::linear);
+    CHECK_FALSE(RealisationEvaluator::has_rotation_form(held));
+    // e(3)*: six non-zero rows
+    const auto e3 = structure({"m1", "m2", "m3", "g1", "g2", "g3"}, {{0, 1, "m3"},
+                                                                    {1, 2, "m1"},
+                                                                    {2, 0, "m2"},
+                                                                    {0, 4, "g3"},
+                                                                    {0, 5, "-g2"},
+                                                                    {1, 5, "g1"},
+                                                                    {1, 3, "-g3"},
+                                                                    {2, 3, "g2"},
+                                                                    {2, 4, "-g1"}});
+    CHECK_FALSE(RealisationEvaluator::has_rotation_form(e3));
+}
+
+TEST_CASE("realisation_eval: the so(3)* closed form with zero-row coordinates equals the series and leaves them alone") {
+    // so(3)* on x1, x2, x3 with w1, w2 interleaved (their rows zero: Casimirs, as a scheme's parameters are), so the
+    // three coordinates' indices are read, not assumed; the series on the whole structure is the reference
+    const auto pi = structure({"w1", "x1", "x2", "w2", "x3"}, {{1, 2, "-x3"}, {2, 4, "-x1"}, {4, 1, "-x2"}});
+    REQUIRE(RealisationEvaluator::has_rotation_form(pi));
+    const auto closed = RealisationEvaluator::rotation(pi);
+    const auto series = RealisationEvaluator::lie_poisson(pi, 60);
+    std::mt19937 gen(34);
+    std::normal_distribution<double> normal;
+    for (double theta : {1e-3, 1.0, 2.5}) {  // |L|: h's short and long series, and its closed form
+        CAPTURE(theta);
+        Eigen::VectorXd x(5), p(5);
+        for (Eigen::Index i = 0; i < 5; ++i) x[i] = normal(gen), p[i] = normal(gen);
+        RealisationValues a(5), b(5);
+        closed.eval(x, p, a);
+        p *= theta / std::sqrt(0.5 * a.delta_x.squaredNorm());
+        closed.eval(x, p, a);
+        series.eval(x, p, b);
+        // the same tolerances as the closed form's in dimension 3: the same sums on the three coordinates
+        CHECK(relative_difference(a.alpha, b.alpha) < 1e-14);
+        CHECK(relative_difference(a.delta, b.delta) < 1e-14);
+        CHECK(relative_difference(a.alpha_x, b.alpha_x) < 1e-14);
+        CHECK(relative_difference(a.alpha_p, b.alpha_p) < 1e-13);
+        CHECK(relative_difference(a.delta_x, b.delta_x) < 1e-14);
+        CHECK(relative_difference(a.delta_p, b.delta_p) < 1e-14);
+        RealisationCheck c(5);
+        closed.check(x, p, c);
+        Eigen::VectorXd delta(5);
+        closed.delta(x, p, delta);
+        CHECK(c.alpha == a.alpha);
+        CHECK(c.delta == a.delta);
+        CHECK(delta == a.delta);
+        for (const Eigen::Index w : {0, 3}) {  // exactly: alpha_w = x_w, delta_w = 0, and p_w enters nothing
+            CAPTURE(w);
+            CHECK(a.alpha[w] == x[w]);
+            CHECK(a.delta[w] == 0);
+            CHECK(a.alpha_x.row(w) == Eigen::RowVectorXd::Unit(5, w));
+            CHECK(a.alpha_p.row(w).isZero(0));
+            CHECK(a.alpha_p.col(w).isZero(0));
+            CHECK(a.delta_x.row(w).isZero(0));
+            CHECK(a.delta_p.col(w).isZero(0));
+            CHECK(c.shift[w] == 0);
+            CHECK(c.size[w] == std::abs(x[w]));
+        }
+    }
 }
 
 // issue 11.9 / 16.1
