@@ -5,6 +5,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 
 
 def suite(peers, scene, *extra):
@@ -62,6 +63,16 @@ def main():
                        env=dict(os.environ, CC="false"))
     claim(r.returncode == 7 and "the compiler `false -O3 -march=native -fPIC -shared` exited with status 1" in r.stderr
           and not r.stdout, "CC=false: exit 7, names the compiler")
+    # no directory to compile in (TMPDIR a file, or missing): exit 7 too, naming TMPDIR, never an internal error
+    with tempfile.TemporaryDirectory() as d:
+        a_file = os.path.join(d, "a-file")
+        open(a_file, "w").close()
+        for tmpdir in (a_file, os.path.join(d, "missing")):
+            r = subprocess.run([peers, f"{scenes}/rigid_body.toml", "--suite"], capture_output=True, text=True,
+                               env=dict(os.environ, TMPDIR=tmpdir))
+            claim(r.returncode == 7 and f"cannot make a directory like {tmpdir}/pgi-peers-" in r.stderr and "TMPDIR" in r.stderr
+                  and not r.stdout, f"TMPDIR={os.path.basename(tmpdir)}: exit 7, names the directory")
+        claim(os.listdir(d) == ["a-file"], "a failed TMPDIR leaves nothing behind")
     # bad input: exit 2 and a message naming the problem, before any run
     for args, message in ((["--peers", "bogus"], "unknown peer 'bogus'"), (["--orders", "0"], "--orders"),
                           (["--pgi-field", "rk8pd-pgifield"], "--pgi-field: unknown peer 'rk8pd-pgifield'"),
