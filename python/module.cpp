@@ -340,7 +340,7 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
                    std::optional<double> t_end_in, std::size_t every, std::optional<Eigen::VectorXd> x_typical,
                    const std::vector<std::tuple<std::string, int, bool>>& events, std::size_t event_samples,
                    std::optional<std::size_t> max_steps, std::optional<double> max_output_mb, bool tangent,
-                   const pgi::ParameterValues& parameters) {
+                   const pgi::ParameterValues& parameters, std::optional<std::vector<double>> t_eval) {
     if (!x0_in && !s.x0) throw pgi::InputError("x0", "missing: give x0 (the scheme has none)");
     const Eigen::VectorXd x0 = s.state(x0_in ? *x0_in : *s.x0, "x0");
     const double dt = s.step_size(dt_in);
@@ -357,7 +357,8 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
         tr = interruptible([&](const pgi::RunCancel& cancel) {
             pgi::RunControl c = control;
             c.cancel = &cancel;
-            return pgi::integrate(scheme, x0, dt, t_end, every, x_typical, watched, c, parameters, tangent);
+            return pgi::integrate(scheme, x0, dt, t_end, every, x_typical, watched, c, parameters, tangent,
+                                  t_eval ? std::span<const double>(*t_eval) : std::span<const double>());
         });
     } catch (const pgi::ParseError& e) {  // a bad event (the other arguments were checked above)
         throw pgi::InputError("", e.what());
@@ -637,7 +638,7 @@ PYBIND11_MODULE(_pgi, m) {
         .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
              "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{},
              "event_samples"_a = 1, "max_steps"_a = py::none(), "max_output_mb"_a = py::none(), "tangent"_a = false,
-             "parameters"_a = pgi::ParameterValues{})
+             "parameters"_a = pgi::ParameterValues{}, "t_eval"_a = py::none())
         .def("_lyapunov", &lyapunov, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
              "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
         .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),

@@ -29,6 +29,14 @@ void check_domain(const RunRequest& r) {
         throw InputError("t_end", std::string("must be finite and not negative"));
     if (r.event_samples < 1) throw InputError("event_samples", "must be at least 1");
     if (r.trajectories < 1) throw InputError("trajectories", "must be at least 1");
+    for (std::size_t i = 0; i < r.t_eval.size(); ++i) {
+        const double t = r.t_eval[i];
+        const std::string where = format("t_eval[%zu] = %.17g", i, t);
+        if (!std::isfinite(t)) throw InputError("t_eval", where + " is not finite");
+        if (t < 0 || t > r.t_end) throw InputError("t_eval", where + format(" is outside [0, t_end = %.17g]", r.t_end));
+        if (i > 0 && !(t > r.t_eval[i - 1]))
+            throw InputError("t_eval", where + " does not follow the time before it: the times must increase strictly");
+    }
 }
 
 }  // namespace
@@ -46,9 +54,9 @@ RunPlan plan_run(const RunRequest& r, const RunLimits& limits) {
                                     r.event_samples, RunLimits::max_event_samples));
     RunPlan plan;
     plan.steps = static_cast<std::size_t>(steps);
-    // rows: the start, every `every`-th step, the last; every = 0: the end only
+    // rows: the start, every `every`-th step, the last; every = 0: the end only; or one per requested time
     const double rows = r.every == 0 ? 1.0 : std::floor(steps / double(r.every)) + 2;
-    plan.records = static_cast<std::size_t>(std::min(rows, steps + 1));
+    plan.records = r.t_eval.empty() ? static_cast<std::size_t>(std::min(rows, steps + 1)) : r.t_eval.size();
     // per trajectory: its recorded rows (t, x, the invariants' errors), its start, and about 64 bytes of report
     const double per_row = 8.0 * double(1 + r.dim + r.invariants);
     const double per_trajectory = double(plan.records) * per_row + 8.0 * double(r.dim) + 64;
@@ -59,7 +67,9 @@ RunPlan plan_run(const RunRequest& r, const RunLimits& limits) {
                    "output budget of %.4g MB (%s, or raise max_output_mb / --max-output-mb)",
                    plan.output_mb, r.trajectories, r.trajectories == 1 ? "y" : "ies", plan.records,
                    plan.records == 1 ? "" : "s", limits.max_output_mb,
-                   r.every == 0 ? "run fewer trajectories at once" : "record less with a larger every / --every"));
+                   r.every == 0           ? "run fewer trajectories at once"
+                   : !r.t_eval.empty()    ? "request fewer times"
+                                          : "record less with a larger every / --every"));
     return plan;
 }
 

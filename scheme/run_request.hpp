@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <stdexcept>
 #include <string>
 
@@ -49,6 +50,7 @@ struct RunRequest {
     std::size_t invariants = 1;  // values kept per recorded row besides t and x (H, the Casimirs, ...)
     std::size_t trajectories = 1;
     std::size_t event_samples = 1;
+    std::span<const double> t_eval;  // times to record at instead of every `every`-th step (empty: every applies)
 };
 
 /// What the run will do, known before it starts.
@@ -62,8 +64,8 @@ struct RunPlan {
 /// keeps t_end = 10, dt = 0.1 at 100 steps); +inf past what a size_t holds (plan_run refuses it).
 double steps_to_reach(double t_end, double dt);
 
-/// Checks r (InputError naming "dt", "t_end", "every", "event_samples" or "trajectories" on a value outside
-/// its domain) and its size (RunBudgetError above limits: steps, output, event samples), before any work.
+/// Checks r (InputError naming "dt", "t_end", "every", "event_samples", "trajectories" or "t_eval" on a value outside
+/// its domain: requested times must be finite, strictly increasing and within [0, t_end]) and its size (RunBudgetError above limits: steps, output, event samples), before any work.
 RunPlan plan_run(const RunRequest& r, const RunLimits& limits = {});
 
 /// A flag a run polls after every step (a relaxed load): once set, the run stops and throws

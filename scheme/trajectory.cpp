@@ -2,6 +2,7 @@
 
 #include "poisson/step_jacobian.hpp"
 #include "scheme/run_loop.hpp"
+#include "scheme/time_output.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -46,13 +47,15 @@ std::string step_failure_message(const NewtonStepper& s, std::size_t step, StepS
 
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every,
                      const std::optional<Eigen::VectorXd>& x_typical, const TrajectoryEvents& events,
-                     const RunControl& control, const ParameterValues& parameters, bool tangent) {
+                     const RunControl& control, const ParameterValues& parameters, bool tangent,
+                     std::span<const double> t_eval) {
     const std::size_t n = scheme.dim();
     if (every == 0) throw InputError("every", "must be at least 1");
     RunRequest request;
     request.dt = dt, request.t_end = t_end, request.every = every, request.dim = n;
     request.invariants = 1 + scheme.casimirs().size();
     request.event_samples = events.samples;
+    request.t_eval = t_eval;
     const RunPlan plan = plan_run(request, control.limits);
     if (static_cast<std::size_t>(x0.size()) != n || !x0.allFinite())
         throw InputError("x0", "must have " + std::to_string(n) + " finite values");
@@ -85,13 +88,30 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
     // coordinates' block of the product is the product of the coordinates' blocks)
     std::optional<TangentProduct> product;
     if (tangent) product.emplace(Eigen::Index(stepper.dim()));
-    auto record = [&](const RunPoint& p) {
-        if (product && p.step > 0) product->after_step(stepper);
-        if (p.step % every != 0 && !p.final) return false;
-        r.t.push_back(p.t);
-        r.x.insert(r.x.end(), p.x.data(), p.x.data() + n);
+    const auto add_row = [&](double t, const Eigen::VectorXd& y) {
+        r.t.push_back(t);
+        r.x.insert(r.x.end(), y.data(), y.data() + n);
         r.energy_error.push_back(loop.error(0));
         for (std::size_t c = 0; c < C; ++c) r.casimir_error.push_back(loop.error(1 + c));
+    };
+    // t_eval: rows by partial steps (the step's own state evaluated again: a partial one may come before it)
+    std::optional<TimeOutput> times;
+    if (!t_eval.empty()) times.emplace(t_eval, dt);
+    StepStatus output = StepStatus::ok;
+    std::size_t output_step = 0;
+    const auto timed_row = [&](const TimeRow& row) {
+        if (!loop.observe_between(row.x)) return false;
+        add_row(row.t, row.x);
+        return true;
+    };
+    auto record = [&](const RunPoint& p) {
+        if (product && p.step > 0) product->after_step(stepper);
+        if (times) {
+            output = times->observe(stepper, p.step, p.t, p.x, timed_row), output_step = p.step;
+            return output != StepStatus::ok;
+        }
+        if (p.step % every != 0 && !p.final) return false;
+        add_row(p.t, p.x);
         return false;
     };
     auto keep = [&](const Crossing& c) {
@@ -99,6 +119,7 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
         return false;
     };
     const RunEnd end = loop.run(stepper, x, N, record, detector ? &*detector : nullptr, keep);
+    if (times && end.ok() && !end.stopped) output = times->finish(stepper, timed_row), output_step = end.steps + 1;
     r.steps = end.steps;
     r.status = end.status;
     r.terminal_event = end.terminal_event;
@@ -115,7 +136,14 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
                                                                                           long(n)) =
             product->product().topLeftCorner(long(n), long(n));
     }
-    if (!end.ok()) {
+    if (output != StepStatus::ok) {  // a partial step to a requested time failed, or an invariant there
+        r.status = output;
+        r.failed_step = output_step;
+        r.failed_t = times->time_before();
+        r.failed_residual = stepper.last_residual();
+        r.message = times->failure_message(stepper, output);
+        if (!loop.non_finite().empty()) r.message += " (the invariant " + loop.non_finite() + " there is not finite)";
+    } else if (!end.ok()) {
         r.failed_step = end.started ? end.steps + 1 : 0;
         r.failed_t = double(end.steps) * dt;
         r.failed_residual = stepper.last_residual();

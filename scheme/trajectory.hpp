@@ -37,7 +37,7 @@ std::string step_failure_message(const NewtonStepper& s, std::size_t step, StepS
 
 struct Trajectory {
     std::size_t dim = 0;
-    std::vector<double> t;              // the recorded times: 0, every `every` steps, and the last
+    std::vector<double> t;              // the recorded times: 0, every `every` steps, and the last (or t_eval)
     std::vector<double> x;              // row-major, t.size() rows of dim values
     std::vector<double> energy_error;   // relative error of H at each recorded time
     std::vector<double> casimir_error;  // row-major, t.size() rows of one value per Casimir
@@ -83,9 +83,15 @@ struct TrajectoryEvents {
 /// the run; x0, x_typical and the recorded states hold the coordinates only (Scheme::dim()); InputError as
 /// Scheme::parameter_rows throws it. tangent: jacobian holds the derivative of the run's map, computed step by step
 /// alongside it (InputError with a terminal event, which ends the run between steps).
+/// t_eval: the rows are at these times instead (every is ignored; t equal to them, InputError from plan_run unless
+/// finite, strictly increasing and in [0, t_end]), each state a true partial step of the method from the run's last
+/// state before it (scheme/time_output.hpp): the run itself, its final state and its jacobian are those without
+/// t_eval. A partial step that fails ends the run as a failed step does (message naming the requested time); after a
+/// terminal crossing the later times have no row.
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1,
                      const std::optional<Eigen::VectorXd>& x_typical = std::nullopt,
                      const TrajectoryEvents& events = {}, const RunControl& control = {},
-                     const ParameterValues& parameters = {}, bool tangent = false);
+                     const ParameterValues& parameters = {}, bool tangent = false,
+                     std::span<const double> t_eval = {});
 
 }  // namespace pgi

@@ -209,6 +209,17 @@ def _state(name, value, n):
     return a
 
 
+def _times(name, value):
+    """value as requested output times: a 1-d float64 array (None stays None); their domain (finite, strictly
+    increasing, within [0, t_end]) is checked by the run's plan, as for every surface."""
+    if value is None:
+        return None
+    a = _real_array(name, value, "a 1-d array of times")
+    if a.ndim != 1:
+        raise InputError(f"{name}: must be a 1-d array of times, got an array of shape {a.shape}")
+    return _np.ascontiguousarray(a)
+
+
 def _states(X0, name="X0"):
     """X0 as a numpy array: a numpy array as given (not copied; shape and dtype, float64 only, are checked by
     the C++ side), or converted from nested lists. Complex values, a ragged or non-numeric list are an InputError
@@ -508,7 +519,7 @@ class Scheme:
         return r
 
     def integrate(self, x0=None, dt=None, t_end=None, every=1, x_typical=None, events=None, event_samples=1,
-                  max_steps=None, max_output_mb=None, tangent=False, parameters=None):
+                  max_steps=None, max_output_mb=None, tangent=False, parameters=None, t_eval=None):
         """ceil(t_end/dt) steps from x0 (defaults: the scheme's), Kahan-summed, recording every `every`-th
         state and the last; returns a Result. Runs with the GIL released; Ctrl-C stops it (KeyboardInterrupt)
         within a step. Raises StepFailure (with .result holding the run up to the failure) if a step fails. The compiled step is built at x0, or at
@@ -530,7 +541,13 @@ class Scheme:
         steps' Jacobians (step_jacobian) computed alongside the steps (not with a terminal event).
 
         parameters: {name: value}, the values of the scheme's parameters for this run (the defaults for those not
-        given); the exact phase is not redone for new values."""
+        given); the exact phase is not redone for new values.
+
+        t_eval: times in [0, t_end], strictly increasing: the rows are at these times instead (r.t equals t_eval;
+        every is ignored). Each row between two steps is a true step of the same method, of size t - t_n, from the
+        state at t_n, so it keeps the Casimirs as every step does (no interpolant); the run goes on from its own
+        states, so its steps, final state and jacobian are those without t_eval. A partial step that fails raises
+        StepFailure naming the requested time."""
         n = len(self.coordinates)
         if events is None:
             events = []
@@ -541,7 +558,7 @@ class Scheme:
                                          _count("every", every, 1, _MAX_COUNT), _state("x_typical", x_typical, n), specs,
                                          _count("event_samples", event_samples, 1, _MAX_COUNT),
                                          **_limits(max_steps, max_output_mb), tangent=_flag("tangent", tangent),
-                                         parameters=_parameter_values(parameters)))
+                                         parameters=_parameter_values(parameters), t_eval=_times("t_eval", t_eval)))
         if r.status not in ("ok", "terminal_event"):
             raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
         _warn_energy(int(r.energy_warning), None, r.dt)

@@ -147,7 +147,7 @@ class Scheme:
     def integrate(self, x0: _State | None = None, dt: float | None = None, t_end: float | None = None, every: int = 1,
                   x_typical: _State | None = None, events: Sequence[_Event] | None = None, event_samples: int = 1,
                   max_steps: int | None = None, max_output_mb: float | None = None, tangent: bool = False,
-                  parameters: _Parameters | None = None) -> Result: ...
+                  parameters: _Parameters | None = None, t_eval: npt.ArrayLike | None = None) -> Result: ...
     def integrate_ensemble(self, X0: npt.ArrayLike, dt: float | None = None, t_end: float | None = None,
                            threads: int | None = None, chunk: int | None = None, x_typical: _State | None = None,
                            batch: int | None = None, max_steps: int | None = None,
