@@ -3,6 +3,8 @@
 #include "poisson/root_bracket.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace pgi {
@@ -66,6 +68,31 @@ double EventDetector::locate(std::size_t event, double a, double b, double ga, d
     return find_root(g_and_derivative, a, b, ga, gb);
 }
 
+// Solves g(x0 + step(x0, theta dt)) = 0 for theta from the dense output's root, by the secant method started with the
+// dense output's dg/dtheta there (which the partial step's derivative in theta matches to the method's order): stops
+// once theta moves by less than 4 u, after at most eight partial steps; c takes the last partial step's state and
+// time (the dense output's stay where a partial step fails).
+void EventDetector::on_leaf(Crossing& c, const Eigen::VectorXd& x0, double t0, double dt, double theta) {
+    const auto n = Eigen::Index(events_.dim()), e = Eigen::Index(c.event);
+    dense_.eval_derivative(theta, dy_.data());
+    events_.gradients(c.x.data(), grad_.data());
+    double slope = grad_.segment(e * n, n).dot(dy_), previous_theta = 0, previous_g = 0;
+    for (int round = 0; round < 8 && theta > 0 && std::abs(slope) > 0 && std::isfinite(slope); ++round) {
+        if (stepper_->step(x0, theta * dt, increment_) != StepStatus::ok) return;
+        y_ = x0 + increment_;
+        if (!y_.allFinite()) return;
+        c.x = y_, c.t = t0 + theta * dt;
+        events_.values(y_.data(), all_.data());
+        const double g = all_(e);
+        if (round > 0 && theta != previous_theta && g != previous_g)
+            slope = (g - previous_g) / (theta - previous_theta);
+        const double move = g / slope;
+        if (!(std::abs(move) > 4 * std::numeric_limits<double>::epsilon())) return;
+        previous_theta = theta, previous_g = g;
+        theta = std::clamp(theta - move, 0.0, 1.0);
+    }
+}
+
 const std::vector<Crossing>& EventDetector::advance(const Eigen::VectorXd& x0, const Eigen::VectorXd& x1, double t0,
                                                     double dt, std::size_t step) {
     found_.clear();
@@ -97,6 +124,7 @@ const std::vector<Crossing>& EventDetector::advance(const Eigen::VectorXd& x0, c
             c.t = t0 + theta * dt;
             c.x = Eigen::VectorXd(x0.size());
             dense_.eval(theta, c.x.data());
+            if (stepper_) on_leaf(c, x0, t0, dt, theta);
             found_.push_back(std::move(c));
         }
     }

@@ -4,6 +4,7 @@
 #include "poisson/dense_output.hpp"
 #include "poisson/integrate.hpp"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,7 +54,7 @@ struct Crossing {
     std::size_t event = 0;  // index in the EventSet
     std::size_t step = 0;   // the step n (from t_{n-1} to t_n) it lies in
     double t = 0;
-    Eigen::VectorXd x;  // the dense output at t: g_event(x) = 0 to round-off
+    Eigen::VectorXd x;  // the state at t: a partial step's (step_crossings), else the dense output's
 };
 
 /// Finds the crossings of each step on its dense output. Checks the sign of every g at the ends of
@@ -65,6 +66,10 @@ public:
 
     /// The state the run starts from (its g values are the first step's left ends).
     void start(const Eigen::VectorXd& x0);
+    /// From now on each crossing's state is a true partial step of (a copy of) stepper from the step's start, of the
+    /// size that puts it on g = 0 (Newton on theta from the dense output's root, the dense output's dg/dtheta), so it
+    /// keeps the Casimirs as every step does; the dense output's state stays where a partial step fails.
+    void step_crossings(const NewtonStepper& stepper) { stepper_.emplace(stepper); }
     /// The crossings of the step x0 -> x1 (t0 to t0 + dt, step number `step`), in time order, cut
     /// after the first terminal one. x0 must be the previous call's x1 (or start()'s x0).
     const std::vector<Crossing>& advance(const Eigen::VectorXd& x0, const Eigen::VectorXd& x1, double t0, double dt,
@@ -73,11 +78,14 @@ public:
 
 private:
     double locate(std::size_t event, double a, double b, double ga, double gb);
+    void on_leaf(Crossing& c, const Eigen::VectorXd& x0, double t0, double dt, double theta);
 
     EventSet events_;
     DenseOutput dense_;
     std::size_t samples_;
     Eigen::VectorXd g0_, g1_, ga_, gb_, y_, dy_, grad_, all_;  // all_: g at the root finder's iterate
+    std::optional<NewtonStepper> stepper_;                     // step_crossings' copy, for the partial steps
+    Eigen::VectorXd increment_;
     std::vector<Crossing> found_;
 };
 

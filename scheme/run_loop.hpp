@@ -138,7 +138,10 @@ RunEnd RunLoop::run(NewtonStepper& stepper, Eigen::VectorXd& x, std::size_t N, O
                     EventDetector* events, OnCrossing&& on_crossing) {
     RunEnd end;
     start(x);
-    if (events) events->start(x);
+    if (events) {
+        events->start(x);
+        events->step_crossings(stepper);  // crossings on the leaf: partial steps of the run's own method
+    }
     const double dt = stepper.dt();
     const IntegrationSummary summary =
         integrate_steps(stepper, x, N, [&](std::size_t n, double t, const Eigen::VectorXd& y) {

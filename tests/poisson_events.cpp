@@ -174,6 +174,43 @@ TEST_CASE("events: the rigid body's section x2 = 0 (rising) against a fine refer
     CHECK(state_errors[0] / state_errors[1] <= 1.25 * 16);
 }
 
+TEST_CASE("events: crossing states are partial steps, on the leaf, where the dense output is not") {
+    // The rigid body's section x2 = 0 over 200 time units at k = 4, dt = 0.2: each crossing's state keeps
+    // |x|^2 as the run's steps do, a round-off random walk over at most 1000 steps (~u sqrt(1000) = 3.5e-15; 2e-14
+    // holds it), and lies on g = 0 to round-off. The dense output at the same crossing times (the state before)
+    // is off the leaf by its local error, ~dt^5 |x| = 3e-4 times a constant: far above round-off.
+    Scene s = test::bundled("rigid_body");
+    const Eigen::VectorXd x0 = vec(*s.x0);
+    const double dt = 0.2, C0 = x0.squaredNorm();
+    const Run r = run(s, 4, dt, x0, 200, {{"x2", +1, false}});
+    REQUIRE(r.crossings.size() >= 10);
+    double on_leaf = 0;
+    for (const Crossing& c : r.crossings) {
+        CHECK(std::abs(c.x(1)) <= 1e-15);
+        on_leaf = std::max(on_leaf, std::abs(c.x.squaredNorm() - C0) / C0);
+    }
+    // the same crossings located on the dense output alone (a detector that does not step)
+    StepOptions opt;
+    opt.k = 4, opt.dt = dt;
+    NewtonStepper st = NewtonStepper::build(s.pi, s.H, opt, x0);
+    EventDetector dense(EventSet::build(s.phase_space(), {{"x2", +1, false}}), DenseOutput::build(s.pi, s.H, 4));
+    Eigen::VectorXd x = x0, increment(3);
+    dense.start(x);
+    double off_leaf = 0;
+    std::size_t count = 0;
+    for (std::size_t n = 1; n <= 1000; ++n) {
+        REQUIRE(st.step(x, increment) == StepStatus::ok);
+        const Eigen::VectorXd y = x + increment;
+        for (const Crossing& c : dense.advance(x, y, double(n - 1) * dt, dt, n))
+            off_leaf = std::max(off_leaf, std::abs(c.x.squaredNorm() - C0) / C0), ++count;
+        x = y;
+    }
+    INFO("Casimir error at the crossings: " << on_leaf << " by partial steps, " << off_leaf << " on the dense output");
+    CHECK(count == r.crossings.size());
+    CHECK(on_leaf <= 2e-14);
+    CHECK(off_leaf >= 1e-10);
+}
+
 TEST_CASE("events: bad event polynomials are refused with the event and the problem") {
     Scene s = test::bundled("harmonic_oscillator");
     const PhaseSpace& M = s.phase_space();
