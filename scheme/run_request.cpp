@@ -67,9 +67,9 @@ RunPlan plan_run(const RunRequest& r, const RunLimits& limits) {
                    "output budget of %.4g MB (%s, or raise max_output_mb / --max-output-mb)",
                    plan.output_mb, r.trajectories, r.trajectories == 1 ? "y" : "ies", plan.records,
                    plan.records == 1 ? "" : "s", limits.max_output_mb,
-                   r.every == 0           ? "run fewer trajectories at once"
-                   : !r.t_eval.empty()    ? "request fewer times"
-                                          : "record less with a larger every / --every"));
+                   r.every == 0        ? "run fewer trajectories at once"
+                   : !r.t_eval.empty() ? "request fewer times"
+                                       : "record less with a larger every / --every"));
     return plan;
 }
 

@@ -65,7 +65,8 @@ struct RunPlan {
 double steps_to_reach(double t_end, double dt);
 
 /// Checks r (InputError naming "dt", "t_end", "every", "event_samples", "trajectories" or "t_eval" on a value outside
-/// its domain: requested times must be finite, strictly increasing and within [0, t_end]) and its size (RunBudgetError above limits: steps, output, event samples), before any work.
+/// its domain: requested times must be finite, strictly increasing and within [0, t_end]) and its size (RunBudgetError
+/// above limits: steps, output, event samples), before any work.
 RunPlan plan_run(const RunRequest& r, const RunLimits& limits = {});
 
 /// A flag a run polls after every step (a relaxed load): once set, the run stops and throws

@@ -91,7 +91,6 @@ struct TrajectoryEvents {
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1,
                      const std::optional<Eigen::VectorXd>& x_typical = std::nullopt,
                      const TrajectoryEvents& events = {}, const RunControl& control = {},
-                     const ParameterValues& parameters = {}, bool tangent = false,
-                     std::span<const double> t_eval = {});
+                     const ParameterValues& parameters = {}, bool tangent = false, std::span<const double> t_eval = {});
 
 }  // namespace pgi

@@ -38,7 +38,7 @@ TEST_CASE("t_eval: each row is the run's state or one partial step from the stat
         CHECK(r.t == times);  // exactly the requested times
         REQUIRE(r.x.size() == times.size() * r.dim);
         CHECK(r.steps == plain.steps);
-        CHECK(r.jacobian == plain.jacobian);  // the same steps, bit for bit
+        CHECK(r.jacobian == plain.jacobian);           // the same steps, bit for bit
         NewtonStepper st = s.scheme->stepper(dt, x0);  // the run's compiled step (built at x0)
         Eigen::VectorXd increment(x0.size());
         for (std::size_t k = 0; k < times.size(); ++k) {

@@ -80,7 +80,8 @@ public:
         std::string pattern = std::string(tmp && *tmp ? tmp : "/tmp") + "/pgi-peers-XXXXXX";
         if (!::mkdtemp(pattern.data()))  // (TMPDIR a file, missing or read-only: the compiler's failure, exit 7)
             throw NativeCodeError("the peers' right-hand side: cannot make a directory like " + printable(pattern) +
-                                  ": " + std::generic_category().message(errno) + " (set TMPDIR to a writable directory)");
+                                  ": " + std::generic_category().message(errno) +
+                                  " (set TMPDIR to a writable directory)");
         path_ = pattern;
     }
     PrivateDirectory(const PrivateDirectory&) = delete;
