@@ -63,6 +63,7 @@ struct IntegrateOptions {
     double max_csv_mb = 1024;                   // refuse (before running) a CSV that would be larger than this
     bool progress = false;                      // a progress line on stderr for runs longer than a second or two
     std::optional<Poly> modified;               // also track this (a truncated modified Hamiltonian) along the run
+    std::vector<double> t_eval;                 // the CSV's rows at these times (partial steps) instead of `every`
     /// Called at every step n (0 = x0) at time t with the state and the watched values (H, the Casimirs,
     /// then the modified Hamiltonian when set): how --plot records a run.
     std::function<void(std::size_t n, double t, const Eigen::VectorXd& x, const std::vector<double>& values)> observe;

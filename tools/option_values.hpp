@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace pgi {
 
@@ -36,6 +37,26 @@ inline double positive_number(const std::string& option, const std::string& text
         throw std::invalid_argument(option + ": '" + text + "' is not a number above 0 and at most " +
                                     std::to_string(long(hi)));
     return v;
+}
+
+/// Finite numbers separated by commas, spaces or line breaks (a --t-eval list or file). Throws
+/// std::invalid_argument naming the option, the item's position and its text (its first 40 characters).
+inline std::vector<double> number_list(const std::string& option, const std::string& text) {
+    std::vector<double> out;
+    std::size_t i = 0;
+    while (i < text.size()) {
+        const std::size_t end = text.find_first_of(", \t\r\n", i);
+        const std::string item = text.substr(i, end == std::string::npos ? std::string::npos : end - i);
+        i = end == std::string::npos ? text.size() : end + 1;
+        if (item.empty()) continue;
+        const double v = strict_double(item);
+        if (!std::isfinite(v))
+            throw std::invalid_argument(option + ": item " + std::to_string(out.size() + 1) + " '" +
+                                        item.substr(0, 40) + "' is not a finite number");
+        out.push_back(v);
+    }
+    if (out.empty()) throw std::invalid_argument(option + ": no times given");
+    return out;
 }
 
 }  // namespace pgi

@@ -12,6 +12,7 @@
 #include "tools/lyapunov.hpp"
 #include "tools/exit_codes.hpp"
 #include "tools/option_values.hpp"
+#include "scheme/input_file.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -44,6 +45,7 @@ struct Options {
     std::string splitting;    // pgi modified --splitting
     std::string plot;         // pgi run/integrate --plot DIR
     std::string plot_coords;  // --plot-coords x1,x3: the coordinates the trajectory figure draws
+    std::string t_eval;       // --t-eval: a list of times, or a file of them
     pgi::SectionOptions section;
     pgi::EnsembleCommandOptions ensemble;
     std::string max_memory_mb, max_seconds;  // the exact phase's budget, read by read_numbers
@@ -52,6 +54,14 @@ struct Options {
 
 // The ranges of the numeric options (README "Limits and exit codes").
 constexpr std::size_t max_degree = 100, max_upto = 64, max_count = std::size_t(1) << 53;
+
+// --t-eval's times: the text itself when it starts like a number (a list), else the file it names (read as every
+// input file is: bounded, no special files), its times separated by commas, spaces or line breaks.
+std::vector<double> read_times(const std::string& text) {
+    if (!std::isnan(pgi::strict_double(text.substr(0, text.find(','))))) return pgi::number_list("--t-eval", text);
+    constexpr std::size_t max_bytes = std::size_t(64) << 20;
+    return pgi::number_list("--t-eval " + text, pgi::read_input_file(text, max_bytes, "--t-eval"));
+}
 
 void read_numbers(Options& o) {
     o.degree_value = o.degree.empty() ? 0 : pgi::whole_number("--degree", o.degree, 0, max_degree);
@@ -66,6 +76,7 @@ void read_numbers(Options& o) {
     if (!o.max_memory_mb.empty())
         o.overrides.max_memory_mb = pgi::whole_number("--max-memory-mb", o.max_memory_mb, 1, std::size_t(1) << 40);
     if (!o.max_seconds.empty()) o.overrides.max_seconds = pgi::positive_number("--max-seconds", o.max_seconds, 1e9);
+    if (!o.t_eval.empty()) o.integrate.t_eval = read_times(o.t_eval);
 }
 
 // Standard output, flushed and checked: a closed pipe or a full disk is an OutputError (exit 6).
@@ -347,8 +358,14 @@ int main(int argc, char** argv) {
         cmd->add_option("--max-steps", o.max_steps,
                         "refuse a run of more steps than this, before any work (default 1e8)");
     for (auto* cmd : {integrate, run}) {
-        cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
-        cmd->add_option("--every", o.every, "one CSV row every M steps");
+        auto* csv =
+            cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
+        auto* every = cmd->add_option("--every", o.every, "one CSV row every M steps");
+        cmd->add_option("--t-eval", o.t_eval,
+                        "the CSV's rows at these times in [0, t_end], increasing, instead of every M steps: a list "
+                        "(0.5,1,2.25) or a file of times; each is a true partial step of the method, on the leaf")
+            ->needs(csv)
+            ->excludes(every);
         auto* plot = cmd->add_option(
             "--plot", o.plot,
             "draw the trajectory and the invariants' errors (SVG and PNG, by gnuplot) into this directory");

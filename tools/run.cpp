@@ -4,6 +4,7 @@
 #include "tools/csv.hpp"
 
 #include "scheme/run_loop.hpp"
+#include "scheme/time_output.hpp"
 
 #include <fmt/format.h>
 
@@ -194,13 +195,32 @@ json step_report(const Scene& scene) {
     return r;
 }
 
+// The CSV's row at t: t, the coordinates, H and the Casimirs (values: the loop's at that state).
+void write_row(std::ostream& out, const Scene& scene, double t, const Eigen::VectorXd& x,
+               const std::vector<double>& values) {
+    out << csv_number(t);
+    for (Eigen::Index i = 0; i < Eigen::Index(scene.dim()); ++i) out << ',' << csv_number(x[i]);
+    for (std::size_t i = 0; i < 1 + scene.casimirs.size(); ++i) out << ',' << csv_number(values[i]);
+    out << "\n";
+}
+
 json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     const std::size_t N = step_count(scene, options.max_steps);
+    std::optional<TimeOutput> times;  // --t-eval: the times checked as every surface checks them (plan_run)
+    if (!options.t_eval.empty()) {
+        RunRequest request;
+        request.dt = scene.dt, request.t_end = *scene.t_end, request.dim = scene.dim(), request.t_eval = options.t_eval;
+        RunLimits limits;
+        limits.max_steps = options.max_steps;
+        (void)plan_run(request, limits);
+        times.emplace(options.t_eval, scene.dt);
+    }
     const std::vector<Poly> extra = options.modified ? std::vector<Poly>{*options.modified} : std::vector<Poly>{};
     std::optional<AtomicFile> csv;
     if (options.csv) {
         // at most 25 characters a number: refuse before running rather than fill the disk
-        const double rows = double(N / options.every + 2), columns = double(2 + scene.dim() + scene.casimirs.size());
+        const double rows = times ? double(options.t_eval.size()) : double(N / options.every + 2),
+                     columns = double(2 + scene.dim() + scene.casimirs.size());
         const double mb = rows * columns * 25 / 1e6;
         if (!(mb <= options.max_csv_mb))
             throw BudgetError(
@@ -224,18 +244,24 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     Eigen::VectorXd x = to_vector(require_x0(scene));
     const auto start = Clock::now();
     // the observer: what the command line does with each state (the loop is the library's, scheme/run_loop)
+    StepStatus output = StepStatus::ok;  // of --t-eval's partial steps
+    const auto timed_row = [&](const TimeRow& row) {
+        if (!loop.observe_between(row.x)) return false;
+        write_row(csv->stream(), scene, row.t, row.x, loop.values());
+        return true;
+    };
     const RunEnd end = loop.run(s, x, N, [&](const RunPoint& p) {
         if (options.observe) options.observe(p.step, p.t, p.x, loop.values());
-        if (csv && (p.step % options.every == 0 || p.step == N)) {
-            csv->stream() << csv_number(p.t);
-            for (Eigen::Index i = 0; i < Eigen::Index(scene.dim()); ++i) csv->stream() << ',' << csv_number(p.x[i]);
-            for (std::size_t i = 0; i < 1 + scene.casimirs.size(); ++i)
-                csv->stream() << ',' << csv_number(loop.values()[i]);
-            csv->stream() << "\n";
+        if (csv && times) {
+            output = times->observe(s, p.step, p.t, p.x, timed_row);
+            if (output != StepStatus::ok) return true;
+        } else if (csv && (p.step % options.every == 0 || p.step == N)) {
+            write_row(csv->stream(), scene, p.t, p.x, loop.values());
         }
         progress.update(p.step);
         return false;
     });
+    if (csv && times && end.ok() && !end.stopped) output = times->finish(s, timed_row);
     const double wall = std::chrono::duration<double>(Clock::now() - start).count();
     const std::vector<double>& worst = loop.error_max();
     std::vector<double> casimir_errors(worst.begin() + 1, worst.begin() + 1 + long(scene.casimirs.size()));
@@ -258,6 +284,16 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     add_parameters(scene, r);
     note_native_failure(scene, s, r);
     if (end.ok()) warn_energy_drift(scene, worst[0], r);
+    if (output != StepStatus::ok) {  // a partial step to a requested time (or its invariants) failed
+        std::string message = times->failure_message(s, output);
+        if (!loop.non_finite().empty()) message += " (the invariant " + loop.non_finite() + " there is not finite)";
+        csv->stream() << "# INCOMPLETE: " << message << "\n";
+        csv->commit();
+        r["status"] = "step_failed";
+        r["failure"] = message;
+        r["residual"] = s.last_residual();
+        throw NumericalFailure(message, r);
+    }
     if (!end.ok()) {
         std::string message = loop.failure_message(s, end);
         if (end.started)

@@ -1,11 +1,13 @@
 """Output at requested times (integrate(t_eval=...)): rows at exactly those times, each a true partial step of the
 method from the run's state before it (no interpolant), the run itself unchanged, the Casimirs kept to round-off,
 and bad times refused before any work."""
+import csv
+
 import numpy as np
 import pytest
 
 import pgi
-from conftest import SCENES
+from conftest import SCENES, cli
 
 
 def rigid_body():
@@ -58,3 +60,44 @@ def test_bad_times_are_refused_naming_t_eval(times, says):
     with pytest.raises(pgi.InputError) as e:
         s.integrate(dt=s.dt, t_end=1.0, t_eval=times)
     assert "t_eval" in str(e.value) and says in str(e.value)
+
+
+def read_csv(path):
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    return rows[0], np.array([[float(v) for v in row] for row in rows[1:]])
+
+
+def test_the_command_line_writes_rows_at_the_requested_times(tmp_path):
+    s = rigid_body()
+    dt = s.dt
+    times = [0.0, 0.25, 1.0, 3.3, 10.0]
+    out = tmp_path / "at.csv"
+    cli("integrate", f"{SCENES}/rigid_body.toml", "--t-end", "10", "--csv", out, "--t-eval", ",".join(map(str, times)))
+    header, rows = read_csv(out)
+    assert header[0] == "t" and np.array_equal(rows[:, 0], times)
+    r = s.integrate(dt=dt, t_end=10, t_eval=times)
+    assert np.array_equal(rows[:, 1:4], r.x)  # the shortest decimals that read back: the same bits
+    # a file of times, one per line, gives the same rows
+    listed = tmp_path / "times.txt"
+    listed.write_text("\n".join(map(str, times)) + "\n")
+    again = tmp_path / "again.csv"
+    cli("integrate", f"{SCENES}/rigid_body.toml", "--t-end", "10", "--csv", again, "--t-eval", listed)
+    assert again.read_text() == out.read_text()
+
+
+@pytest.mark.parametrize("extra, says", [(["--t-eval", "0.5,0.2"], "increase strictly"),
+                                         (["--t-eval", "0.5,x"], "item 2 'x' is not a finite number"),
+                                         (["--t-eval", "11"], "outside [0, t_end"),
+                                         (["--t-eval", "no-such-file"], "no-such-file"),
+                                         (["--t-eval", "1", "--every", "2"], "excludes")])
+def test_the_command_line_refuses_bad_times_with_exit_2(tmp_path, extra, says):
+    out = tmp_path / "x.csv"
+    code, stdout, stderr = cli("integrate", f"{SCENES}/rigid_body.toml", "--t-end", "10", "--csv", out, *extra,
+                               check=False)
+    assert code == 2 and says in stderr and not out.exists()
+
+
+def test_the_command_line_needs_a_csv_for_t_eval():
+    code, _, stderr = cli("integrate", f"{SCENES}/rigid_body.toml", "--t-eval", "1", check=False)
+    assert code == 2 and "--csv" in stderr
