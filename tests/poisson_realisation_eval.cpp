@@ -19,6 +19,17 @@ double relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
     return (a - b).lpNorm<Eigen::Infinity>() / std::max(b.lpNorm<Eigen::Infinity>(), 1e-300);
 }
 
+// The closed form's values a against the series' b: alpha, delta and their derivatives to a few ulps of the largest
+// entry (alpha_p sums one more product of L's powers: 1e-13).
+void check_same_values(const RealisationValues& a, const RealisationValues& b) {
+    CHECK(relative_difference(a.alpha, b.alpha) < 1e-14);
+    CHECK(relative_difference(a.delta, b.delta) < 1e-14);
+    CHECK(relative_difference(a.alpha_x, b.alpha_x) < 1e-14);
+    CHECK(relative_difference(a.alpha_p, b.alpha_p) < 1e-13);
+    CHECK(relative_difference(a.delta_x, b.delta_x) < 1e-14);
+    CHECK(relative_difference(a.delta_p, b.delta_p) < 1e-14);
+}
+
 }  // namespace
 
 TEST_CASE("realisation_eval: the so(3)* closed form equals the Bernoulli series, every block, |L| from 1e-8 to 2.5") {
@@ -42,12 +53,7 @@ TEST_CASE("realisation_eval: the so(3)* closed form equals the Bernoulli series,
             p *= theta / std::sqrt(s_now);
             closed.eval(x, p, a);
             series.eval(x, p, b);
-            CHECK(relative_difference(a.alpha, b.alpha) < 1e-14);
-            CHECK(relative_difference(a.delta, b.delta) < 1e-14);
-            CHECK(relative_difference(a.alpha_x, b.alpha_x) < 1e-14);
-            CHECK(relative_difference(a.alpha_p, b.alpha_p) < 1e-13);
-            CHECK(relative_difference(a.delta_x, b.delta_x) < 1e-14);
-            CHECK(relative_difference(a.delta_p, b.delta_p) < 1e-14);
+            check_same_values(a, b);
         }
     }
 }
@@ -94,13 +100,7 @@ TEST_CASE("realisation_eval: the so(3)* closed form with zero-row coordinates eq
         p *= theta / std::sqrt(0.5 * a.delta_x.squaredNorm());
         closed.eval(x, p, a);
         series.eval(x, p, b);
-        // the same tolerances as the closed form's in dimension 3: the same sums on the three coordinates
-        CHECK(relative_difference(a.alpha, b.alpha) < 1e-14);
-        CHECK(relative_difference(a.delta, b.delta) < 1e-14);
-        CHECK(relative_difference(a.alpha_x, b.alpha_x) < 1e-14);
-        CHECK(relative_difference(a.alpha_p, b.alpha_p) < 1e-13);
-        CHECK(relative_difference(a.delta_x, b.delta_x) < 1e-14);
-        CHECK(relative_difference(a.delta_p, b.delta_p) < 1e-14);
+        check_same_values(a, b);  // as in dimension 3: the same sums on the three coordinates
         RealisationCheck c(5);
         closed.check(x, p, c);
         Eigen::VectorXd delta(5);
