@@ -34,6 +34,7 @@ template <int N, class T>
 class LaneStep {
 public:
     static constexpr std::size_t lanes = lanes::lanes_of<T>;
+    static constexpr int dimension = N;
     using Mask = lanes::mask_t<T>;
 
     /// Scratch sized for stepper's maps.
@@ -72,6 +73,7 @@ private:
     double dt_ = 0;
     T x_[N], xb_[N], good_[N], p_[N], r_[N], dx_[N], H_[N * N], pivot_inverse_[N];
     T lu_[N * N];                      // J's LU factors, or for N <= 3 J^{-1} (factor)
+    int hessian_to_[N * N] = {}, hessian_from_[N * N] = {}, hessian_count_ = 0;  // H[to[k]] = gh_[from[k]], k < count
     Mask swaps_[N * (N - 1) / 2 + 1];  // the LU's row exchanges, as masks, in the order it made them
     LaneRealisation<N, T> values_;
     LaneCheck<N, T> check_;

@@ -120,6 +120,15 @@ LaneStep<N, T>::LaneStep(const NewtonStepper& s)
     for (auto* v : {x_, xb_, good_, p_, r_, dx_})
         for (int i = 0; i < N; ++i) v[i] = T{};
     for (auto& m : swaps_) m = lanes::none_mask<T>();
+    // Hess S_dt's entries on the first N coordinates: with_hessian's outputs are grad S_dt (every coordinate's),
+    // then the Hessian's pattern values
+    const SparsePattern& P = s.gradient_.hessian;
+    for (std::size_t col = 0; col < std::size_t(N); ++col)
+        for (int k = P.outer[col]; k < P.outer[col + 1]; ++k)
+            if (const auto row = std::size_t(P.inner[std::size_t(k)]); row < std::size_t(N)) {
+                hessian_to_[hessian_count_] = int(row + N * col);
+                hessian_from_[hessian_count_++] = int(P.cols + s.gradient_.hessian_value[std::size_t(k)]);
+            }
 }
 
 // The maps' inputs at point (N values): point itself, or when the stepper has coordinates past N, point then their
@@ -204,12 +213,7 @@ void LaneStep<N, T>::evaluate(const NewtonStepper& s, Mask F, T* J) {
     eval_dt(s.with_hessian(), inputs(xb_, false), dt_, gh_.data(), dt_maps_);
     T H[N * N];
     for (auto& e : H) e = T{};
-    const SparsePattern& P = s.gradient_.hessian;
-    const std::size_t hessian_from = P.cols;  // with_hessian's outputs: grad S_dt (every coordinate's), then Hess
-    for (std::size_t col = 0; col < std::size_t(N); ++col)
-        for (int k = P.outer[col]; k < P.outer[col + 1]; ++k)
-            if (const auto row = std::size_t(P.inner[std::size_t(k)]); row < std::size_t(N))
-                H[row + N * col] = gh_[hessian_from + s.gradient_.hessian_value[std::size_t(k)]];
+    for (int k = 0; k < hessian_count_; ++k) H[hessian_to_[k]] = gh_[std::size_t(hessian_from_[k])];
     LaneRealisation<N, T> v;
     for (int i = 0; i < N; ++i) v.exponent[i] = v.em1[i] = T{};  // (written by the log-canonical form only)
     s.realisation_.eval_lanes<N>(xb_, gh_.data(), v, maps_);

@@ -443,10 +443,11 @@ StepStatus NewtonStepper::lane_step(const Eigen::VectorXd& x, double dt, Eigen::
     std::visit(
         [&](auto& lane) {
             if constexpr (!std::is_same_v<std::decay_t<decltype(lane)>, std::monostate>) {
-                const Eigen::Index N = Eigen::Index(lane_dimension()), passive = x.size() - N;
-                std::copy(x.data() + N, x.data() + x.size(), lane.passive());
+                constexpr Eigen::Index N = std::decay_t<decltype(lane)>::dimension;
+                const Eigen::Index passive = x.size() - N;  // (a scheme's parameters: none, mostly)
+                if (passive > 0) std::copy(x.data() + N, x.data() + x.size(), lane.passive());
                 lane.step(*this, x.data(), dt, increment.data(), &status);
-                increment.tail(passive).setZero();
+                if (passive > 0) increment.tail(passive).setZero();
                 iterations_ = lane.iterations(0);
                 residual_ = lane.residual(0), tolerance_ = lane.tolerance(0), ratio_ = lane.ratio(0);
                 truncation_ = lane.truncation(0), correction_ = lane.correction(0);
