@@ -57,8 +57,9 @@ public:
         }
         return StepStatus::ok;
     }
-    /// After observe returned a failure: the message naming the requested time and the state it stepped from.
-    std::string failure_message(const NewtonStepper& stepper, StepStatus status) const;
+    /// After observe returned a failure: the message naming the requested time and the state it stepped from, and
+    /// non_finite (RunLoop::non_finite(): the invariant that was not finite there) when not empty.
+    std::string failure_message(const NewtonStepper& stepper, StepStatus status, const std::string& non_finite) const;
     /// The time of the state the last partial step started from.
     double time_before() const { return t_before_; }
 

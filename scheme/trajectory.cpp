@@ -141,8 +141,7 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
         r.failed_step = output_step;
         r.failed_t = times->time_before();
         r.failed_residual = stepper.last_residual();
-        r.message = times->failure_message(stepper, output);
-        if (!loop.non_finite().empty()) r.message += " (the invariant " + loop.non_finite() + " there is not finite)";
+        r.message = times->failure_message(stepper, output, loop.non_finite());
     } else if (!end.ok()) {
         r.failed_step = end.started ? end.steps + 1 : 0;
         r.failed_t = double(end.steps) * dt;

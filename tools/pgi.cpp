@@ -25,10 +25,12 @@
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <cmath>
 #include <functional>
 #include <iostream>
 #include <new>
+#include <string_view>
 
 namespace {
 
@@ -42,10 +44,11 @@ struct Options {
     std::string format = "markdown", out;
     pgi::IntegrateOptions integrate;
     std::string csv;
-    std::string splitting;    // pgi modified --splitting
-    std::string plot;         // pgi run/integrate --plot DIR
-    std::string plot_coords;  // --plot-coords x1,x3: the coordinates the trajectory figure draws
-    std::string t_eval;       // --t-eval: a list of times, or a file of them
+    std::string splitting;      // pgi modified --splitting
+    std::string plot;           // pgi run/integrate --plot DIR
+    std::string plot_coords;    // --plot-coords x1,x3: the coordinates the trajectory figure draws
+    std::string t_eval;         // --t-eval: a list of times, or a file of them
+    bool t_eval_given = false;  // (so that an empty --t-eval is refused, not ignored)
     pgi::SectionOptions section;
     pgi::EnsembleCommandOptions ensemble;
     std::string max_memory_mb, max_seconds;  // the exact phase's budget, read by read_numbers
@@ -55,10 +58,17 @@ struct Options {
 // The ranges of the numeric options (README "Limits and exit codes").
 constexpr std::size_t max_degree = 100, max_upto = 64, max_count = std::size_t(1) << 53;
 
-// --t-eval's times: the text itself when it starts like a number (a list), else the file it names (read as every
-// input file is: bounded, no special files), its times separated by commas, spaces or line breaks.
+// --t-eval's times: the file the text names when it exists (read as every input file is: bounded, no special files),
+// else the text itself when it looks like numbers (a digit, sign or point first, or a comma in it), else the file it
+// names (whose absence is the message). Times are separated by commas, spaces or line breaks.
 std::vector<double> read_times(const std::string& text) {
-    if (!std::isnan(pgi::strict_double(text.substr(0, text.find(','))))) return pgi::number_list("--t-eval", text);
+    std::error_code ec;
+    const bool exists = !text.empty() &&
+                        std::filesystem::symlink_status(text, ec).type() != std::filesystem::file_type::not_found &&
+                        !ec;
+    const bool numeric = text.empty() || text.find(',') != std::string::npos ||
+                         std::string_view("0123456789+-.").find(text[0]) != std::string_view::npos;
+    if (!exists && numeric) return pgi::number_list("--t-eval", text);
     constexpr std::size_t max_bytes = std::size_t(64) << 20;
     return pgi::number_list("--t-eval " + text, pgi::read_input_file(text, max_bytes, "--t-eval"));
 }
@@ -76,7 +86,7 @@ void read_numbers(Options& o) {
     if (!o.max_memory_mb.empty())
         o.overrides.max_memory_mb = pgi::whole_number("--max-memory-mb", o.max_memory_mb, 1, std::size_t(1) << 40);
     if (!o.max_seconds.empty()) o.overrides.max_seconds = pgi::positive_number("--max-seconds", o.max_seconds, 1e9);
-    if (!o.t_eval.empty()) o.integrate.t_eval = read_times(o.t_eval);
+    if (o.t_eval_given) o.integrate.t_eval = read_times(o.t_eval);
 }
 
 // Standard output, flushed and checked: a closed pipe or a full disk is an OutputError (exit 6).
@@ -364,6 +374,7 @@ int main(int argc, char** argv) {
         cmd->add_option("--t-eval", o.t_eval,
                         "the CSV's rows at these times in [0, t_end], increasing, instead of every M steps: a list "
                         "(0.5,1,2.25) or a file of times; each is a true partial step of the method, on the leaf")
+            ->each([&o](const std::string&) { o.t_eval_given = true; })
             ->needs(csv)
             ->excludes(every);
         auto* plot = cmd->add_option(

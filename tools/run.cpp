@@ -285,8 +285,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
     note_native_failure(scene, s, r);
     if (end.ok()) warn_energy_drift(scene, worst[0], r);
     if (output != StepStatus::ok) {  // a partial step to a requested time (or its invariants) failed
-        std::string message = times->failure_message(s, output);
-        if (!loop.non_finite().empty()) message += " (the invariant " + loop.non_finite() + " there is not finite)";
+        const std::string message = times->failure_message(s, output, loop.non_finite());
         csv->stream() << "# INCOMPLETE: " << message << "\n";
         csv->commit();
         r["status"] = "step_failed";

@@ -90,6 +90,9 @@ def test_the_command_line_writes_rows_at_the_requested_times(tmp_path):
                                          (["--t-eval", "0.5,x"], "item 2 'x' is not a finite number"),
                                          (["--t-eval", "11"], "outside [0, t_end"),
                                          (["--t-eval", "no-such-file"], "no-such-file"),
+                                         (["--t-eval", ""], "--t-eval: no times given"),
+                                         (["--t-eval", "1e400"], "item 1 '1e400' is not a finite number"),
+                                         (["--t-eval", "."], "is a directory"),
                                          (["--t-eval", "1", "--every", "2"], "excludes")])
 def test_the_command_line_refuses_bad_times_with_exit_2(tmp_path, extra, says):
     out = tmp_path / "x.csv"
