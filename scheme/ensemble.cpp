@@ -2,6 +2,7 @@
 
 #include "scheme/input.hpp"
 #include "scheme/run_loop.hpp"
+#include "scheme/trajectory_runner.hpp"
 #include "poisson/batch_step.hpp"
 
 #include <tbb/blocked_range.h>
@@ -13,6 +14,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <iterator>
 #include <cmath>
 #include <limits>
 
@@ -52,15 +54,9 @@ std::string to_string(TrajectoryStatus s) {
     return "?";
 }
 
-RunPlan plan_ensemble(const Scheme& scheme, std::size_t m, double dt, double t_end, const RunLimits& limits) {
-    RunRequest request;
-    request.dt = dt;
-    request.t_end = t_end;
-    request.every = 0;  // the final state only
-    request.dim = scheme.dim();
-    request.invariants = 1 + scheme.casimirs().size();
-    request.trajectories = std::max<std::size_t>(1, m);
-    return plan_run(request, limits);
+RunPlan plan_ensemble(const Scheme& scheme, std::size_t m, double dt, double t_end, const RunLimits& limits,
+                      const TrajectoryOptions& record) {
+    return plan_run(trajectory_request(scheme, dt, t_end, record, std::max<std::size_t>(1, m)), limits);
 }
 
 std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& X0) {
@@ -77,6 +73,26 @@ std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& 
 
 namespace {
 
+// Where a trajectory's rows go when the ensemble records every `every`-th state and the last (lanes and single
+// steppers alike): its slice of EnsembleResult::record_x, as its single run's observer records them.
+struct RowSink {
+    std::size_t every = 0, dim = 0, records = 0;
+    double* out = nullptr;  // record_x's data
+    std::size_t rows = 0;   // recorded so far by the trajectory on it
+    double* next = nullptr;
+
+    void begin(Eigen::Index i) {
+        rows = 0;
+        if (every) next = out + std::size_t(i) * records * dim;
+    }
+    // the state after step n (N the last)
+    void observe(std::size_t n, std::size_t N, const Eigen::VectorXd& x) {
+        if (every == 0 || (n % every != 0 && n != N)) return;
+        std::copy(x.data(), x.data() + dim, next);
+        next += dim, ++rows;
+    }
+};
+
 // What one worker owns: its copy of the compiled step (reset from the prototype before each trajectory, so
 // a trajectory starts from the state a single run's fresh stepper has), of the run loop (its compiled
 // invariants and scratch), and the state; with batches, the batch step and one run per lane.
@@ -91,8 +107,9 @@ struct Worker {
     std::vector<double> X, increments;        // the batch's states and increments, structure of arrays
     std::vector<double> values, map_scratch;  // the invariants at the lanes' new states (structure of arrays)
     std::vector<StepStatus> status;
+    RowSink rows;  // the recording's shape (every = 0: none); each lane and run_one copy it
 
-    Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes);
+    Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes, const RowSink& sink);
 };
 
 // A row that is not finite: kept as it is, no step taken, its errors NaN.
@@ -106,8 +123,9 @@ void end_non_finite_start(const Eigen::Ref<const RowMatrix>& X0, Eigen::Index i,
 
 // Row i's results: the final (last observed) state x, how the run ended, the invariants' largest errors.
 void record(const Eigen::VectorXd& x, const RunEnd& end, const RunLoop& loop, double residual, double dt,
-            Eigen::Index i, EnsembleResult& r) {
+            Eigen::Index i, EnsembleResult& r, std::size_t rows) {
     EnsembleMember& m = r.members[std::size_t(i)];
+    m.rows = rows;
     r.x.row(i) = x.transpose();
     m.status = status_of(end.status);
     m.steps = end.steps;
@@ -124,15 +142,19 @@ void record(const Eigen::VectorXd& x, const RunEnd& end, const RunLoop& loop, do
     }
 }
 
-// One trajectory: the run loop of pgi::integrate (scheme/run_loop.hpp) with an observer that keeps nothing
-// (the loop leaves x at the last state observed).
+// One trajectory: the run loop of pgi::integrate (scheme/run_loop.hpp) with an observer that keeps the rows asked
+// for, if any (the loop leaves x at the last state observed).
 void run_one(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, double dt, Eigen::Index i,
              EnsembleResult& r) {
     if (!X0.row(i).allFinite()) return end_non_finite_start(X0, i, r);
     w.stepper = *w.prototype;
     w.x = X0.row(i).transpose();
-    const RunEnd end = w.loop.run(w.stepper, w.x, N, [](const RunPoint&) { return false; });
-    record(w.x, end, w.loop, w.stepper.last_residual(), dt, i, r);
+    w.rows.begin(i);
+    const RunEnd end = w.loop.run(w.stepper, w.x, N, [&](const RunPoint& p) {
+        w.rows.observe(p.step, N, p.x);
+        return false;
+    });
+    record(w.x, end, w.loop, w.stepper.last_residual(), dt, i, r, w.rows.rows);
 }
 
 // One trajectory of a batch, stepped by the batch: integrate_steps' TrajectoryState (the compensated sum, the
@@ -145,8 +167,9 @@ struct LaneRun {
     Eigen::VectorXd last;  // the last state observed
     RunEnd end;
     double residual = 0;  // the last step's Newton residual
+    RowSink rows;
 
-    LaneRun(const RunLoop& l, Eigen::Index n) : loop(l), state(n), last(n) {}
+    LaneRun(const RunLoop& l, Eigen::Index n, const RowSink& sink) : loop(l), state(n), last(n), rows(sink) {}
 
     // Starts row i at x0 (finite) for N steps; false when the run ends there (N = 0, an invariant not finite).
     bool begin(Eigen::Index i, const Eigen::VectorXd& x0, std::size_t N, double prototype_residual) {
@@ -156,7 +179,9 @@ struct LaneRun {
         end = RunEnd{};
         residual = prototype_residual;
         loop.begin(x0);
+        rows.begin(i);
         if (!loop.observe(x0, true)) return stop(StepStatus::non_finite);
+        rows.observe(0, N, x0);
         end.started = true;
         return N > 0;
     }
@@ -174,6 +199,7 @@ struct LaneRun {
         end.max_iterations = std::max(end.max_iterations, state.last_iterations());
         end.steps = state.steps();
         last = state.x();
+        rows.observe(end.steps, N, last);
         return state.steps() < N;
     }
     bool stop(StepStatus s) {
@@ -185,11 +211,11 @@ struct LaneRun {
     const Eigen::VectorXd& x() const { return state.x(); }
 };
 
-Worker::Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes)
-    : prototype(&p), stepper(p), loop(l), x(Eigen::Index(p.dim())) {
+Worker::Worker(const NewtonStepper& p, const RunLoop& l, std::size_t batch_lanes, const RowSink& sink)
+    : prototype(&p), stepper(p), loop(l), x(Eigen::Index(p.dim())), rows(sink) {
     if (batch_lanes <= 1) return;
     batch.emplace(p, batch_lanes);
-    lanes.assign(batch_lanes, LaneRun(l, Eigen::Index(p.dim())));
+    lanes.assign(batch_lanes, LaneRun(l, Eigen::Index(p.dim()), sink));
     X.resize(batch_lanes * p.dim());
     increments.resize(X.size());
     values.resize(batch_lanes * l.invariants().num_outputs());
@@ -220,7 +246,7 @@ void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N
                 free.pop_back();
                 busy.push_back(lane);
             } else {
-                record(lane->x(), lane->end, lane->loop, lane->residual, dt, i, r);
+                record(lane->x(), lane->end, lane->loop, lane->residual, dt, i, r, lane->rows.rows);
             }
         }
     };
@@ -238,7 +264,7 @@ void run_batched(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N
                 busy[kept++] = lane;
                 return;
             }
-            record(lane->x(), lane->end, lane->loop, lane->residual, dt, lane->row, r);
+            record(lane->x(), lane->end, lane->loop, lane->residual, dt, lane->row, r, lane->rows.rows);
             free.push_back(lane);
         };
         for (std::size_t j = 0; j < m; ++j)
@@ -262,6 +288,84 @@ void run_chunk(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, 
     for (std::size_t i = begin; i < end; ++i) run_one(w, X0, N, dt, Eigen::Index(i), r);
 }
 
+// The times of a recording run's rows: t_eval, or the steps every `every` and the last (none at every = 0).
+std::vector<double> record_times(const TrajectoryOptions& record, std::size_t N, double dt) {
+    if (!record.t_eval.empty()) return record.t_eval;
+    std::vector<double> t;
+    if (record.every == 0) return t;
+    for (std::size_t n = 0; n <= N; n += record.every) t.push_back(double(n) * dt);
+    if (N % record.every != 0) t.push_back(double(N) * dt);
+    return t;
+}
+
+// Row i's results from its run tr (its single run's): the final state (head: the coordinates; the parameters are
+// constant), how it ended, its errors, its rows, crossings and tangent map into their slices.
+void record_run(Trajectory&& tr, const Eigen::Ref<const RowMatrix>& X0, Eigen::Index i, EnsembleResult& r,
+                std::vector<EnsembleCrossing>& crossings) {
+    const std::size_t n = tr.dim, rows = tr.t.size();
+    EnsembleMember& m = r.members[std::size_t(i)];
+    r.x.row(i) = X0.row(i);
+    r.x.row(i).head(Eigen::Index(n)) = Eigen::Map<const Eigen::RowVectorXd>(tr.x_last.data(), Eigen::Index(n));
+    m.status = status_of(tr.status);
+    m.steps = tr.steps;
+    m.failed_step = tr.failed_step;
+    m.failed_t = tr.failed_t;
+    m.residual = tr.failed_residual;
+    m.newton_iterations_mean = tr.newton_iterations_mean;
+    m.newton_iterations_max = tr.newton_iterations_max;
+    m.energy_warning = tr.energy_warning;
+    m.terminal_event = tr.terminal_event;
+    m.rows = rows;
+    r.energy_error(i) = tr.energy_error_max;
+    for (Eigen::Index c = 0; c < r.casimir_error.cols(); ++c)
+        r.casimir_error(i, c) = tr.casimir_error_max[std::size_t(c)];
+    std::copy(tr.x.begin(), tr.x.end(), r.record_x.begin() + long(std::size_t(i) * r.record_t.size() * n));
+    std::copy(tr.jacobian.begin(), tr.jacobian.end(), r.jacobian.begin() + long(std::size_t(i) * n * n));
+    for (Crossing& c : tr.crossings) {
+        c.x.conservativeResize(Eigen::Index(n));
+        crossings.push_back({std::size_t(i), std::move(c)});
+    }
+}
+
+// A recording run's arrays, shaped for m trajectories of n coordinates and filled with NaN (a trajectory's rows
+// replace them).
+void prepare_records(const TrajectoryOptions& record, const RunPlan& plan, double dt, std::size_t m, std::size_t n,
+                     EnsembleResult& r) {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    r.record_t = record_times(record, plan.steps, dt);
+    r.record_x.assign(m * r.record_t.size() * n, nan);
+    if (record.tangent) r.jacobian.assign(m * n * n, nan);
+}
+
+// The ensemble of a recording run: each thread runs its rows through its copy of one TrajectoryRunner (the single
+// run's code, so each member is its single run bit for bit).
+void run_recording(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, const RunPlan& plan,
+                   const EnsembleOptions& options, const Eigen::VectorXd& typical, EnsembleResult& r) {
+    const std::size_t m = std::size_t(X0.rows());
+    std::vector<std::vector<EnsembleCrossing>> crossings(m);
+    const TrajectoryRunner prototype(scheme, dt, plan, options.record, typical, options.control.cancel);
+    tbb::enumerable_thread_specific<TrajectoryRunner> runners(prototype);
+    const std::size_t chunk = options.chunk ? options.chunk : std::max<std::size_t>(1, m / (8 * r.threads));
+    tbb::task_arena arena(int(r.threads));
+    arena.execute([&] {
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, m, chunk),
+            [&](const tbb::blocked_range<std::size_t>& range) {
+                TrajectoryRunner& runner = runners.local();
+                for (std::size_t i = range.begin(); i < range.end(); ++i) {
+                    const auto row = Eigen::Index(i);
+                    if (!X0.row(row).allFinite()) {
+                        end_non_finite_start(X0, row, r);
+                        continue;
+                    }
+                    record_run(runner.run(X0.row(row).transpose()), X0, row, r, crossings[i]);
+                }
+            },
+            tbb::simple_partitioner());
+    });
+    for (auto& c : crossings) std::move(c.begin(), c.end(), std::back_inserter(r.crossings));
+}
+
 // Lanes per batch when the options leave it open: 16 (two of CompiledMap's 8-lane blocks, measured best on
 // the rigid body, tools/bench/bench_ensemble.py), and none from 40 coordinates on (a lattice's step is its
 // sparse Newton, not the compiled polynomials, and each lane holds a copy of the step).
@@ -278,7 +382,8 @@ RunPlan check_arguments(const Scheme& scheme, const Eigen::Ref<const RowMatrix>&
     if (X0.cols() != n)
         throw InputError(
             "X0", "must have " + std::to_string(n) + " columns (one per coordinate), got " + std::to_string(X0.cols()));
-    const RunPlan plan = plan_ensemble(scheme, std::size_t(X0.rows()), dt, t_end, options.control.limits);
+    const RunPlan plan =
+        plan_ensemble(scheme, std::size_t(X0.rows()), dt, t_end, options.control.limits, options.record);
     const std::size_t most = std::max<std::size_t>(256, 4 * std::size_t(tbb::info::default_concurrency()));
     if (options.threads > most)
         throw InputError("threads", std::to_string(options.threads) + " is above the limit of " + std::to_string(most) +
@@ -306,12 +411,21 @@ EnsembleResult integrate_extended(const Scheme& scheme, const Eigen::Ref<const R
     r.energy_error = Eigen::VectorXd::Zero(m);
     r.casimir_error = RowMatrix::Zero(m, Eigen::Index(scheme.casimirs().size()));
     r.members.resize(std::size_t(m));
+    if (options.record.records()) prepare_records(options.record, plan, dt, std::size_t(m), scheme.dim(), r);
     const auto typical = options.x_typical ? options.x_typical : typical_state(X0);
     if (!typical) {  // no finite row: nothing to build, every row ends non_finite_start
         for (Eigen::Index i = 0; i < m; ++i) end_non_finite_start(X0, i, r);
         return r;
     }
     r.x_typical = *typical;
+    std::optional<tbb::global_control> allow;  // more workers than cores when asked (TBB's limit is the cores)
+    if (r.threads > std::size_t(tbb::info::default_concurrency()))
+        allow.emplace(tbb::global_control::max_allowed_parallelism, r.threads);
+    const TrajectoryOptions& record = options.record;
+    if (record.tangent || !record.events.specs.empty() || !record.t_eval.empty()) {  // else rows on lanes, if any
+        run_recording(scheme, X0, dt, plan, options, *typical, r);
+        return r;
+    }
     const NewtonStepper prototype = scheme.stepper(dt, *typical);
     RunLoop loop(scheme);
     loop.set_cancel(options.control.cancel);
@@ -319,10 +433,9 @@ EnsembleResult integrate_extended(const Scheme& scheme, const Eigen::Ref<const R
     const std::size_t batch = options.batch ? options.batch : default_batch(std::size_t(n));
     const std::size_t chunk = options.chunk ? options.chunk : std::max(batch, std::size_t(m) / (8 * r.threads));
     const std::size_t lanes = std::min(batch, chunk);
-    tbb::enumerable_thread_specific<Worker> workers([&] { return Worker(prototype, loop, lanes); });
-    std::optional<tbb::global_control> allow;  // more workers than cores when asked (TBB's limit is the cores)
-    if (r.threads > std::size_t(tbb::info::default_concurrency()))
-        allow.emplace(tbb::global_control::max_allowed_parallelism, r.threads);
+    RowSink sink;
+    sink.every = record.every, sink.dim = scheme.dim(), sink.records = r.record_t.size(), sink.out = r.record_x.data();
+    tbb::enumerable_thread_specific<Worker> workers([&] { return Worker(prototype, loop, lanes, sink); });
     tbb::task_arena arena(int(r.threads));
     arena.execute([&] {
         tbb::parallel_for(

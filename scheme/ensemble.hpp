@@ -12,6 +12,7 @@
 // ends takes the next row. The numbers stay the single run's bit for bit, whatever the batch size.
 #include "scheme/run_request.hpp"
 #include "scheme/scheme.hpp"
+#include "scheme/trajectory.hpp"
 
 #include <Eigen/Dense>
 
@@ -50,6 +51,11 @@ struct EnsembleOptions {
     /// The scheme's parameter values by name: 1 value (every trajectory) or one per row of X0 (a sweep); the defaults
     /// for those not given (Scheme::parameter_rows).
     ParameterValues parameters;
+    /// What each trajectory records besides its final state and errors (every = 0: nothing, the default): rows every
+    /// `every` steps or at t_eval, the crossings of events, the tangent map. Rows every `every` steps are kept on
+    /// lanes (batch applies); with t_eval, events or a tangent map the trajectories run one at a time per thread,
+    /// each through pgi::integrate's own code (scheme/trajectory_runner.hpp).
+    TrajectoryOptions record = final_state_only();
 };
 
 /// Per trajectory: how it ended and its Newton statistics.
@@ -61,6 +67,14 @@ struct EnsembleMember {
     double newton_iterations_mean = 0;
     int newton_iterations_max = 0;
     bool energy_warning = false;  // energy_drifted(its energy error); never for a non-finite start
+    bool terminal_event = false;  // a terminal event's crossing ended it (status ok)
+    std::size_t rows = 0;         // rows recorded (EnsembleResult::record_x)
+};
+
+/// A crossing of one of the ensemble's events by trajectory `row`.
+struct EnsembleCrossing {
+    std::size_t row = 0;
+    Crossing crossing;  // its x: the coordinates only
 };
 
 struct EnsembleResult {
@@ -72,12 +86,24 @@ struct EnsembleResult {
     Eigen::VectorXd energy_error;  // m: the largest relative error of H over every step (NaN: non-finite start)
     RowMatrix casimir_error;       // m x c: the same for each Casimir
     std::vector<EnsembleMember> members;
+
+    // With options.record (each trajectory's single run's, bit for bit):
+    /// The times of the rows: 0, every dt, 2 every dt, ..., the last step's, or t_eval. With every, a trajectory that
+    /// a terminal crossing ended has that crossing as its last row (at its own t: crossings), as its single run has.
+    std::vector<double> record_t;
+    /// m x record_t.size() x n, row-major: trajectory i's members[i].rows rows, then NaN.
+    std::vector<double> record_x;
+    std::vector<EnsembleCrossing> crossings;  // in order of trajectory, then time
+    /// With record.tangent: m x n x n, row-major: d x(t_last) / d x0 of each trajectory (NaN for a non-finite start).
+    std::vector<double> jacobian;
 };
 
-/// plan_run for an ensemble of m trajectories of scheme (their final states and errors kept): what
+/// plan_run for an ensemble of m trajectories of scheme (their final states and errors kept, and what record asks):
+/// what
 /// integrate_ensemble checks before any work, for a caller that must know it before it holds X0 (a sampler, a
 /// copy). Throws what plan_run throws.
-RunPlan plan_ensemble(const Scheme& scheme, std::size_t m, double dt, double t_end, const RunLimits& limits = {});
+RunPlan plan_ensemble(const Scheme& scheme, std::size_t m, double dt, double t_end, const RunLimits& limits = {},
+                      const TrajectoryOptions& record = final_state_only());
 
 /// The finite row of X0 of largest Euclidean norm (the first of equals): the default x_typical, chosen so
 /// the realisation degree that keeps the truncation below round-off there suffices for the smaller rows.

@@ -41,6 +41,11 @@ void check_domain(const RunRequest& r) {
 
 }  // namespace
 
+std::size_t recorded_steps(std::size_t steps, std::size_t every) {
+    if (every == 0 || steps == 0) return 1;
+    return steps / every + 1 + (steps % every != 0 ? 1 : 0);
+}
+
 RunPlan plan_run(const RunRequest& r, const RunLimits& limits) {
     check_domain(r);
     const double steps = steps_to_reach(r.t_end, r.dt);
@@ -54,12 +59,12 @@ RunPlan plan_run(const RunRequest& r, const RunLimits& limits) {
                                     r.event_samples, RunLimits::max_event_samples));
     RunPlan plan;
     plan.steps = static_cast<std::size_t>(steps);
-    // rows: the start, every `every`-th step, the last; every = 0: the end only; or one per requested time
-    const double rows = r.every == 0 ? 1.0 : std::floor(steps / double(r.every)) + 2;
-    plan.records = r.t_eval.empty() ? static_cast<std::size_t>(std::min(rows, steps + 1)) : r.t_eval.size();
-    // per trajectory: its recorded rows (t, x, the invariants' errors), its start, and about 64 bytes of report
+    plan.records = r.t_eval.empty() ? recorded_steps(plan.steps, r.every) : r.t_eval.size();
+    // per trajectory: its recorded rows (t, x, the invariants' errors), its start, its tangent map, and about 64
+    // bytes of report
     const double per_row = 8.0 * double(1 + r.dim + r.invariants);
-    const double per_trajectory = double(plan.records) * per_row + 8.0 * double(r.dim) + 64;
+    const double per_trajectory = double(plan.records) * per_row + 8.0 * double(r.dim) +
+                                  (r.tangent ? 8.0 * double(r.dim) * double(r.dim) : 0.0) + 64;
     plan.output_mb = double(r.trajectories) * per_trajectory / double(1 << 20);
     if (!(plan.output_mb <= limits.max_output_mb))
         throw RunBudgetError(

@@ -51,18 +51,23 @@ struct RunRequest {
     std::size_t trajectories = 1;
     std::size_t event_samples = 1;
     std::span<const double> t_eval;  // times to record at instead of every `every`-th step (empty: every applies)
+    bool tangent = false;            // each trajectory keeps its tangent map (dim x dim)
 };
 
 /// What the run will do, known before it starts.
 struct RunPlan {
     std::size_t steps = 0;    // whole steps of dt reaching t_end (steps_to_reach)
-    std::size_t records = 0;  // rows recorded per trajectory
+    std::size_t records = 0;  // rows recorded per trajectory (fewer when it ends early)
     double output_mb = 0;     // what the run keeps in memory, all trajectories together
 };
 
 /// Whole steps of size dt that reach t_end: 0 at t_end = 0, else max(1, ceil(t_end / dt - 1e-9)) (the 1e-9
 /// keeps t_end = 10, dt = 0.1 at 100 steps); +inf past what a size_t holds (plan_run refuses it).
 double steps_to_reach(double t_end, double dt);
+
+/// The rows a run of `steps` steps records when it records every `every`-th state and the last (the start, at
+/// steps = 0): steps / every + 1, one more when every does not divide steps; 1 at every = 0 (the end only).
+std::size_t recorded_steps(std::size_t steps, std::size_t every);
 
 /// Checks r (InputError naming "dt", "t_end", "every", "event_samples", "trajectories" or "t_eval" on a value outside
 /// its domain: requested times must be finite, strictly increasing and within [0, t_end]) and its size (RunBudgetError

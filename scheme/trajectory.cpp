@@ -1,8 +1,7 @@
 #include "scheme/trajectory.hpp"
 
-#include "poisson/step_jacobian.hpp"
 #include "scheme/run_loop.hpp"
-#include "scheme/time_output.hpp"
+#include "scheme/trajectory_runner.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -51,12 +50,10 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
                      std::span<const double> t_eval) {
     const std::size_t n = scheme.dim();
     if (every == 0) throw InputError("every", "must be at least 1");
-    RunRequest request;
-    request.dt = dt, request.t_end = t_end, request.every = every, request.dim = n;
-    request.invariants = 1 + scheme.casimirs().size();
-    request.event_samples = events.samples;
-    request.t_eval = t_eval;
-    const RunPlan plan = plan_run(request, control.limits);
+    TrajectoryOptions options;
+    options.every = every, options.events = events, options.tangent = tangent;
+    options.t_eval.assign(t_eval.begin(), t_eval.end());
+    const RunPlan plan = plan_run(trajectory_request(scheme, dt, t_end, options), control.limits);
     if (static_cast<std::size_t>(x0.size()) != n || !x0.allFinite())
         throw InputError("x0", "must have " + std::to_string(n) + " finite values");
     if (x_typical && (x_typical->size() != x0.size() || !x_typical->allFinite()))
@@ -66,89 +63,8 @@ Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt,
     const auto extend = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
         return scheme.extended_states(v.transpose(), P).row(0).transpose();
     };
-    if (tangent)
-        for (const EventSpec& e : events.specs)
-            if (e.terminal)
-                throw InputError("tangent", "not with a terminal event: it ends the run between steps, and the "
-                                            "tangent map is the product of whole steps' Jacobians");
-    std::optional<EventSet> event_set;
-    if (!events.specs.empty()) event_set = EventSet::build(scheme.phase_space(), events.specs, events.naming);
-    NewtonStepper stepper = scheme.stepper(dt, extend(x_typical ? *x_typical : x0));
-    std::optional<EventDetector> detector;
-    if (event_set)
-        detector.emplace(std::move(*event_set),
-                         DenseOutput::build(scheme.structure(), scheme.hamiltonian(), stepper.order()), events.samples);
-    const std::size_t N = plan.steps, C = scheme.casimirs().size();
-    RunLoop loop(scheme);
-    loop.set_cancel(control.cancel);
-    Trajectory r;
-    r.dim = n;
-    Eigen::VectorXd x = extend(x0);
-    // tangent: each step's Jacobian multiplied in after it (of the extended state: w's rows are those of I, so the
-    // coordinates' block of the product is the product of the coordinates' blocks)
-    std::optional<TangentProduct> product;
-    if (tangent) product.emplace(Eigen::Index(stepper.dim()));
-    const auto add_row = [&](double t, const Eigen::VectorXd& y) {
-        r.t.push_back(t);
-        r.x.insert(r.x.end(), y.data(), y.data() + n);
-        r.energy_error.push_back(loop.error(0));
-        for (std::size_t c = 0; c < C; ++c) r.casimir_error.push_back(loop.error(1 + c));
-    };
-    // t_eval: rows by partial steps (the step's own state evaluated again: a partial one may come before it)
-    std::optional<TimeOutput> times;
-    if (!t_eval.empty()) times.emplace(t_eval, dt);
-    StepStatus output = StepStatus::ok;
-    std::size_t output_step = 0;
-    const auto timed_row = [&](const TimeRow& row) {
-        if (!loop.observe_between(row.x)) return false;
-        add_row(row.t, row.x);
-        return true;
-    };
-    auto record = [&](const RunPoint& p) {
-        if (product && p.step > 0) product->after_step(stepper);
-        if (times) {
-            output = times->observe(stepper, p.step, p.t, p.x, timed_row), output_step = p.step;
-            return output != StepStatus::ok;
-        }
-        if (p.step % every != 0 && !p.final) return false;
-        add_row(p.t, p.x);
-        return false;
-    };
-    auto keep = [&](const Crossing& c) {
-        r.crossings.push_back(c);
-        return false;
-    };
-    const RunEnd end = loop.run(stepper, x, N, record, detector ? &*detector : nullptr, keep);
-    if (times && end.ok() && !end.stopped) output = times->finish(stepper, timed_row), output_step = end.steps + 1;
-    r.steps = end.steps;
-    r.status = end.status;
-    r.terminal_event = end.terminal_event;
-    r.newton_iterations_mean = end.mean_iterations;
-    r.newton_iterations_max = end.max_iterations;
-    r.energy_error_max = loop.error_max()[0];
-    r.energy_warning = energy_drifted(r.energy_error_max);
-    r.casimir_error_max.assign(loop.error_max().begin() + 1, loop.error_max().begin() + 1 + long(C));
-    const std::vector<double> drift = loop.drift_per_step();
-    r.casimir_drift_per_step.assign(drift.begin() + 1, drift.begin() + 1 + long(C));
-    if (product) {
-        r.jacobian.resize(n * n);
-        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(r.jacobian.data(), long(n),
-                                                                                          long(n)) =
-            product->product().topLeftCorner(long(n), long(n));
-    }
-    if (output != StepStatus::ok) {  // a partial step to a requested time failed, or an invariant there
-        r.status = output;
-        r.failed_step = output_step;
-        r.failed_t = times->time_before();
-        r.failed_residual = stepper.last_residual();
-        r.message = times->failure_message(stepper, output, loop.non_finite());
-    } else if (!end.ok()) {
-        r.failed_step = end.started ? end.steps + 1 : 0;
-        r.failed_t = double(end.steps) * dt;
-        r.failed_residual = stepper.last_residual();
-        r.message = loop.failure_message(stepper, end);
-    }
-    return r;
+    TrajectoryRunner runner(scheme, dt, plan, options, extend(x_typical ? *x_typical : x0), control.cancel);
+    return runner.run(extend(x0));
 }
 
 }  // namespace pgi

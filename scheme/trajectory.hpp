@@ -61,6 +61,8 @@ struct Trajectory {
     /// With tangent: row-major dim x dim, d x(t_last) / d x0, the product of the Jacobians of the steps taken
     /// (poisson/step_jacobian.hpp); empty without.
     std::vector<double> jacobian;
+    /// The run's last state (dim values): at t_end, or a terminal crossing's, or the last reached before a failure.
+    std::vector<double> x_last;
 };
 
 /// Events watched along a run: g_i(x) = 0 crossed in event i's direction, located on the dense output
@@ -70,6 +72,28 @@ struct TrajectoryEvents {
     std::size_t samples = 1;
     EventNaming naming;  // how errors name an event ("event 1", or Python's "events[0]")
 };
+
+/// What a run records and watches besides its steps: pgi::integrate's arguments, an ensemble's options.
+struct TrajectoryOptions {
+    std::size_t every = 1;  // rows at every `every`-th state and the last; 0: no rows (Trajectory::x_last only)
+    TrajectoryEvents events;
+    bool tangent = false;        // Trajectory::jacobian
+    std::vector<double> t_eval;  // rows at these times instead (every is then ignored)
+    /// Whether the run records more than its final state and errors: rows, crossings or a tangent map.
+    bool records() const { return every > 0 || !events.specs.empty() || tangent || !t_eval.empty(); }
+};
+
+/// Options that record nothing but the final state and the errors: an ensemble's default.
+inline TrajectoryOptions final_state_only() {
+    TrajectoryOptions o;
+    o.every = 0;
+    return o;
+}
+
+/// The request a run with these options makes, for `trajectories` of them (plan_run checks it). Throws InputError
+/// for tangent with a terminal event (which ends the run between steps).
+RunRequest trajectory_request(const Scheme& scheme, double dt, double t_end, const TrajectoryOptions& options,
+                              std::size_t trajectories = 1);
 
 /// Integrates with scheme.stepper(dt, x_typical) (default: x_typical = x0) from x0 over plan_run's
 /// steps_to_reach(t_end, dt) steps, Kahan-summed (integrate_steps), recording every `every`-th state and the last.

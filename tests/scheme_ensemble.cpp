@@ -89,6 +89,92 @@ TEST_CASE("Ensemble: each trajectory equals its single run bit for bit, whatever
     CHECK(one.casimir_error.maxCoeff() < 1e-14);
 }
 
+namespace {
+
+// what a recording ensemble keeps of row i equals its single run with the same options, bit for bit
+void require_recorded_run(const Scheme& scheme, const RowMatrix& X0, const EnsembleResult& r, Eigen::Index i, double dt,
+                          double t_end, const TrajectoryOptions& record) {
+    CAPTURE(i);
+    const std::size_t n = scheme.dim(), records = r.record_t.size();
+    const Trajectory tr = integrate(scheme, X0.row(i).transpose(), dt, t_end, std::max<std::size_t>(1, record.every),
+                                    r.x_typical, record.events, {}, {}, record.tangent, record.t_eval);
+    const EnsembleMember& m = r.members[std::size_t(i)];
+    CHECK(m.status == status_of(tr.status));
+    CHECK(m.terminal_event == tr.terminal_event);
+    CHECK(m.steps == tr.steps);
+    for (std::size_t j = 0; j < n; ++j) CHECK(r.x(i, Eigen::Index(j)) == tr.x_last[j]);
+    CHECK(r.energy_error(i) == tr.energy_error_max);
+    if (record.every > 0 || !record.t_eval.empty()) {
+        REQUIRE(m.rows == tr.t.size());
+        const auto first = r.record_x.begin() + long(std::size_t(i) * records * n);
+        CHECK(std::equal(tr.x.begin(), tr.x.end(), first));
+        CHECK(
+            std::all_of(first + long(tr.x.size()), first + long(records * n), [](double v) { return std::isnan(v); }));
+        for (std::size_t k = 0; k + (tr.terminal_event ? 1 : 0) < tr.t.size(); ++k) CHECK(r.record_t[k] == tr.t[k]);
+    }
+    std::vector<const Crossing*> mine;
+    for (const EnsembleCrossing& c : r.crossings)
+        if (c.row == std::size_t(i)) mine.push_back(&c.crossing);
+    REQUIRE(mine.size() == tr.crossings.size());
+    for (std::size_t k = 0; k < mine.size(); ++k) {
+        CHECK(mine[k]->t == tr.crossings[k].t);
+        CHECK(mine[k]->event == tr.crossings[k].event);
+        CHECK(mine[k]->x == tr.crossings[k].x.head(Eigen::Index(n)));
+    }
+    if (record.tangent)
+        CHECK(std::equal(tr.jacobian.begin(), tr.jacobian.end(), r.jacobian.begin() + long(std::size_t(i) * n * n)));
+}
+
+}  // namespace
+
+TEST_CASE("Ensemble: recorded rows, crossings and tangent maps are each trajectory's single run's bit for bit") {
+    const Scene s = test::bundled("rigid_body");
+    const Scheme& scheme = *s.scheme;
+    RowMatrix X0 = rigid_body_states(9);
+    X0(4, 1) = std::numeric_limits<double>::quiet_NaN();  // a row that is not finite: NaN rows, no crossing
+    const double dt = 0.1, t_end = 3.05;                  // 31 steps: every 7 records 0, 7, ..., 28 and 31
+    std::vector<TrajectoryOptions> asked(4);
+    asked[0].every = 7;
+    asked[1].every = 0, asked[1].t_eval = {0, 0.05, 1.0, 2.37, 3.05};
+    asked[2].every = 5, asked[2].events.specs = {{"x2", 0, false}}, asked[2].tangent = true;
+    asked[3].every = 4, asked[3].events.specs = {{"x2", 0, true}};  // a terminal event ends rows 1-3 only
+    for (const TrajectoryOptions& record : asked) {
+        std::optional<EnsembleResult> first;
+        for (std::size_t threads : {1, 2})
+            for (std::size_t chunk : {1, 0}) {
+                EnsembleOptions o = with(threads, chunk, std::nullopt, chunk ? 1 : 3);  // one at a time, lanes
+                o.record = record;
+                const EnsembleResult r = integrate_ensemble(scheme, X0, dt, t_end, o);
+                if (!first) {
+                    first = r;
+                    for (Eigen::Index i = 0; i < X0.rows(); ++i)
+                        if (i != 4) require_recorded_run(scheme, X0, r, i, dt, t_end, record);
+                    continue;
+                }
+                const auto same = [](double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); };
+                CHECK(std::equal(r.x.data(), r.x.data() + r.x.size(), first->x.data(), same));
+                CHECK(std::equal(r.record_x.begin(), r.record_x.end(), first->record_x.begin(), first->record_x.end(),
+                                 same));
+                CHECK(r.crossings.size() == first->crossings.size());
+            }
+        const EnsembleResult& r = *first;
+        CHECK(r.members[4].status == TrajectoryStatus::non_finite_start);
+        CHECK(r.members[4].rows == 0);
+        if (record.every == 7) CHECK(r.record_t == std::vector<double>{0, 7 * dt, 14 * dt, 21 * dt, 28 * dt, 31 * dt});
+        if (!record.t_eval.empty()) CHECK(r.record_t == record.t_eval);
+        if (!record.events.specs.empty()) CHECK(!r.crossings.empty());
+        if (record.tangent) CHECK(std::isnan(r.jacobian[4 * 9]));
+    }
+    // the terminal event stopped some trajectories before t_end, and not others
+    EnsembleOptions o = with(2);
+    o.record = asked[3];
+    const EnsembleResult r = integrate_ensemble(scheme, X0, dt, t_end, o);
+    const auto ended =
+        std::count_if(r.members.begin(), r.members.end(), [](const EnsembleMember& m) { return m.terminal_event; });
+    CHECK(ended > 0);
+    CHECK(ended == 3);
+}
+
 TEST_CASE("Ensemble: wrong shapes and values are refused before any work") {
     const Scene s = test::bundled("rigid_body");
     const Scheme& scheme = *s.scheme;
@@ -234,6 +320,10 @@ TEST_CASE("Run plan: whole steps reaching t_end, the rows a stride records") {
     const RunPlan p = plan_run(r);
     CHECK(p.steps == 100);   // t_end / dt = 100.00000000000001 is 100 steps
     CHECK(p.records == 16);  // 0, 7, ..., 98 and the last
+    r.every = 10;
+    CHECK(plan_run(r).records == 11);  // 0, 10, ..., 100: the last is one of them
+    r.every = 200;
+    CHECK(plan_run(r).records == 2);  // the start and the last
     r.every = 0;
     CHECK(plan_run(r).records == 1);
     r.t_end = 0;

@@ -79,7 +79,7 @@ TEST_CASE("t_eval: rows between steps keep the Casimirs to round-off") {
 
 TEST_CASE("t_eval: times outside [0, t_end], not increasing or not finite are refused before any work") {
     const Scene s = test::bundled("rigid_body");
-    for (const std::vector<double> times :
+    for (const std::vector<double>& times :
          {std::vector<double>{-0.1}, {0.5, 0.2}, {0.3, 0.3}, {std::nan("")}, {1.0 + 1e-9}, {HUGE_VAL}}) {
         CAPTURE(times[0]);
         try {

@@ -28,9 +28,6 @@ const std::vector<double>& require_x0(const Scene& scene) {
 Eigen::VectorXd to_vector(const std::vector<double>& v) {
     return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size()));
 }
-std::vector<double> to_std(const Eigen::VectorXd& v) {
-    return {v.data(), v.data() + v.size()};
-}
 
 NewtonStepper build_stepper(const Scene& scene) {
     NewtonStepper s =
