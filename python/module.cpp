@@ -459,11 +459,66 @@ Eigen::Map<const pgi::RowMatrix> as_matrix(const py::array_t<double, py::array::
     return {a.data(), Eigen::Index(a.shape(0)), Eigen::Index(a.shape(1))};
 }
 
+// What each trajectory of an ensemble records (pgi::TrajectoryOptions), as integrate_ensemble's arguments give it.
+struct Recording {
+    std::size_t every = 0;
+    std::optional<std::vector<double>> t_eval;
+    std::vector<std::tuple<std::string, int, bool>> events;
+    std::size_t event_samples = 1;
+    bool tangent = false;
+
+    pgi::TrajectoryOptions options() const {
+        pgi::TrajectoryOptions o;
+        o.every = every;
+        if (t_eval) o.t_eval = *t_eval;
+        o.events = trajectory_events(events, event_samples);
+        o.tangent = tangent;
+        return o;
+    }
+};
+
+// A recording ensemble's per-trajectory arrays: rows (x (m, records, n), t, rows), crossings, tangent maps.
+void add_records(py::dict& d, const pgi::EnsembleResult& r, const pgi::TrajectoryOptions& record, py::ssize_t n) {
+    const auto m = static_cast<py::ssize_t>(r.members.size());
+    if (record.every > 0 || !record.t_eval.empty()) {
+        const auto k = static_cast<py::ssize_t>(r.record_t.size());
+        py::array_t<double> x({m, k, n});
+        std::copy(r.record_x.begin(), r.record_x.end(), x.mutable_data());
+        py::array_t<std::size_t> rows(m);
+        for (py::ssize_t i = 0; i < m; ++i) rows.mutable_at(i) = r.members[std::size_t(i)].rows;
+        d["x"] = x;
+        d["t"] = py::array_t<double>(k, r.record_t.data());
+        d["rows"] = rows;
+    }
+    if (!record.events.specs.empty()) {
+        const auto c = static_cast<py::ssize_t>(r.crossings.size());
+        py::array_t<std::size_t> row(c), index(c), step(c);
+        py::array_t<double> t(c), x({c, n});
+        for (py::ssize_t j = 0; j < c; ++j) {
+            const pgi::EnsembleCrossing& e = r.crossings[std::size_t(j)];
+            row.mutable_at(j) = e.row;
+            index.mutable_at(j) = e.crossing.event;
+            step.mutable_at(j) = e.crossing.step;
+            t.mutable_at(j) = e.crossing.t;
+            std::copy(e.crossing.x.data(), e.crossing.x.data() + n, x.mutable_data(j, 0));
+        }
+        py::array_t<bool> terminal(m);
+        for (py::ssize_t i = 0; i < m; ++i) terminal.mutable_at(i) = r.members[std::size_t(i)].terminal_event;
+        d["event_row"] = row, d["event_index"] = index, d["event_t"] = t, d["event_x"] = x, d["event_step"] = step;
+        d["terminal_event"] = terminal;
+    }
+    if (record.tangent) {
+        py::array_t<double> jacobian({m, n, n});
+        std::copy(r.jacobian.begin(), r.jacobian.end(), jacobian.mutable_data());
+        d["jacobian"] = jacobian;
+    }
+}
+
 py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::optional<double> dt_in,
                             std::optional<double> t_end_in, std::size_t threads, std::size_t chunk,
                             std::optional<Eigen::VectorXd> x_typical, std::size_t batch,
                             std::optional<std::size_t> max_steps, std::optional<double> max_output_mb,
-                            const pgi::ParameterValues& parameters) {
+                            const pgi::ParameterValues& parameters, const Recording& recording) {
     const py::array states = ensemble_states(s, X0_in);
     const double dt = s.step_size(dt_in);
     const double t_end = run_length(s, t_end_in);
@@ -475,17 +530,24 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
     options.x_typical = x_typical;
     options.control.limits = limits(max_steps, max_output_mb);
     options.parameters = parameters;
+    options.record = recording.options();
     s.scheme->parameter_rows(parameters, std::size_t(states.shape(0)));  // their checks, before the copy
-    pgi::plan_ensemble(*s.scheme, std::size_t(states.shape(0)), dt, t_end, options.control.limits);  // before the copy
+    pgi::plan_ensemble(*s.scheme, std::size_t(states.shape(0)), dt, t_end, options.control.limits,
+                       options.record);  // before the copy
     const auto X0 = contiguous(states);
     // X0 stays alive (held here) and is only read; the run is C++ only, on a worker, stopped by Ctrl-C
     const auto& scheme = *s.scheme;
     const Eigen::Map<const pgi::RowMatrix> rows = as_matrix(X0);
-    pgi::EnsembleResult r = interruptible([&](const pgi::RunCancel& cancel) {
-        pgi::EnsembleOptions o = options;
-        o.control.cancel = &cancel;
-        return pgi::integrate_ensemble(scheme, rows, dt, t_end, o);
-    });
+    pgi::EnsembleResult r;
+    try {
+        r = interruptible([&](const pgi::RunCancel& cancel) {
+            pgi::EnsembleOptions o = options;
+            o.control.cancel = &cancel;
+            return pgi::integrate_ensemble(scheme, rows, dt, t_end, o);
+        });
+    } catch (const pgi::ParseError& e) {  // a bad event (the other arguments were checked above)
+        throw pgi::InputError("", e.what());
+    }
     const auto m = static_cast<py::ssize_t>(r.members.size());
     py::list status;
     py::array_t<std::size_t> steps(m), failed_step(m);
@@ -494,7 +556,7 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
     py::array_t<bool> energy_warning(m);
     for (py::ssize_t i = 0; i < m; ++i) {
         const auto& e = r.members[std::size_t(i)];
-        status.append(pgi::to_string(e.status));
+        status.append(e.terminal_event ? std::string("terminal_event") : pgi::to_string(e.status));
         steps.mutable_at(i) = e.steps;
         failed_step.mutable_at(i) = e.failed_step;
         failed_t.mutable_at(i) = e.failed_t;
@@ -504,12 +566,15 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
         energy_warning.mutable_at(i) = e.energy_warning;
     }
     py::object x_typ = r.x_typical.size() ? py::cast(r.x_typical) : py::none();
-    return py::dict("x"_a = py::cast(std::move(r.x)), "energy_error"_a = py::cast(std::move(r.energy_error)),
-                    "casimir_error"_a = py::cast(std::move(r.casimir_error)), "status"_a = status, "steps"_a = steps,
-                    "failed_step"_a = failed_step, "failed_t"_a = failed_t, "residual"_a = residual,
-                    "newton_iterations_mean"_a = newton_mean, "newton_iterations_max"_a = newton_max,
-                    "energy_warning"_a = energy_warning, "x_typical"_a = x_typ, "threads"_a = r.threads, "dt"_a = dt,
-                    "t_end"_a = t_end);
+    py::object x_final = py::cast(std::move(r.x));
+    py::dict d("x"_a = x_final, "x_final"_a = x_final, "energy_error"_a = py::cast(std::move(r.energy_error)),
+               "casimir_error"_a = py::cast(std::move(r.casimir_error)), "status"_a = status, "steps"_a = steps,
+               "failed_step"_a = failed_step, "failed_t"_a = failed_t, "residual"_a = residual,
+               "newton_iterations_mean"_a = newton_mean, "newton_iterations_max"_a = newton_max,
+               "energy_warning"_a = energy_warning, "x_typical"_a = x_typ, "threads"_a = r.threads, "dt"_a = dt,
+               "t_end"_a = t_end);
+    add_records(d, r, options.record, py::ssize_t(scheme.dim()));
+    return d;
 }
 
 // f(scheme, X) at the rows X of x (an (m, n) float64 array; InputError naming x), returned as numpy, with the GIL
@@ -569,6 +634,14 @@ PYBIND11_MODULE(_pgi, m) {
     py::register_exception<pgi::NativeCodeError>(m, "NativeCodeError", PyExc_RuntimeError);
 
     // The checked entry points: pgi/__init__.py checks types and ranges first and documents them.
+    py::class_<Recording>(m, "_Recording")  // what an ensemble's trajectories record (pgi/__init__.py checks it)
+        .def(py::init([](std::size_t every, std::optional<std::vector<double>> t_eval,
+                         std::vector<std::tuple<std::string, int, bool>> events, std::size_t event_samples,
+                         bool tangent) {
+                 return Recording{every, std::move(t_eval), std::move(events), event_samples, tangent};
+             }),
+             "every"_a = 0, "t_eval"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{},
+             "event_samples"_a = 1, "tangent"_a = false);
     py::class_<PyScheme>(m, "Scheme")
         .def(py::init(&from_values), "coordinates"_a, "brackets"_a, "hamiltonian"_a,
              "casimirs"_a = std::vector<std::string>{}, "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(),
@@ -643,16 +716,16 @@ PYBIND11_MODULE(_pgi, m) {
              "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
         .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),
              "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none(), "batch"_a = 0, "max_steps"_a = py::none(),
-             "max_output_mb"_a = py::none(), "parameters"_a = pgi::ParameterValues{})
+             "max_output_mb"_a = py::none(), "parameters"_a = pgi::ParameterValues{}, "recording"_a = Recording{})
         .def(
             "_check_ensemble",
             [](const PyScheme& s, std::size_t m, std::optional<double> dt, std::optional<double> t_end,
-               std::optional<std::size_t> max_steps, std::optional<double> max_output_mb) {
+               std::optional<std::size_t> max_steps, std::optional<double> max_output_mb, const Recording& recording) {
                 pgi::plan_ensemble(*s.scheme, m, s.step_size(dt), run_length(s, t_end),
-                                   limits(max_steps, max_output_mb));
+                                   limits(max_steps, max_output_mb), recording.options());
             },
             "m"_a, "dt"_a = py::none(), "t_end"_a = py::none(), "max_steps"_a = py::none(),
-            "max_output_mb"_a = py::none())
+            "max_output_mb"_a = py::none(), "recording"_a = Recording{})
         .def("stats", &stats)
         .def("_vector_field", at_rows(&pgi::vector_field), "x"_a, "parameters"_a = pgi::ParameterValues{})
         .def("_poisson_matrices", at_rows(&pgi::poisson_matrices), "x"_a, "parameters"_a = pgi::ParameterValues{})

@@ -23,6 +23,7 @@ import numpy as _np
 
 from ._pgi import InputError, NativeCodeError, ResourceLimitError, SceneError, __version__
 from ._pgi import Scheme as _Scheme
+from ._pgi import _Recording
 
 __all__ = ["Scheme", "Result", "EnsembleResult", "LyapunovResult", "StepFailure", "EnergyWarning", "InputError", "SceneError", "ResourceLimitError", "NativeCodeError",
            "__version__"]
@@ -121,6 +122,24 @@ def _shown(value):
     """repr(value) for a message, at most about 80 characters (a huge number or string is not echoed whole)."""
     r = repr(value)
     return r if len(r) <= 80 else f"{r[:60]}... ({len(r)} characters)"
+
+
+def _events(events):
+    """events as integrate and integrate_ensemble take them (None, or a list of "g", (g, direction, terminal) or
+    dicts), normalised to (g, direction, terminal) tuples; else InputError naming events or events[i]."""
+    if events is None:
+        return []
+    if isinstance(events, (str, dict)) or not isinstance(events, (list, tuple)):
+        raise InputError(f"events: must be a list of events, got {_shown(events)}")
+    return [_event(i, e) for i, e in enumerate(events)]
+
+
+def _recording(every, t_eval, events, event_samples, tangent):
+    """What each trajectory of an ensemble records, checked: every (None: no rows), t_eval, events, tangent."""
+    return _Recording(every=0 if every is None else _count("every", every, 1, _MAX_COUNT),
+                      t_eval=_times("t_eval", t_eval), events=_events(events),
+                      event_samples=_count("event_samples", event_samples, 1, _MAX_COUNT),
+                      tangent=_flag("tangent", tangent))
 
 
 def _flag(name, v):
@@ -549,11 +568,7 @@ class Scheme:
         states, so its steps, final state and jacobian are those without t_eval. A partial step that fails raises
         StepFailure naming the requested time."""
         n = len(self.coordinates)
-        if events is None:
-            events = []
-        elif isinstance(events, (str, dict)) or not isinstance(events, (list, tuple)):
-            raise InputError(f"events: must be a list of events, got {_shown(events)}")
-        specs = [_event(i, e) for i, e in enumerate(events)]
+        specs = _events(events)
         r = Result(self._core._integrate(_state("x0", x0, n), _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
                                          _count("every", every, 1, _MAX_COUNT), _state("x_typical", x_typical, n), specs,
                                          _count("event_samples", event_samples, 1, _MAX_COUNT),
@@ -565,7 +580,8 @@ class Scheme:
         return r
 
     def integrate_ensemble(self, X0, dt=None, t_end=None, threads=None, chunk=None, x_typical=None, batch=None,
-                           max_steps=None, max_output_mb=None, parameters=None):
+                           max_steps=None, max_output_mb=None, parameters=None, every=None, t_eval=None, events=None,
+                           event_samples=1, tangent=False):
         """Every row of X0 (an (m, n) float64 numpy array; nested lists are converted) over ceil(t_end/dt)
         steps, on `threads` cores (default: all), the GIL released; returns an EnsembleResult. Each row's
         numbers equal integrate(row, dt, t_end, x_typical=result.x_typical) bit for bit, whatever threads and
@@ -578,20 +594,34 @@ class Scheme:
 
         parameters: {name: value or (m,) array}: the scheme's parameter values, one for every trajectory or one per
         row of X0 (a sweep in one call; the defaults for those not given). x_typical (n values) is extended with the
-        row of parameter values of largest norm; result.x_typical holds its coordinates."""
+        row of parameter values of largest norm; result.x_typical holds its coordinates.
+
+        Recording, each trajectory as its single run integrate(row, ..., x_typical=result.x_typical) records it, bit
+        for bit (the trajectories then run one at a time per thread: batch does not apply):
+        every=K or t_eval=times: result.x has shape (m, records, n), the rows at result.t (records,) (0, K dt, ...,
+        the last step's; or t_eval), and result.x_final (m, n) holds the final states; result.rows (m,) counts each
+        trajectory's rows, NaN after them (a failed trajectory; with every, one a terminal event ended has its
+        crossing as its last row, at its event_t, as its single run has). events (as integrate takes them): result.event_row, event_index, event_t,
+        event_x, event_step (one entry per crossing, by trajectory then time), terminal_event (m,) bool; a
+        trajectory a terminal crossing ended has status "terminal_event". tangent=True: result.jacobian (m, n, n).
+        max_output_mb bounds the rows and tangent maps kept, checked before any work."""
         X0 = _states(X0)
         r = EnsembleResult(self._core._integrate_ensemble(
             X0, _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
             _optional_count("threads", threads, 1, _MAX_COUNT) or 0, _optional_count("chunk", chunk, 1, _MAX_COUNT) or 0,
             _state("x_typical", x_typical, len(self.coordinates)), _optional_count("batch", batch, 1, _MAX_COUNT) or 0,
-            **_limits(max_steps, max_output_mb), parameters=_parameter_values(parameters)))
+            **_limits(max_steps, max_output_mb), parameters=_parameter_values(parameters),
+            recording=_recording(every, t_eval, events, event_samples, tangent)))
         _warn_energy(int(r.energy_warning.sum()), len(r.energy_warning), r.dt)
         return r
 
-    def _check_ensemble(self, m, dt=None, t_end=None, max_steps=None, max_output_mb=None):
-        """integrate_ensemble's checks of dt, t_end and the budgets for m rows, without running (pgi.dask)."""
+    def _check_ensemble(self, m, dt=None, t_end=None, max_steps=None, max_output_mb=None, every=None, t_eval=None,
+                        events=None, event_samples=1, tangent=False):
+        """integrate_ensemble's checks of dt, t_end, what is recorded and the budgets for m rows, without running
+        (pgi.dask)."""
         self._core._check_ensemble(m, _positive_float("dt", dt), _nonnegative_float("t_end", t_end),
-                                   **_limits(max_steps, max_output_mb))
+                                   **_limits(max_steps, max_output_mb),
+                                   recording=_recording(every, t_eval, events, event_samples, tangent))
 
     def typical_state(self, X0):
         """The row integrate_ensemble builds its step at by default: the finite row of largest norm (None if none)."""

@@ -74,8 +74,19 @@ class LyapunovResult:
     def __init__(self, d: Mapping[str, Any]) -> None: ...
 
 class EnsembleResult:
-    """An ensemble (Scheme.integrate_ensemble, pgi.dask): per trajectory, arrays of shape (m,), (m, n), (m, c)."""
+    """An ensemble (Scheme.integrate_ensemble, pgi.dask): per trajectory, arrays of shape (m,), (m, n), (m, c);
+    recording, x of shape (m, records, n) and what was asked for (t, rows, event_*, jacobian)."""
     x: _Array
+    x_final: _Array
+    t: _Array
+    rows: npt.NDArray[np.uint64]
+    terminal_event: npt.NDArray[np.bool_]
+    event_row: npt.NDArray[np.uint64]
+    event_index: npt.NDArray[np.uint64]
+    event_t: _Array
+    event_x: _Array
+    event_step: npt.NDArray[np.uint64]
+    jacobian: _Array
     energy_error: _Array
     casimir_error: _Array
     status: npt.NDArray[np.str_]
@@ -151,7 +162,10 @@ class Scheme:
     def integrate_ensemble(self, X0: npt.ArrayLike, dt: float | None = None, t_end: float | None = None,
                            threads: int | None = None, chunk: int | None = None, x_typical: _State | None = None,
                            batch: int | None = None, max_steps: int | None = None,
-                           max_output_mb: float | None = None, parameters: _Parameters | None = None) -> EnsembleResult: ...
+                           max_output_mb: float | None = None, parameters: _Parameters | None = None,
+                           every: int | None = None, t_eval: npt.ArrayLike | None = None,
+                           events: Sequence[_Event] | None = None, event_samples: int = 1,
+                           tangent: bool = False) -> EnsembleResult: ...
     def typical_state(self, X0: npt.ArrayLike) -> _Array | None: ...
     def stats(self) -> dict[str, int]: ...
     def vector_field(self, x: npt.ArrayLike, parameters: _Parameters | None = None) -> _Array: ...

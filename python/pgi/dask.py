@@ -23,8 +23,12 @@ from . import _parameter_values, EnergyWarning, EnsembleResult, InputError, _reb
 
 __all__ = ["integrate_ensemble", "sweep"]
 
-_FIELDS = ("x", "energy_error", "casimir_error", "status", "steps", "failed_step", "failed_t", "residual",
+_FIELDS = ("x", "x_final", "energy_error", "casimir_error", "status", "steps", "failed_step", "failed_t", "residual",
            "newton_iterations_mean", "newton_iterations_max", "energy_warning")
+# what a recording ensemble adds: per trajectory (gathered like _FIELDS), per crossing (event_row shifted by the
+# chunk's first row), and the rows' times (every chunk's)
+_RECORDED_ROWS = ("rows", "terminal_event", "jacobian")
+_RECORDED_EVENTS = ("event_row", "event_index", "event_t", "event_x", "event_step")
 _cache_lock = threading.Lock()
 
 
@@ -42,12 +46,24 @@ def _worker_scheme(description, dt):
         return cache[key]
 
 
-def _run_chunk(description, X0, dt, t_end, x_typical, threads, limits=None, parameters=None):
+def _run_chunk(description, X0, dt, t_end, x_typical, threads, limits=None, parameters=None, record=None):
     with warnings.catch_warnings():  # said once, on the client, for the whole ensemble
         warnings.simplefilter("ignore", EnergyWarning)
         r = _worker_scheme(description, dt).integrate_ensemble(X0, dt=dt, t_end=t_end, threads=threads, x_typical=x_typical,
-                                                               parameters=parameters, **(limits or {}))
-    return {f: getattr(r, f) for f in _FIELDS}
+                                                               parameters=parameters, **(limits or {}), **(record or {}))
+    return {f: v for f, v in vars(r).items() if f in _FIELDS + _RECORDED_ROWS + _RECORDED_EVENTS}
+
+
+def _gather(empty, parts, bounds):
+    """The chunks' results (parts, of rows bounds[i]) as one ensemble's fields, in order (empty: the result on no
+    rows, for the shapes)."""
+    d = {f: _np.concatenate([getattr(empty, f)] + [p[f] for p in parts])
+         for f in _FIELDS + _RECORDED_ROWS + _RECORDED_EVENTS if hasattr(empty, f)}
+    if hasattr(empty, "event_row"):
+        d["event_row"] = _np.concatenate([empty.event_row] + [p["event_row"] + a for p, (a, _) in zip(parts, bounds)])
+    if hasattr(empty, "t"):
+        d["t"] = empty.t
+    return d
 
 
 def _chunk_parameters(parameters, m):
@@ -65,21 +81,22 @@ class _Job:
     """One ensemble's chunks, submitted; collect() gathers them in order."""
 
     @staticmethod
-    def check(scheme, X0, dt, t_end, max_steps, max_output_mb, parameters=None):
-        """Every check of the local run (shape, dtype, dt, t_end, the budgets, the parameters), on no rows and then
-        on all of them, before any work (a chunk is checked again on its worker, with its rows): X0, the empty
-        result and the parameters' slicer."""
+    def check(scheme, X0, dt, t_end, max_steps, max_output_mb, parameters=None, record=None):
+        """Every check of the local run (shape, dtype, dt, t_end, what is recorded, the budgets, the parameters), on
+        no rows and then on all of them, before any work (a chunk is checked again on its worker, with its rows):
+        X0, the empty result and the parameters' slicer."""
         X0 = _states(X0)
         limits = dict(max_steps=max_steps, max_output_mb=max_output_mb)
         rows = _chunk_parameters(parameters, len(X0))
         first = {k: v[:1] for k, v in (rows(0, len(X0)) or {}).items()}  # names and values checked on no rows
-        empty = scheme.integrate_ensemble(X0[:0], dt=dt, t_end=t_end, threads=1, parameters=first or None, **limits)
-        scheme._check_ensemble(len(X0), dt=dt, t_end=t_end, **limits)
+        empty = scheme.integrate_ensemble(X0[:0], dt=dt, t_end=t_end, threads=1, parameters=first or None, **limits,
+                                          **(record or {}))
+        scheme._check_ensemble(len(X0), dt=dt, t_end=t_end, **limits, **(record or {}))
         return X0, empty, rows
 
     def __init__(self, client, scheme, X0, dt, t_end, chunks, threads, retries, max_steps=None, max_output_mb=None,
-                 parameters=None):
-        X0, empty, rows = self.check(scheme, X0, dt, t_end, max_steps, max_output_mb, parameters)
+                 parameters=None, record=None):
+        X0, empty, rows = self.check(scheme, X0, dt, t_end, max_steps, max_output_mb, parameters, record)
         limits = dict(max_steps=max_steps, max_output_mb=max_output_mb)
         if chunks is not None and (isinstance(chunks, (bool, _np.bool_)) or not isinstance(chunks, (int, _np.integer))
                                    or chunks < 1):
@@ -91,7 +108,7 @@ class _Job:
         self.bounds = [(a, min(a + size, self.m)) for a in range(0, self.m, size)]
         token = uuid.uuid4().hex
         self.futures = [client.submit(_run_chunk, scheme.description, _np.ascontiguousarray(X0[a:b]), self.dt,
-                                      self.t_end, self.x_typical, threads, limits, rows(a, b),
+                                      self.t_end, self.x_typical, threads, limits, rows(a, b), record,
                                       key=f"pgi-ensemble-{token}-{i}",
                                       retries=retries, pure=False)
                         for i, (a, b) in enumerate(self.bounds)]
@@ -105,7 +122,7 @@ class _Job:
                 for g in self.futures[i + 1:]:
                     g.cancel()
                 raise RuntimeError(f"pgi.dask: chunk {i} (rows {a}..{b - 1} of X0) failed: {type(e).__name__}: {e}") from e
-        d = {f: _np.concatenate([getattr(self.empty, f)] + [p[f] for p in parts]) for f in _FIELDS}
+        d = _gather(self.empty, parts, self.bounds)
         d.update(x_typical=self.x_typical, threads=None, dt=self.dt, t_end=self.t_end, chunks=len(self.bounds))
         r = EnsembleResult(d)
         _warn_energy(int(r.energy_warning.sum()), len(r.energy_warning), r.dt)
@@ -113,7 +130,8 @@ class _Job:
 
 
 def integrate_ensemble(client, scheme, X0, dt=None, t_end=None, chunks=None, threads=1, retries=2, max_steps=None,
-                       max_output_mb=None, parameters=None):
+                       max_output_mb=None, parameters=None, every=None, t_eval=None, events=None, event_samples=1,
+                       tangent=False):
     """scheme.integrate_ensemble(X0, dt, t_end) on the client's cluster: chunks of `chunks` rows (default:
     about four chunks per worker), each run with `threads` threads on its worker, gathered in order; returns
     a pgi.EnsembleResult with the local run's numbers bit for bit. A chunk whose task raises is rerun
@@ -125,9 +143,13 @@ def integrate_ensemble(client, scheme, X0, dt=None, t_end=None, chunks=None, thr
 
     parameters: as scheme.integrate_ensemble's ({name: a number, or one value per row of X0}), each chunk given its
     rows' values; with parameters, a chunk's step is built at its own rows' largest values, so the numbers equal the
-    local run's to round-off (bit for bit without parameters)."""
+    local run's to round-off (bit for bit without parameters).
+
+    every, t_eval, events, event_samples, tangent: what each trajectory records, as scheme.integrate_ensemble's
+    (x of shape (m, records, n), t, rows, x_final, event_row (rows of X0), ..., jacobian), gathered in order."""
+    record = dict(every=every, t_eval=t_eval, events=events, event_samples=event_samples, tangent=tangent)
     return _Job(client, scheme, X0, dt, t_end, chunks, threads, retries, max_steps, max_output_mb,
-                parameters).collect()
+                parameters, record).collect()
 
 
 def sweep(client, runs, chunks=None, threads=1, retries=2, max_steps=None, max_output_mb=None):

@@ -42,6 +42,20 @@ def test_dask_equals_the_local_run_bit_for_bit(client, make):
     assert all(1 <= n <= 2 for n in counts.values()) and sum(counts.values()) >= 1
 
 
+def test_dask_records_rows_crossings_and_jacobians_as_the_local_run(client):
+    s = pgi.Scheme.from_toml(SCENES / "rigid_body.toml")
+    X0 = states(13)
+    kw = dict(dt=0.1, t_end=2, every=3, events=["x2", ("x1", 1, False)], tangent=True)
+    local = s.integrate_ensemble(X0, threads=2, **kw)
+    d = pgi.dask.integrate_ensemble(client, s, X0, chunks=4, **kw)
+    assert d.x.shape == (13, len(local.t), 3) and len(local.event_row) > 0
+    for f in ("x", "x_final", "t", "rows", "jacobian", "event_row", "event_index", "event_t", "event_x", "event_step",
+              "terminal_event", "status"):
+        assert np.array_equal(getattr(d, f), getattr(local, f), equal_nan=f != "status"), f
+    with pytest.raises(pgi.ResourceLimitError, match="recorded rows"):  # refused before anything is submitted
+        pgi.dask.integrate_ensemble(client, s, X0, dt=1e-4, t_end=1, every=1, max_output_mb=1)
+
+
 def test_sweep_runs_each_ensemble_as_alone(client):
     X0 = states(8)
     runs = [dict(scheme=pgi.Scheme(**{**RIGID_BODY, "order": k}), X0=X0, dt=dt, t_end=1) for k, dt in [(2, 0.1), (4, 0.05)]]
