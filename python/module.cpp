@@ -255,9 +255,10 @@ void report_failure(py::dict& r, const pgi::NewtonStepper& st, pgi::StepStatus s
 }
 
 // One step with its Jacobian (poisson/step_jacobian.hpp): the new state and d x_new / d x, or the failure's report.
-// On the extended state (x, w) at the parameters' defaults: the coordinates' block (w's rows are those of I).
-py::dict step_jacobian(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt_in) {
-    const Eigen::VectorXd x = s.extended(s.state(x_in, "x"), {});
+// On the extended state (x, w) at the parameters' values: the coordinates' block (w's rows are those of I).
+py::dict step_jacobian(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt_in,
+                       const pgi::ParameterValues& parameters) {
+    const Eigen::VectorXd x = s.extended(s.state(x_in, "x"), parameters);
     const double dt = s.step_size(dt_in);
     pgi::NewtonStepper& st = cached_stepper(s, x, dt);
     const pgi::StepWithJacobian j = pgi::step_with_jacobian(st, x, dt);
@@ -394,7 +395,7 @@ py::dict integrate(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std:
 // The Lyapunov spectrum (scheme/lyapunov.hpp): the running estimates' history, the spectrum, the failure's report.
 py::dict lyapunov(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::optional<double> dt_in,
                   std::optional<double> t_end_in, std::size_t every, std::optional<std::size_t> max_steps,
-                  std::optional<double> max_output_mb) {
+                  std::optional<double> max_output_mb, const pgi::ParameterValues& parameters) {
     if (!x0_in && !s.x0) throw pgi::InputError("x0", "missing: give x0 (the scheme has none)");
     const Eigen::VectorXd x0 = s.state(x0_in ? *x0_in : *s.x0, "x0");
     const double dt = s.step_size(dt_in);
@@ -405,7 +406,7 @@ py::dict lyapunov(const PyScheme& s, std::optional<Eigen::VectorXd> x0_in, std::
     const pgi::LyapunovSpectrum l = interruptible([&](const pgi::RunCancel& cancel) {
         pgi::RunControl c = control;
         c.cancel = &cancel;
-        return pgi::lyapunov(scheme, x0, dt, t_end, every, c);
+        return pgi::lyapunov(scheme, x0, dt, t_end, every, c, parameters);
     });
     const auto rows = static_cast<py::ssize_t>(l.t.size()), n = static_cast<py::ssize_t>(l.dim);
     py::array_t<double> exponents({rows, n});
@@ -707,13 +708,13 @@ PYBIND11_MODULE(_pgi, m) {
             },
             "degree"_a)
         .def("_step", &step, "x"_a, "dt"_a = py::none(), "parameters"_a = pgi::ParameterValues{})
-        .def("_step_jacobian", &step_jacobian, "x"_a, "dt"_a = py::none())
+        .def("_step_jacobian", &step_jacobian, "x"_a, "dt"_a = py::none(), "parameters"_a = pgi::ParameterValues{})
         .def("_integrate", &integrate, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
              "x_typical"_a = py::none(), "events"_a = std::vector<std::tuple<std::string, int, bool>>{},
              "event_samples"_a = 1, "max_steps"_a = py::none(), "max_output_mb"_a = py::none(), "tangent"_a = false,
              "parameters"_a = pgi::ParameterValues{}, "t_eval"_a = py::none())
         .def("_lyapunov", &lyapunov, "x0"_a = py::none(), "dt"_a = py::none(), "t_end"_a = py::none(), "every"_a = 1,
-             "max_steps"_a = py::none(), "max_output_mb"_a = py::none())
+             "max_steps"_a = py::none(), "max_output_mb"_a = py::none(), "parameters"_a = pgi::ParameterValues{})
         .def("_integrate_ensemble", &integrate_ensemble, "X0"_a, "dt"_a = py::none(), "t_end"_a = py::none(),
              "threads"_a = 0, "chunk"_a = 0, "x_typical"_a = py::none(), "batch"_a = 0, "max_steps"_a = py::none(),
              "max_output_mb"_a = py::none(), "parameters"_a = pgi::ParameterValues{}, "recording"_a = Recording{})

@@ -55,7 +55,7 @@ private:
 }  // namespace
 
 LyapunovSpectrum lyapunov(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every,
-                          const RunControl& control) {
+                          const RunControl& control, const ParameterValues& parameters) {
     const std::size_t n = scheme.dim();
     if (every == 0) throw InputError("every", "must be at least 1");
     RunRequest request;
@@ -65,10 +65,11 @@ LyapunovSpectrum lyapunov(const Scheme& scheme, const Eigen::VectorXd& x0, doubl
     if (plan.steps == 0) throw InputError("t_end", "must be positive: exponents need at least one step");
     if (static_cast<std::size_t>(x0.size()) != n || !x0.allFinite())
         throw InputError("x0", "must have " + std::to_string(n) + " finite values");
+    const RowMatrix P = scheme.parameter_rows(parameters);
     scheme.require_valid();
-    // the run's state is the extended one (x, w), w the parameters' defaults, constant: the step Jacobian's
+    // the run's state is the extended one (x, w), w the parameters' values, constant: the step Jacobian's
     // coordinates' block is the Jacobian in x (w's rows are those of I)
-    Eigen::VectorXd x = scheme.extended_states(x0.transpose(), scheme.parameter_rows({})).row(0).transpose();
+    Eigen::VectorXd x = scheme.extended_states(x0.transpose(), P).row(0).transpose();
     BenettinFrame frame(level_set_basis(scheme, x));
     NewtonStepper stepper = scheme.stepper(dt, x);
     TangentProduct tangent(Eigen::Index(stepper.dim()));

@@ -32,8 +32,10 @@ struct LyapunovSpectrum {
 /// the wrong length or not finite, t_end = 0, or x0 where the Casimirs' gradients are linearly dependent (a singular
 /// point of the leaves), what plan_run throws (a bad dt or t_end, a run above control.limits), and RunInterrupted
 /// once control.cancel is set. A failed step ends the run (status, failed_step and message say why; the rows hold
-/// what came before). A scheme with parameters runs at their defaults.
+/// what came before). parameters: the values of the scheme's parameters for the run (one each; the defaults where
+/// none is given; InputError as Scheme::parameter_rows throws it), constant along it.
 LyapunovSpectrum lyapunov(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end,
-                          std::size_t every = 1, const RunControl& control = {});
+                          std::size_t every = 1, const RunControl& control = {},
+                          const ParameterValues& parameters = {});
 
 }  // namespace pgi

@@ -28,21 +28,28 @@ std::vector<std::string> momenta_names(const PhaseSpace& M) {
     return out;
 }
 
+// The scene's variables as every exact report names them: its coordinates and, when it has any, its parameters with
+// their exact defaults (the exact phase's polynomials are in both; the parameters are not coordinates of a run).
+json variables(const Scene& scene) {
+    json r{{"coordinates", scene.scheme->coordinates()}};
+    if (!scene.parameters.empty()) {
+        r["parameters"] = json::object();
+        for (const auto& p : scene.parameters) r["parameters"][p.name] = p.value.to_string();
+    }
+    return r;
+}
+
 }  // namespace
 
 json check_report(const Scene& scene) {
     const PhaseSpace& M = scene.phase_space();
     const auto& names = M.coordinates();
     const SchemeChecks& checks = scene.scheme->checks();
-    json r{{"scene", scene.name},
-           {"file", scene.file.string()},
-           {"coordinates", scene.scheme->coordinates()},
-           {"class", to_string(checks.structure_class)},
-           {"skew", true}};
-    if (!scene.parameters.empty()) {  // Casimir coordinates of the exact phase: their defaults, exact
-        r["parameters"] = json::object();
-        for (const auto& p : scene.parameters) r["parameters"][p.name] = p.value.to_string();
-    }
+    json r = variables(scene);
+    r.update({{"scene", scene.name},
+              {"file", scene.file.string()},
+              {"class", to_string(checks.structure_class)},
+              {"skew", true}});
     json jacobi{{"holds", true}};
     if (!checks.jacobi_checked) jacobi = {{"holds", nullptr}, {"skipped", "--trust-jacobi"}};
     if (const auto& f = checks.jacobi)
@@ -80,11 +87,12 @@ json check_report(const Scene& scene) {
 }
 
 json terms_report(const Scene& scene) {
-    return {{"coordinates", scene.phase_space().coordinates()},
-            {"class", to_string(scene.pi.structure_class())},
-            {"realisation", to_string(scene.scheme->realisation_form())},
-            {"order", scene.order},
-            {"S", strings(scene.scheme->terms())}};
+    json r = variables(scene);
+    r.update({{"class", to_string(scene.pi.structure_class())},
+              {"realisation", to_string(scene.scheme->realisation_form())},
+              {"order", scene.order},
+              {"S", strings(scene.scheme->terms())}});
+    return r;
 }
 
 json realisation_report(const Scene& scene, std::size_t D) {
@@ -104,13 +112,15 @@ json magnus_report(const Scene& scene, std::size_t m) {
     Series M = magnus_series(scene.pi, *scene.magnus_h, m);
     std::vector<Poly> terms;
     for (std::size_t j = 0; j <= m; ++j) terms.push_back(M[j]);
-    return {{"coordinates", scene.phase_space().coordinates()}, {"magnus", strings(terms)}};
+    json r = variables(scene);
+    r["magnus"] = strings(terms);
+    return r;
 }
 
 json modified_report(const Scene& scene, std::size_t m) {
-    return {{"coordinates", scene.phase_space().coordinates()},
-            {"order", scene.order},
-            {"modified", strings(scene.scheme->modified_hamiltonian(m))}};
+    json r = variables(scene);
+    r.update({{"order", scene.order}, {"modified", strings(scene.scheme->modified_hamiltonian(m))}});
+    return r;
 }
 
 std::string series_text(const json& r) {

@@ -16,10 +16,14 @@ json lyapunov_report(const Scene& scene, std::size_t every, std::size_t max_step
     if (!scene.x0) throw SceneError(scene.file, "run.x0", "missing: give [run] x0 or --x0");
     if (!scene.t_end) throw SceneError(scene.file, "run.t_end", "missing: give [run] t_end or --t-end");
     const auto start = std::chrono::steady_clock::now();
-    const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.x0->size()));
+    // scene.x0 is extended (the coordinates, then the parameters' values): the run takes them apart
+    const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(scene.x0->data(), Eigen::Index(scene.dim()));
+    ParameterValues parameters;
+    for (std::size_t a = 0; a < scene.parameters.size(); ++a)
+        parameters.push_back({scene.parameters[a].name, {scene.parameter_values[a]}});
     RunControl control;
     control.limits.max_steps = max_steps;
-    const LyapunovSpectrum l = lyapunov(*scene.scheme, x0, scene.dt, *scene.t_end, every, control);
+    const LyapunovSpectrum l = lyapunov(*scene.scheme, x0, scene.dt, *scene.t_end, every, control, parameters);
     json rows = json::array();
     for (std::size_t r = 0; r < l.t.size(); ++r)
         rows.push_back(

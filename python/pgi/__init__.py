@@ -507,32 +507,35 @@ class Scheme:
             raise StepFailure(r["message"], 1, 0.0, r["residual"])
         return r["x"]
 
-    def step_jacobian(self, x, dt=None):
+    def step_jacobian(self, x, dt=None, parameters=None):
         """The derivative of the step of size dt (default: the scheme's) at x (shape (n,)): d step(x) / dx, a numpy
         array of shape (n, n), exact to round-off by the implicit function theorem on the step's equation (not
         finite differences, not a derivative of Newton's iterations; docs/math.md). A Poisson map's: J pi(x) J^T
-        = pi(step(x)) and grad C(step(x)) J = grad C(x) for each Casimir C. The compiled step is step()'s. Raises
-        InputError for a bad x or dt, StepFailure if the step is not solved to round-off."""
+        = pi(step(x)) and grad C(step(x)) J = grad C(x) for each Casimir C. The compiled step is step()'s; parameters
+        as step() takes them (the derivative in x at those values). Raises InputError for a bad x or dt, StepFailure
+        if the step is not solved to round-off."""
         n = len(self.coordinates)
         if x is None:
             raise InputError("x: missing: give the state to step from")
-        r = self._core._step_jacobian(_state("x", x, n), _positive_float("dt", dt))
+        r = self._core._step_jacobian(_state("x", x, n), _positive_float("dt", dt), _parameter_values(parameters))
         if not r["ok"]:
             raise StepFailure(r["message"], 1, 0.0, r["residual"])
         return r["jacobian"]
 
-    def lyapunov(self, x0=None, dt=None, t_end=None, every=1, max_steps=None, max_output_mb=None):
+    def lyapunov(self, x0=None, dt=None, t_end=None, every=1, max_steps=None, max_output_mb=None, parameters=None):
         """Lyapunov exponents of the step of dt from x0 (defaults: the scheme's) over ceil(t_end/dt) steps, by
         Benettin's method: tangent vectors carried by the exact step Jacobian (step_jacobian), re-orthonormalised by
         QR after every step. Returns a LyapunovResult: the estimates every `every` steps and at the last
         (r.t, r.exponents of shape (rows, n)) and r.spectrum (n,). The vectors start tangent to the Casimirs' level
         set at x0 and stay so: the exponents on the leaf come first, those across it are reported as exactly 0.
         Raises InputError for a bad argument (x0 where the Casimirs' gradients are dependent too), ResourceLimitError
-        above max_steps or max_output_mb (as integrate), StepFailure (with .result) if a step fails."""
+        above max_steps or max_output_mb (as integrate), StepFailure (with .result) if a step fails. parameters:
+        {name: value} for the run, as integrate takes them."""
         n = len(self.coordinates)
         r = LyapunovResult(self._core._lyapunov(_state("x0", x0, n), _positive_float("dt", dt),
                                                 _nonnegative_float("t_end", t_end), _count("every", every, 1, _MAX_COUNT),
-                                                **_limits(max_steps, max_output_mb)))
+                                                **_limits(max_steps, max_output_mb),
+                                                parameters=_parameter_values(parameters)))
         if r.status != "ok":
             raise StepFailure(r.message, r.failed_step, r.failed_t, r.residual, r)
         return r

@@ -55,6 +55,31 @@ def test_a_run_with_values_equals_the_scheme_with_the_values_written_in():
     assert s.stats()["terms_builds"] == 1
 
 
+def test_tangent_maps_and_lyapunov_exponents_take_values_as_the_scheme_with_them_written_in():
+    s = rigid_body()
+    x = np.array([0.3, 0.9, -0.2])
+    for w in [("2/5", "7/10", "9/4"), ("1/2", "1", "3/2")]:
+        values = {f"w{i + 1}": float(Fraction(v)) for i, v in enumerate(w)}
+        fixed = rigid_body(w)
+        assert relative(s.step_jacobian(x, parameters=values), fixed.step_jacobian(x)) < 1e-13
+        got = s.lyapunov(x, t_end=50, every=100, parameters=values)
+        want = fixed.lyapunov(x, t_end=50, every=100)
+        assert np.abs(got.spectrum - want.spectrum).max() < 1e-11 and got.spectrum[2] == 0.0
+    other = s.lyapunov(x, t_end=50, every=100, parameters={"w1": 0.4, "w2": 0.7, "w3": 2.25}).spectrum
+    assert np.abs(other - s.lyapunov(x, t_end=50, every=100).spectrum).max() > 1e-3  # the values are used
+    with pytest.raises(pgi.InputError, match="unknown parameter 'I1'"):
+        s.lyapunov(x, t_end=1, parameters={"I1": 2.0})
+    assert s.stats()["terms_builds"] == 1
+
+
+def test_the_command_line_lyapunov_takes_param():
+    from conftest import cli_json
+    scene = SCENES / "rigid_body_parameters.toml"
+    j = cli_json("lyapunov", scene, "--param", "w1=0.4", "--t-end", "20", "--every", "50")
+    want = pgi.Scheme.from_toml(scene).lyapunov(t_end=20, every=50, parameters={"w1": 0.4})
+    assert j["spectrum"] == want.spectrum.tolist()
+
+
 def test_an_ensemble_sweeps_one_value_per_trajectory():
     s = rigid_body()
     m = 200
@@ -124,6 +149,11 @@ def test_the_command_line_takes_param_and_a_parameter_file(tmp_path):
     c = cli_json("check", scene)
     assert c["coordinates"] == ["x1", "x2", "x3"] and c["parameters"] == {"w1": "1/2", "w2": "1", "w3": "3/2"}
     assert "parameters: w1 = 1/2, w2 = 1, w3 = 3/2" in cli("check", scene)[1]
+    for command in ("terms", "modified"):  # the exact reports: polynomials in the coordinates and the parameters
+        j = cli_json(command, scene, "--order", "2")
+        assert j["coordinates"] == ["x1", "x2", "x3"] and j["parameters"] == {"w1": "1/2", "w2": "1", "w3": "3/2"}
+    assert "w1" in cli_json("terms", scene, "--order", "2")["S"][0]
+    assert "parameters" not in cli_json("terms", SCENES / "rigid_body.toml", "--order", "2")
     j = cli_json("integrate", scene, "--param", "w1=0.4", "--param", "w3=2/3", "--t-end", "5")
     assert j["parameters"] == {"w1": 0.4, "w2": 1.0, "w3": 2 / 3}
     r = pgi.Scheme.from_toml(scene).integrate(t_end=5, parameters={"w1": 0.4, "w3": 2 / 3})
