@@ -1,11 +1,12 @@
 #pragma once
 // pgi: Poisson integrators from symplectic groupoids. The one header a program includes
 // (#include <pgi/pgi.hpp>, target pgi::pgi): the Scheme, which owns every exact artefact and the
-// compiled step, and the layers below it (series -> poisson -> magnus -> scheme).
+// compiled step, and the layers below it (series -> poisson -> magnus -> scheme). It leaves out the step's lane
+// kernels (poisson/lanes.hpp, lane_step.hpp, batch_step.hpp: GCC vector extensions, internal to the step and the
+// ensembles; include them by name to use pgi::BatchStepper).
 #include "magnus/magnus.hpp"
 #include "magnus/modified_hamiltonian.hpp"
 #include "poisson/hamilton_jacobi.hpp"
-#include "poisson/batch_step.hpp"
 #include "poisson/integrate.hpp"
 #include "poisson/newton_step.hpp"
 #include "poisson/realisation.hpp"

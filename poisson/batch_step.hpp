@@ -6,6 +6,7 @@
 // lane with its own Newton control as masks. Otherwise the predictor and the first grad and Hess S_dt are evaluated for
 // all states at once (CompiledMap::eval_batch) and Newton goes on state by state (step_predicted). Either way each
 // state's result is its single step's bit for bit.
+#include "poisson/lane_step.hpp"
 #include "poisson/newton_step.hpp"
 
 #include <variant>

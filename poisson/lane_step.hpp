@@ -14,6 +14,7 @@
 #include "poisson/lanes.hpp"
 #include "poisson/realisation_eval.hpp"
 
+#include <variant>
 #include <vector>
 
 namespace pgi {
@@ -72,7 +73,7 @@ private:
 
     double dt_ = 0;
     T x_[N], xb_[N], good_[N], p_[N], r_[N], dx_[N], H_[N * N], pivot_inverse_[N];
-    T lu_[N * N];                      // J's LU factors, or for N <= 3 J^{-1} (factor)
+    T lu_[N * N];  // J's LU factors, or for N <= 3 J^{-1} (factor)
     int hessian_to_[N * N] = {}, hessian_from_[N * N] = {}, hessian_count_ = 0;  // H[to[k]] = gh_[from[k]], k < count
     Mask swaps_[N * (N - 1) / 2 + 1];  // the LU's row exchanges, as masks, in the order it made them
     LaneRealisation<N, T> values_;
@@ -86,6 +87,13 @@ private:
     T previous_{}, previous_residual_{}, good_residual_{}, lambda_{}, x_norm_{}, it_{}, spent_{};
     T ended_code_{};  // what newton returned in this round (a StepStatus as a number), for the lanes in ended_
     Mask running_{}, simplified_{}, second_{}, ended_{};
+};
+
+/// The lane step a NewtonStepper holds (poisson/newton_step.hpp), one of its dimensions.
+struct LaneSteps {
+    template <class Lane>
+    LaneSteps(std::in_place_type_t<Lane> lane, const NewtonStepper& stepper) : step(lane, stepper) {}
+    std::variant<LaneStep<2, double>, LaneStep<3, double>, LaneStep<4, double>, LaneStep<6, double>> step;
 };
 
 }  // namespace pgi

@@ -15,6 +15,9 @@
 // and no Pack crosses pgi's compiled interface by value.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
+// pgi.hpp never includes this header (tests/public_header.cpp checks it): the macro says it was included.
+#define PGI_LANE_KERNELS_INCLUDED 1
+
 namespace pgi::lanes {
 
 // The kernels' arithmetic is inlined whatever GCC's size heuristics say: a call per Pack operation costs more

@@ -1,5 +1,6 @@
 #include "poisson/newton_step.hpp"
 
+#include "poisson/lane_step.hpp"
 #include "poisson/newton_rules.hpp"
 
 #include <algorithm>
@@ -11,6 +12,18 @@
 #include <stdexcept>
 
 namespace pgi {
+
+// Defaulted here, where LaneSteps is defined (series/value_ptr.hpp).
+NewtonStepper::NewtonStepper() = default;
+NewtonStepper::NewtonStepper(const NewtonStepper&) = default;
+NewtonStepper::NewtonStepper(NewtonStepper&&) noexcept = default;
+NewtonStepper& NewtonStepper::operator=(const NewtonStepper&) = default;
+NewtonStepper& NewtonStepper::operator=(NewtonStepper&&) noexcept = default;
+NewtonStepper::~NewtonStepper() = default;
+
+std::size_t NewtonStepper::lane_dimension() const {
+    return lane_ ? realisation_.leading_dimension() : 0;
+}
 
 std::string to_string(StepStatus s) {
     switch (s) {
@@ -112,16 +125,16 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     if (!s.sparse_ && s.realisation_.has_lane_form()) {
         switch (s.realisation_.leading_dimension()) {  // (the coordinates past it step by zero: LaneStep)
             case 2:
-                s.lane_.emplace<LaneStep<2, double>>(s);
+                s.lane_.emplace(std::in_place_type<LaneStep<2, double>>, s);
                 break;
             case 3:
-                s.lane_.emplace<LaneStep<3, double>>(s);
+                s.lane_.emplace(std::in_place_type<LaneStep<3, double>>, s);
                 break;
             case 4:
-                s.lane_.emplace<LaneStep<4, double>>(s);
+                s.lane_.emplace(std::in_place_type<LaneStep<4, double>>, s);
                 break;
             case 6:
-                s.lane_.emplace<LaneStep<6, double>>(s);
+                s.lane_.emplace(std::in_place_type<LaneStep<6, double>>, s);
                 break;
             default:
                 break;
@@ -422,7 +435,7 @@ void NewtonStepper::attach_native(NativePolicy policy) {
 }
 
 StepStatus NewtonStepper::step_now(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment) {
-    if (lane_.index() != 0) return lane_step(x, dt, increment);
+    if (lane_) return lane_step(x, dt, increment);
     if (!begin_step(x, dt)) return StepStatus::non_finite;
     predictor_.eval(x, dt, xb_);
     return solve_from_prediction(x, increment, false);
@@ -442,20 +455,18 @@ StepStatus NewtonStepper::lane_step(const Eigen::VectorXd& x, double dt, Eigen::
     if (increment.size() != x.size()) increment.resize(x.size());
     std::visit(
         [&](auto& lane) {
-            if constexpr (!std::is_same_v<std::decay_t<decltype(lane)>, std::monostate>) {
-                constexpr Eigen::Index N = std::decay_t<decltype(lane)>::dimension;
-                const Eigen::Index passive = x.size() - N;  // (a scheme's parameters: none, mostly)
-                if (passive > 0) std::copy(x.data() + N, x.data() + x.size(), lane.passive());
-                lane.step(*this, x.data(), dt, increment.data(), &status);
-                if (passive > 0) increment.tail(passive).setZero();
-                iterations_ = lane.iterations(0);
-                residual_ = lane.residual(0), tolerance_ = lane.tolerance(0), ratio_ = lane.ratio(0);
-                truncation_ = lane.truncation(0), correction_ = lane.correction(0);
-                for (Eigen::Index i = 0; i < xb_.size(); ++i) xb_[i] = lane.base_point(std::size_t(i), 0);
-                if (std::isfinite(dt)) step_dt_ = dt;
-            }
+            constexpr Eigen::Index N = std::decay_t<decltype(lane)>::dimension;
+            const Eigen::Index passive = x.size() - N;  // (a scheme's parameters: none, mostly)
+            if (passive > 0) std::copy(x.data() + N, x.data() + x.size(), lane.passive());
+            lane.step(*this, x.data(), dt, increment.data(), &status);
+            if (passive > 0) increment.tail(passive).setZero();
+            iterations_ = lane.iterations(0);
+            residual_ = lane.residual(0), tolerance_ = lane.tolerance(0), ratio_ = lane.ratio(0);
+            truncation_ = lane.truncation(0), correction_ = lane.correction(0);
+            for (Eigen::Index i = 0; i < xb_.size(); ++i) xb_[i] = lane.base_point(std::size_t(i), 0);
+            if (std::isfinite(dt)) step_dt_ = dt;
         },
-        lane_);
+        lane_->step);
     return status;
 }
 

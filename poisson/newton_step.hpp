@@ -4,8 +4,8 @@
 // Its build has three named pieces: the realisation's truncation degree (poisson/truncation_degree), the
 // predictor (poisson/predictor), and here Newton with the acceptance test. dt is a run-time argument.
 #include "poisson/dense_algebra.hpp"
+#include "poisson/dt_series.hpp"
 #include "poisson/hamilton_jacobi.hpp"
-#include "poisson/lane_step.hpp"
 #include "poisson/newton_matrix.hpp"
 #include "poisson/predictor.hpp"
 #include "poisson/sparse_hessian.hpp"
@@ -13,6 +13,7 @@
 #include "poisson/truncation_degree.hpp"
 #include "series/native.hpp"
 #include "series/native_tier.hpp"
+#include "series/value_ptr.hpp"
 
 #include <Eigen/Dense>
 
@@ -33,8 +34,21 @@ namespace pgi {
 enum class StepStatus { ok, newton_not_converged, non_finite, truncation_above_bound, ill_conditioned };
 std::string to_string(StepStatus s);
 
+// The step over lanes (poisson/lane_step.hpp: GCC vector extensions), held by NewtonStepper where it exists and
+// defined only where it runs, so this header and pgi.hpp do not pull the lane kernels in.
+template <int N, class T>
+class LaneStep;
+struct LaneSteps;
+
 class NewtonStepper {
 public:
+    NewtonStepper();
+    NewtonStepper(const NewtonStepper&);
+    NewtonStepper(NewtonStepper&&) noexcept;
+    NewtonStepper& operator=(const NewtonStepper&);
+    NewtonStepper& operator=(NewtonStepper&&) noexcept;
+    ~NewtonStepper();
+
     /// Slow, exact: the realisation to the degree dt needs (chosen so the truncated terms are below
     /// round-off at x_typical), asked of realisation (which returns alpha and beta through a p-degree: the
     /// Scheme binds it to its own, built once), the series of the base point, grad S_j and Hess S_j and the
@@ -125,7 +139,7 @@ public:
     /// N when the step is LaneStep<N, double> (the dense step at N = 2, 3, 4, 6 with the so(3), log-canonical or
     /// compiled polynomial realisation; N = 3 for the so(3) form on the first three coordinates whatever dim(), the
     /// others having zero rows), which BatchStepper runs on lanes::width states at once; 0 otherwise.
-    std::size_t lane_dimension() const { return lane_.index() == 0 ? 0 : realisation_.leading_dimension(); }
+    std::size_t lane_dimension() const;
     /// Sizes scratch for the lane kernel (series/compile_lanes.ipp) of the planned maps LaneStep runs on packs: grad
     /// and Hess S_dt, grad S_dt and the predictor. Here, in the baseline library, because a std::vector's growth must
     /// not be compiled for AVX2 (tests/lane_isa.sh).
@@ -176,9 +190,8 @@ private:
     Eigen::VectorXd hessian_;                         // Hess S_dt on its whole pattern (expand_hessian)
     Eigen::MatrixXd hess_, J_, D_;
     DenseAlgebra algebra_;  // the dense path's J, LU and products
-    // the same step over lanes, where it exists (then step() is its one-lane instantiation)
-    std::variant<std::monostate, LaneStep<2, double>, LaneStep<3, double>, LaneStep<4, double>, LaneStep<6, double>>
-        lane_;
+    // the same step over lanes, where it exists (then step() is its one-lane instantiation); empty otherwise
+    ValuePtr<LaneSteps> lane_;
     std::shared_ptr<NativeTier> native_tier_;  // shared with the copies; null once settled or not wanted
     std::uint32_t native_countdown_ = 0;  // steps to the next timed one (wraps: never, in practice, without a tier)
     std::size_t native_maps_ = 0;
