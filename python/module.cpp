@@ -325,12 +325,12 @@ void add_failure(py::dict& r, const Run& run) {
 
 py::dict crossings(const pgi::Trajectory& tr) {
     const auto k = static_cast<py::ssize_t>(tr.crossings.size()), n = static_cast<py::ssize_t>(tr.dim);
-    py::array_t<std::size_t> index(k), step(k);
+    py::array_t<std::int64_t> index(k), step(k);  // numpy's own index type (np.bincount, fancy indexing)
     py::array_t<double> t(k), x({k, n});
     for (py::ssize_t i = 0; i < k; ++i) {
         const pgi::Crossing& c = tr.crossings[std::size_t(i)];
-        index.mutable_at(i) = c.event;
-        step.mutable_at(i) = c.step;
+        index.mutable_at(i) = std::int64_t(c.event);
+        step.mutable_at(i) = std::int64_t(c.step);
         t.mutable_at(i) = c.t;
         std::copy(c.x.data(), c.x.data() + n, x.mutable_data(i, 0));
     }
@@ -485,21 +485,21 @@ void add_records(py::dict& d, const pgi::EnsembleResult& r, const pgi::Trajector
         const auto k = static_cast<py::ssize_t>(r.record_t.size());
         py::array_t<double> x({m, k, n});
         std::copy(r.record_x.begin(), r.record_x.end(), x.mutable_data());
-        py::array_t<std::size_t> rows(m);
-        for (py::ssize_t i = 0; i < m; ++i) rows.mutable_at(i) = r.members[std::size_t(i)].rows;
+        py::array_t<std::int64_t> rows(m);
+        for (py::ssize_t i = 0; i < m; ++i) rows.mutable_at(i) = std::int64_t(r.members[std::size_t(i)].rows);
         d["x"] = x;
         d["t"] = py::array_t<double>(k, r.record_t.data());
         d["rows"] = rows;
     }
     if (!record.events.specs.empty()) {
         const auto c = static_cast<py::ssize_t>(r.crossings.size());
-        py::array_t<std::size_t> row(c), index(c), step(c);
+        py::array_t<std::int64_t> row(c), index(c), step(c);
         py::array_t<double> t(c), x({c, n});
         for (py::ssize_t j = 0; j < c; ++j) {
             const pgi::EnsembleCrossing& e = r.crossings[std::size_t(j)];
-            row.mutable_at(j) = e.row;
-            index.mutable_at(j) = e.crossing.event;
-            step.mutable_at(j) = e.crossing.step;
+            row.mutable_at(j) = std::int64_t(e.row);
+            index.mutable_at(j) = std::int64_t(e.crossing.event);
+            step.mutable_at(j) = std::int64_t(e.crossing.step);
             t.mutable_at(j) = e.crossing.t;
             std::copy(e.crossing.x.data(), e.crossing.x.data() + n, x.mutable_data(j, 0));
         }

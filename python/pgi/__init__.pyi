@@ -79,13 +79,13 @@ class EnsembleResult:
     x: _Array
     x_final: _Array
     t: _Array
-    rows: npt.NDArray[np.uint64]
+    rows: npt.NDArray[np.int64]
     terminal_event: npt.NDArray[np.bool_]
-    event_row: npt.NDArray[np.uint64]
-    event_index: npt.NDArray[np.uint64]
+    event_row: npt.NDArray[np.int64]
+    event_index: npt.NDArray[np.int64]
     event_t: _Array
     event_x: _Array
-    event_step: npt.NDArray[np.uint64]
+    event_step: npt.NDArray[np.int64]
     jacobian: _Array
     energy_error: _Array
     casimir_error: _Array

@@ -54,6 +54,9 @@ def test_recorded_rows_crossings_and_jacobians_are_the_single_runs(kw):
             assert np.array_equal(one.jacobian[i], r.jacobian)
     if "events" in kw:
         assert one.event_row.tolist() == event_rows and len(event_rows) > 0
+        # numpy's index type: counts per trajectory and fancy indexing work as on any index array
+        assert one.event_row.dtype == np.int64 and one.event_index.dtype == np.int64
+        assert np.bincount(one.event_row, minlength=m).tolist() == [event_rows.count(i) for i in range(m)]
     for threads, chunk, batch in [(2, 1, None), (2, None, 1), (3, 4, 3), (1, None, 16)]:
         e = s.integrate_ensemble(X0, dt=0.1, t_end=3.05, threads=threads, chunk=chunk, batch=batch, **kw)
         assert np.array_equal(e.x, one.x, equal_nan=True) and np.array_equal(e.x_final, one.x_final, equal_nan=True)
