@@ -50,9 +50,9 @@ Eigen::Map<Vec<N>> view(Eigen::VectorXd& v) {
 DenseAlgebra::DenseAlgebra(std::size_t n) : n_(static_cast<Eigen::Index>(n)) {
     with_dimension(n_, [&](auto N) {
         if constexpr (N == Eigen::Dynamic)
-            lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(n_);
+            lu_.template emplace<Eigen::PartialPivLU<Eigen::MatrixXd>>(n_);
         else
-            lu_ = LU<N>();
+            lu_.template emplace<LU<N>>();  // in place: no move of a fresh LU's unset storage (GCC warned of it)
     });
 }
 

@@ -24,7 +24,7 @@ using lanes::select;
 
 static_assert(lanes::width == CompiledMap::batch_lanes, "a pack's lanes are one block of CompiledMap::eval_batch");
 
-void eval_dt(const DtSeriesMap& map, const double* in, double dt, double* out, BatchScratch&) {
+[[maybe_unused]] void eval_dt(const DtSeriesMap& map, const double* in, double dt, double* out, BatchScratch&) {
     map.eval(in, dt, out);
 }
 // At the planned dt, the lane kernel compiled in this file (for AVX2 in lane_step_avx2.cpp): what map.eval_batch runs
@@ -39,7 +39,7 @@ void eval_dt(const DtSeriesMap& map, const lanes::PackOf<P>* in, double dt, lane
     else
         map.eval_batch(x, dt, y, lanes::width, scratch);
 }
-void predict(const Predictor& p, const double* x, double dt, double* xb, BatchScratch&) {
+[[maybe_unused]] void predict(const Predictor& p, const double* x, double dt, double* xb, BatchScratch&) {
     p.eval(x, dt, xb);
 }
 // Predictor::eval_batch's operations: the series, then x added.

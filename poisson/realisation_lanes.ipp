@@ -18,7 +18,7 @@ namespace {
 // The compiled map at one state (eval) or at lanes::width (structure of arrays: a Pack array is input v of lane w
 // at v width + w) by the lane kernel compiled in this file, what eval_batch runs on one block: each lane eval's
 // bits. scratch is sized by RealisationEvaluator::lane_scratch (in the baseline library).
-void eval_map(const CompiledMap& map, const double* in, double* out, std::vector<double>&) {
+[[maybe_unused]] void eval_map(const CompiledMap& map, const double* in, double* out, std::vector<double>&) {
     map.eval(in, out);
 }
 template <std::size_t P>

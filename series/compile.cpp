@@ -181,7 +181,7 @@ private:
             if (da == degree) continue;  // t itself
             const std::uint32_t ia = made_.find(a);
             if (ia == MonomialTable::none) continue;
-            if (const std::uint32_t ib = made_.find(b); ib != MonomialTable::none) return {ia, ib};
+            if (const std::uint32_t ib = made_.find(b); ib != MonomialTable::none) return Split{ia, ib, 0, {}};
             if (da > best_degree) best = Split{ia, MonomialTable::none, da, b}, best_degree = da;
         }
         return best;
