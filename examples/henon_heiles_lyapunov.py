@@ -78,6 +78,8 @@ def main(argv=None):
     a = parser.parse_args(argv)
     if not 1 <= a.orbits <= 100_000 or not 0 < a.t_end <= 1e6:
         parser.error("--orbits must be in 1..100000 and --t-end in (0, 1e6]")
+    if a.csv is not None and a.csv.resolve() == a.png.resolve():
+        parser.error(f"{a.csv}: the figure and the crossings cannot be one file: nothing written")
     for target in (a.png, a.csv):
         if target is not None and (target.exists() or not target.parent.is_dir()):
             parser.error(f"{target}: exists already, or its directory does not: nothing written")

@@ -46,5 +46,7 @@ def test_an_existing_output_is_refused_and_left_alone(tmp_path):
     done = run("fig.png", "--orbits", "2", "--t-end", "10", cwd=tmp_path)
     assert done.returncode == 2 and "exists already" in done.stderr
     assert (tmp_path / "fig.png").read_text() == "mine"
+    done = run("same.png", "--csv", "./same.png", "--orbits", "2", "--t-end", "10", cwd=tmp_path)
+    assert done.returncode == 2 and "cannot be one file" in done.stderr and not (tmp_path / "same.png").exists()
     done = run("out.png", "--orbits", "0", cwd=tmp_path)
     assert done.returncode == 2 and "--orbits" in done.stderr and not (tmp_path / "out.png").exists()
