@@ -76,6 +76,7 @@ void BatchStepper::step_lanes(LaneStep<N, Pack>& lane, const double* X, std::siz
             if (v < std::size_t(N))
                 increment[v] = Pack{};  // (every lane written: no uninitialised bits reach the kernel)
         }
+        lane.set_block(j / W);
         lane.step(stepper_.front(), x, dt, increment, st);
         for (std::size_t w = 0; w < count; ++w) {
             status[j + w] = st[w];

@@ -6,7 +6,7 @@
 namespace pgi {
 
 DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs,
-                               double planned_dt) {
+                               double planned_dt, std::size_t slow) {
     DtSeriesMap m;
     m.width_ = terms.empty() ? 0 : terms.front().size();
     std::vector<Poly> stacked;
@@ -18,7 +18,7 @@ DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, cons
         m.powers_.push_back(j);
         stacked.insert(stacked.end(), f.begin(), f.end());
     }
-    if (!stacked.empty()) m.map_ = CompiledMap::build(stacked, inputs);
+    if (!stacked.empty()) m.map_ = CompiledMap::build(stacked, inputs, slow);
     if (planned_dt != 0 && !stacked.empty()) {
         const Rational dt = Rational::from_double(planned_dt);  // exactly the double
         std::vector<Poly> sums;
@@ -27,7 +27,7 @@ DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, cons
             for (const auto& f : terms) c.push_back(f[o]);
             sums.push_back(sum_powers(c, dt, 1));
         }
-        m.planned_ = CompiledMap::build(sums, inputs);
+        m.planned_ = CompiledMap::build(sums, inputs, slow);
         m.planned_dt_ = planned_dt;
     }
     m.stacked_.assign(stacked.size(), 0.0);
@@ -93,11 +93,11 @@ void DtSeriesMap::eval_batch(const double* in, double dt, double* out, std::size
         return;
     }
     if (planned_dt_ != 0 && dt == planned_dt_) {
-        planned_.eval_batch(in, out, m, scratch.map);
+        planned_.eval_batch(in, out, m, scratch.map, &scratch.coefficients);
         return;
     }
     if (scratch.stacked.size() < map_.num_outputs() * m) scratch.stacked.resize(map_.num_outputs() * m);
-    map_.eval_batch(in, scratch.stacked.data(), m, scratch.map);
+    map_.eval_batch(in, scratch.stacked.data(), m, scratch.map, &scratch.coefficients);
     if (!(dt == factors_dt_)) set_factors(dt);
     horner(scratch.stacked.data(), m, out);
 }

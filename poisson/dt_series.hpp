@@ -11,9 +11,11 @@
 
 namespace pgi {
 
-/// The caller's scratch of DtSeriesMap::eval_batch: the stacked blocks of m points and CompiledMap's.
+/// The caller's scratch of DtSeriesMap::eval_batch: the stacked blocks of m points and CompiledMap's, and the
+/// coefficients of maps with slow inputs, kept across calls (one scratch serves the maps of one owner).
 struct BatchScratch {
     std::vector<double> stacked, map;
+    LaneCoefficients coefficients;
 };
 
 class DtSeriesMap {
@@ -21,9 +23,10 @@ public:
     DtSeriesMap() = default;
     /// terms[j - 1] = f_j, each a vector of the same number of polynomials (the width) in the ring
     /// variables inputs lists; the blocks that are identically zero are skipped (S_2 = S_4 = ... = 0).
-    /// planned_dt: the dt at which eval uses the exact sum sum_j dt^j f_j compiled at once (0: none).
+    /// planned_dt: the dt at which eval uses the exact sum sum_j dt^j f_j compiled at once (0: none). The last
+    /// `slow` inputs (a scheme's parameters) are read through the coefficients (CompiledMap's two stages).
     static DtSeriesMap build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs,
-                             double planned_dt = 0);
+                             double planned_dt = 0, std::size_t slow = 0);
 
     std::size_t width() const { return width_; }
     /// Whether every f_j is zero (eval then writes zeros).

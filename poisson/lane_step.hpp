@@ -46,6 +46,9 @@ public:
     void step(const NewtonStepper& stepper, const T* x, double dt, T* increment, StepStatus* status);
     /// The values of the stepper's coordinates past the first N (dim - N of them), for the caller to set.
     T* passive() { return passive_.data(); }
+    /// Which of the caller's blocks of lanes the steps that follow take (a caller stepping several in turn): each
+    /// keeps its own coefficients of the maps read through the passive values (CompiledMap's slow inputs).
+    void set_block(std::size_t b) { dt_maps_.coefficients.set_first_block(b); }
 
     /// Lane w's statistics after the last step (NewtonStepper's last_* accessors).
     int iterations(std::size_t w) const { return static_cast<int>(lanes::lane(iterations_, w)); }

@@ -35,7 +35,8 @@ void eval_dt(const DtSeriesMap& map, const lanes::PackOf<P>* in, double dt, lane
     const auto* x = reinterpret_cast<const double*>(in);
     auto* y = reinterpret_cast<double*>(out);
     if (const CompiledMap* planned = map.planned_at(dt))
-        eval_tape_lanes<lanes::width>(planned->tape(), x, lanes::width, y, lanes::width, scratch.map.data());
+        eval_tape_lanes<lanes::width>(planned->tape(), x, lanes::width, y, lanes::width, scratch.map.data(),
+                                      planned->num_slow_inputs() ? scratch.coefficients.get(*planned, 1) : nullptr);
     else
         map.eval_batch(x, dt, y, lanes::width, scratch);
 }

@@ -115,7 +115,14 @@ Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Po
     Predictor p;
     p.order_ = u.size();
     p.dim_ = M.dim();
-    p.map_ = DtSeriesMap::build(u, M.coordinate_vars(), planned_dt);
+    // the coordinates that end the list and the series leaves alone (a scheme's parameters: constant along a run) are
+    // read through the coefficients
+    const auto moves = [&](std::size_t v) {
+        return std::any_of(u.begin(), u.end(), [v](const std::vector<Poly>& uj) { return !uj[v].is_zero(); });
+    };
+    std::size_t slow = 0;
+    while (slow < M.dim() && !u.empty() && !moves(M.dim() - 1 - slow)) ++slow;
+    p.map_ = DtSeriesMap::build(u, M.coordinate_vars(), planned_dt, slow);
     return p;
 }
 

@@ -91,10 +91,14 @@ CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& 
             with_hessian[j].push_back(j < g.hessian_terms && kept[e] ? hessians[j][e] : zero);
     }
     const bool all_kept = std::all_of(kept.begin(), kept.end(), [](bool k) { return k; });
-    if (g.hessian_terms < S.size() || !all_kept) g.full_hessian = DtSeriesMap::build(hessians, inputs, planned_dt);
-    g.with_hessian = DtSeriesMap::build(with_hessian, inputs, planned_dt);
-    g.gradient = DtSeriesMap::build(newton_grad, inputs, planned_dt);
-    g.gradient_size = DtSeriesMap::build(sizes, inputs);  // read at |x| and |dt|: no planned sum
+    // the passive coordinates that end the list (a scheme's parameters) are read through the coefficients
+    std::size_t slow = 0;
+    while (slow < n && is_passive(n - 1 - slow)) ++slow;
+    if (g.hessian_terms < S.size() || !all_kept)
+        g.full_hessian = DtSeriesMap::build(hessians, inputs, planned_dt, slow);
+    g.with_hessian = DtSeriesMap::build(with_hessian, inputs, planned_dt, slow);
+    g.gradient = DtSeriesMap::build(newton_grad, inputs, planned_dt, slow);
+    g.gradient_size = DtSeriesMap::build(sizes, inputs, 0, slow);  // read at |x| and |dt|: no planned sum
     return g;
 }
 

@@ -13,6 +13,7 @@
 #include <cstring>
 #include <type_traits>
 #include <numeric>
+#include <unordered_map>
 #include <stdexcept>
 
 namespace pgi {
@@ -209,20 +210,17 @@ double term_value(const fmpq_t content, const fmpz_t z) {
 
 }  // namespace
 
-CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vector<std::size_t>& inputs) {
-    CompiledMap c;
-    const std::size_t k = inputs.size();
-    c.num_inputs_ = k;
-    if (outputs.empty()) return c;
+namespace {
+
+// Every term of outputs, in FLINT's order: term(o, its monomial over the input positions (ascending), its
+// coefficient), then row_end(o) after output o's.
+template <class Term, class RowEnd>
+void read_terms(const std::vector<Poly>& outputs, const std::vector<std::size_t>& inputs, Term term, RowEnd row_end) {
     const RingPtr& ring = outputs.front().ring();
     std::vector<long> slot(ring->size(), -1);  // ring variable -> input position
-    for (std::size_t i = 0; i < k; ++i) slot.at(inputs[i]) = static_cast<long>(i);
-
-    // Every term's monomial (the targets, numbered in order of arrival), with its coefficient.
-    MonomialTable targets;
+    for (std::size_t i = 0; i < inputs.size(); ++i) slot.at(inputs[i]) = static_cast<long>(i);
     std::vector<ulong> e;
     std::vector<Power> x;
-    c.row_start_.push_back(0);
     for (std::size_t o = 0; o < outputs.size(); ++o) {
         if (outputs[o].ring() != ring)
             throw std::invalid_argument("pgi::CompiledMap: the outputs belong to different rings");
@@ -257,26 +255,33 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
                     "a coefficient of " +
                     std::to_string(fmpz_sizeinbase(fmpq_numref(outputs[o].term_coeff(std::size_t(t)).get()), 10)) +
                     " digits in output " + std::to_string(o) + " is beyond the double range");
-            c.term_monomial_.push_back(targets.insert(x).first);
-            c.term_coeff_.push_back(coeff);
+            term(o, Exponents(x), coeff);
         }
-        c.row_start_.push_back(static_cast<std::uint32_t>(c.term_coeff_.size()));
+        row_end(o);
     }
-    // The targets made by increasing degree (in order of arrival within a degree), so that the lower ones are
-    // there to split the higher.
+}
+
+// How the targets are made: made[target] is its monomial's number, monomial 1 + k + m is the product of monomials
+// left[m] and right[m].
+struct Chain {
+    std::vector<std::uint32_t> made, left, right;
+};
+
+// The targets made by increasing degree (in order of arrival within a degree), so that the lower ones are there to
+// split the higher; the products then by level (an input is at level 0, a product one above its higher factor), in
+// the order of the chain within a level: a product then never waits on the one just before it (its store and the
+// multiplication's latency), so the products of a level overlap. (Not storing a product that one term alone reads,
+// the term multiplying its two factors itself, measured slower: every term pays one more load.)
+Chain chain_of(const MonomialTable& targets, std::size_t k) {
     std::vector<std::uint32_t> by_degree(targets.count());
     std::iota(by_degree.begin(), by_degree.end(), 0u);
     std::stable_sort(by_degree.begin(), by_degree.end(), [&](std::uint32_t a, std::uint32_t b) {
         return total_degree(targets.exponents(a)) < total_degree(targets.exponents(b));
     });
     MonomialChain chain(k);
-    std::vector<std::uint32_t> made(targets.count());
-    for (std::uint32_t id : by_degree) made[id] = chain.make(targets.exponents(id));
-    for (auto& id : c.term_monomial_) id = made[id];
-    // The products by level (an input is at level 0, a product one above its higher factor), in the order of
-    // the chain within a level: a product then never waits on the one just before it (its store and the
-    // multiplication's latency), so the products of a level overlap. (Not storing a product that one term alone
-    // reads, the term multiplying its two factors itself, measured slower: every term pays one more load.)
+    Chain c;
+    c.made.resize(targets.count());
+    for (std::uint32_t id : by_degree) c.made[id] = chain.make(targets.exponents(id));
     const auto& factors = chain.factors();
     const std::size_t first = 1 + k;
     std::vector<std::uint32_t> level(first + factors.size(), 0);
@@ -290,15 +295,148 @@ CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vect
     std::iota(number.begin(), number.begin() + std::ptrdiff_t(first), 0u);
     for (std::size_t m = 0; m < order.size(); ++m) number[first + order[m]] = static_cast<std::uint32_t>(first + m);
     for (std::uint32_t m : order) {
-        c.left_.push_back(number[factors[m].first]);
-        c.right_.push_back(number[factors[m].second]);
+        c.left.push_back(number[factors[m].first]);
+        c.right.push_back(number[factors[m].second]);
     }
-    for (auto& id : c.term_monomial_) id = number[id];
-    c.group_outputs();
-    c.split_sums();
-    c.set_group_vectors(GroupVectors::automatic);
-    c.mono_.assign(c.num_monomials(), 0.0);
+    for (auto& id : c.made) id = number[id];
     return c;
+}
+
+}  // namespace
+
+void CompiledMap::finish(const std::vector<std::uint32_t>& made, std::vector<std::uint32_t> left,
+                         std::vector<std::uint32_t> right) {
+    for (auto& id : term_monomial_) id = made[id];
+    left_ = std::move(left);
+    right_ = std::move(right);
+    group_outputs();
+    split_sums();
+    set_group_vectors(GroupVectors::automatic);
+    mono_.assign(num_monomials(), 0.0);
+}
+
+CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vector<std::size_t>& inputs) {
+    CompiledMap c;
+    c.num_inputs_ = inputs.size();
+    if (outputs.empty()) return c;
+    MonomialTable targets;  // every term's monomial, numbered in order of arrival
+    c.row_start_.push_back(0);
+    read_terms(
+        outputs, inputs,
+        [&](std::size_t, Exponents x, double coeff) {
+            c.term_monomial_.push_back(targets.insert(x).first);
+            c.term_coeff_.push_back(coeff);
+        },
+        [&](std::size_t) { c.row_start_.push_back(static_cast<std::uint32_t>(c.term_coeff_.size())); });
+    Chain chain = chain_of(targets, inputs.size());
+    c.finish(chain.made, std::move(chain.left), std::move(chain.right));
+    return c;
+}
+
+// Two stages: output o's terms are gathered by their monomial in the other inputs (the fast ones), each such
+// (output, monomial) a slot whose coefficient is the polynomial in the slow inputs its terms make. The fast map is
+// built with slot + 1 as each coefficient (exact in double, never zero), so that its groups and lane rows, laid out
+// as for any map, say which slot each of their coefficients is (take_slots); the slots' polynomials are the
+// coefficient map's rows.
+CompiledMap CompiledMap::build(const std::vector<Poly>& outputs, const std::vector<std::size_t>& inputs,
+                               std::size_t slow) {
+    if (slow > inputs.size()) throw std::invalid_argument("pgi::CompiledMap: more slow inputs than inputs");
+    if (slow == 0 || outputs.empty()) return build(outputs, inputs);
+    const std::size_t k = inputs.size(), fast = k - slow;
+    CompiledMap c, K;
+    c.num_inputs_ = k;
+    K.num_inputs_ = slow;
+    struct SlotTerm {
+        std::uint32_t slot, monomial;
+        double coeff;
+    };
+    std::vector<SlotTerm> slot_terms;
+    MonomialTable targets, slow_targets;
+    std::unordered_map<std::uint32_t, std::uint32_t> slot_of;  // this output's fast monomials -> their slots
+    std::vector<Power> xf, xs;
+    std::uint32_t slots = 0;
+    c.row_start_.push_back(0);
+    read_terms(
+        outputs, inputs,
+        [&](std::size_t, Exponents x, double coeff) {
+            xf.clear(), xs.clear();
+            for (const Power& p : x)
+                if (p.input < fast)
+                    xf.push_back(p);
+                else
+                    xs.push_back({static_cast<std::uint32_t>(p.input - fast), p.exponent});
+            const auto [at, is_new] = slot_of.try_emplace(targets.insert(xf).first, slots);
+            if (is_new) {
+                c.term_monomial_.push_back(at->first);
+                c.term_coeff_.push_back(double(slots++) + 1);
+            }
+            slot_terms.push_back({at->second, slow_targets.insert(xs).first, coeff});
+        },
+        [&](std::size_t) {
+            c.row_start_.push_back(static_cast<std::uint32_t>(c.term_coeff_.size()));
+            slot_of.clear();
+        });
+    std::stable_sort(slot_terms.begin(), slot_terms.end(),
+                     [](const SlotTerm& a, const SlotTerm& b) { return a.slot < b.slot; });
+    K.row_start_.assign(slots + 1, 0);
+    for (const SlotTerm& t : slot_terms) {
+        ++K.row_start_[t.slot + 1];
+        K.term_monomial_.push_back(t.monomial);
+        K.term_coeff_.push_back(t.coeff);
+    }
+    for (std::size_t s = 0; s < slots; ++s) K.row_start_[s + 1] += K.row_start_[s];
+    Chain kc = chain_of(slow_targets, slow);
+    K.finish(kc.made, std::move(kc.left), std::move(kc.right));
+    Chain chain = chain_of(targets, k);
+    c.finish(chain.made, std::move(chain.left), std::move(chain.right));
+    c.slow_ = slow;
+    c.coefficients_.emplace(std::move(K));
+    c.take_slots();
+    return c;
+}
+
+// The slots the built coefficients name (slot + 1; a group's padding 0 names none).
+void CompiledMap::take_slots() {
+    const auto slots = [](const std::vector<double>& coeff) {
+        std::vector<std::uint32_t> s(coeff.size());
+        for (std::size_t t = 0; t < coeff.size(); ++t)
+            s[t] = coeff[t] == 0 ? no_output : static_cast<std::uint32_t>(coeff[t]) - 1;
+        return s;
+    };
+    term_slot_ = slots(term_coeff_);
+    group_slot_ = slots(group_coeff_);
+    lane_slot_ = slots(lane_coeff_);
+    slot_values_.assign(coefficients_->num_outputs(), 0.0);
+    bound_.assign(slow_, 0.0);
+    bound_any_ = false;
+}
+
+// The coefficients at the slow inputs' values slow, unless they hold them already (bit for bit).
+void CompiledMap::bind(const double* slow) const {
+    if (bound_any_ && std::memcmp(slow, bound_.data(), slow_ * sizeof(double)) == 0) return;
+    coefficients_->eval(slow, slot_values_.data());
+    const auto set = [this](const std::vector<std::uint32_t>& slots, std::vector<double>& coeff) {
+        for (std::size_t t = 0; t < slots.size(); ++t) coeff[t] = slots[t] == no_output ? 0.0 : slot_values_[slots[t]];
+    };
+    set(term_slot_, term_coeff_);
+    set(group_slot_, group_coeff_);
+    set(lane_slot_, lane_coeff_);
+    std::copy(slow, slow + slow_, bound_.begin());
+    bound_any_ = true;
+}
+
+std::size_t CompiledMap::lane_cache_size(std::size_t lanes) const {
+    if (slow_ == 0) return 0;
+    return (1 + slow_ + coefficients_->num_outputs() + coefficients_->num_monomials()) * lanes;
+}
+
+double* LaneCoefficients::get(const CompiledMap& map, std::size_t blocks) {
+    auto e = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& x) { return x.map == &map; });
+    if (e == entries_.end()) e = entries_.insert(entries_.end(), Entry{&map, {}});
+    const std::size_t block = map.lane_cache_size(CompiledMap::batch_lanes);
+    if (e->cache.size() < (first_ + blocks) * block)
+        e->cache.resize((first_ + blocks) * block, 0.0);  // (a new block's first value 0: it holds none)
+    return e->cache.data() + first_ * block;
 }
 
 bool processor_has_avx2() {
@@ -545,24 +683,34 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
 }
 
 void CompiledMap::eval(const double* in, double* out) const {
-    if (native_)
+    if (native_) {
         native_(in, out);
-    else
-        eval_with(in, out, mono_.data());
+        return;
+    }
+    if (slow_) bind(in + (num_inputs_ - slow_));
+    eval_with(in, out, mono_.data());
 }
 
-void CompiledMap::eval_batch(const double* in, double* out, std::size_t m, std::vector<double>& scratch) const {
+void CompiledMap::eval_batch(const double* in, double* out, std::size_t m, std::vector<double>& scratch,
+                             LaneCoefficients* kept) const {
     // Blocks of W lanes: the monomials of one block (W num_monomials() doubles) stay in cache whatever m is.
     constexpr std::size_t W = batch_lanes;
     const std::size_t M = num_monomials(), k = num_inputs_, O = num_outputs();
-    if (scratch.size() < (M + k + O) * W) scratch.resize((M + k + O) * W);
+    // with slow inputs, each block's coefficients: kept's, or one cache in scratch that holds none at first
+    const std::size_t cache = lane_cache_size(W), fresh = kept ? 0 : cache;
+    if (scratch.size() < (M + k + O) * W + fresh) scratch.resize((M + k + O) * W + fresh);
     double* mono = scratch.data();
+    double* coefficients = nullptr;
+    if (slow_ && kept) coefficients = kept->get(*this, (m + W - 1) / W);
+    if (slow_ && !kept) coefficients = mono + (M + k + O) * W, coefficients[0] = 0.0;
+    const auto block_cache = [&](std::size_t j) { return kept ? coefficients + j / W * cache : coefficients; };
     std::size_t j = 0;
-    for (; j + W <= m; j += W) eval_tape_lanes<W>(tape(), in + j, m, out + j, m, mono);
+    for (; j + W <= m; j += W) eval_tape_lanes<W>(tape(), in + j, m, out + j, m, mono, block_cache(j));
     const std::size_t rest = m - j;
     if (rest == 0) return;
     double *tin = mono + M * W, *tout = tin + k * W;
-    if (2 * rest < W) {  // a few points left: one at a time costs less than a padded block (eval's own code)
+    if (2 * rest < W &&
+        slow_ == 0) {  // a few points left: one at a time costs less than a padded block (eval's own code)
         for (; j < m; ++j) {
             for (std::size_t v = 0; v < k; ++v) tin[v] = in[v * m + j];
             eval_with(tin, tout, mono);
@@ -573,12 +721,16 @@ void CompiledMap::eval_batch(const double* in, double* out, std::size_t m, std::
     // the last, partial block: its lanes padded with copies of its last point, only the real ones written
     for (std::size_t v = 0; v < k; ++v)
         for (std::size_t w = 0; w < W; ++w) tin[v * W + w] = in[v * m + j + std::min(w, rest - 1)];
-    eval_tape_lanes<W>(tape(), tin, W, tout, W, mono);
+    eval_tape_lanes<W>(tape(), tin, W, tout, W, mono, block_cache(j));
     for (std::size_t o = 0; o < O; ++o)
         for (std::size_t w = 0; w < rest; ++w) out[o * m + j + w] = tout[o * W + w];
 }
 
 void CompiledMap::eval(const long double* in, long double* out, std::vector<long double>& scratch) const {
+    if (slow_) {
+        std::vector<double> slow(in + (num_inputs_ - slow_), in + num_inputs_);
+        bind(slow.data());
+    }
     scratch.resize(num_monomials());
     eval_with(in, out, scratch.data());
 }

@@ -1,6 +1,7 @@
 #pragma once
 // CompiledMap: polynomials compiled once to a floating-point evaluator (heyoka's "build once, step fast").
 #include "series/poly.hpp"
+#include "series/value_ptr.hpp"
 
 #include <array>
 #include <cstdint>
@@ -22,9 +23,38 @@ enum class GroupVectors {
     avx2,
 };
 
+class CompiledMap;
+
+/// The lanes' coefficients of maps with parameters (CompiledMap::build's slow inputs), kept by their caller across
+/// calls, so that a map's coefficients are evaluated again only where a lane's parameter values changed. Entries are
+/// keyed by the map's address: one cache serves the maps of one owner (a stepper's, while it lives).
+class LaneCoefficients {
+public:
+    /// map's cache of `blocks` blocks of CompiledMap::batch_lanes lanes from the first block (below), made (holding no
+    /// lane's values) if new.
+    double* get(const CompiledMap& map, std::size_t blocks);
+    /// The calls that follow evaluate blocks from b on: a caller that steps several blocks of lanes in turn through
+    /// one scratch keeps each block's coefficients apart.
+    void set_first_block(std::size_t b) { first_ = b; }
+
+private:
+    std::size_t first_ = 0;
+    struct Entry {
+        const CompiledMap* map;
+        std::vector<double> cache;
+    };
+    std::vector<Entry> entries_;
+};
+
 /// Several polynomials evaluated together in double: every monomial is formed once, as the product of two
 /// monomials formed before it (the inputs first), and shared by all outputs; coefficients are rounded once
 /// (correctly) at build time. eval() runs no FLINT code and allocates nothing.
+///
+/// Two stages, for parameters: the last `slow` inputs of a map built with them are read through its coefficients
+/// only. Each output is a polynomial in the other inputs whose coefficients are polynomials in the slow ones (a
+/// second, smaller map); those are evaluated when the slow inputs' values change, not at every evaluation, so a map
+/// in (x, w) costs per evaluation about what the same map with w's values written in costs. Its results agree with
+/// that map's to round-off, not bit for bit (the coefficients are sums in double, not rounded once).
 class CompiledMap {
 public:
     CompiledMap() = default;
@@ -32,8 +62,16 @@ public:
     /// fixes the order of eval's input array). Throws std::invalid_argument naming a variable that
     /// an output reads but inputs does not list.
     static CompiledMap build(const std::vector<Poly>& outputs, const std::vector<std::size_t>& inputs);
+    /// The same, the last `slow` of inputs read through the coefficients (two stages, above); slow <= inputs.size().
+    static CompiledMap build(const std::vector<Poly>& outputs, const std::vector<std::size_t>& inputs,
+                             std::size_t slow);
 
     std::size_t num_inputs() const { return num_inputs_; }
+    /// The inputs read through the coefficients (the last ones), 0 for a map built without.
+    std::size_t num_slow_inputs() const { return slow_; }
+    /// The doubles a lane kernel's coefficient cache holds per block of `lanes` points (0 without slow inputs): the
+    /// slow inputs' values it holds coefficients for, the coefficients, and the coefficient map's monomials.
+    std::size_t lane_cache_size(std::size_t lanes) const;
     std::size_t num_outputs() const { return row_start_.empty() ? 0 : row_start_.size() - 1; }
     /// The monomials formed: the constant, the inputs, and the products.
     std::size_t num_monomials() const { return 1 + num_inputs_ + left_.size(); }
@@ -69,7 +107,10 @@ public:
     /// The points are taken batch_lanes at a time (the last block padded), so scratch holds
     /// (num_monomials() + num_inputs() + num_outputs()) batch_lanes doubles whatever m is; it is resized when
     /// too small: reused, it allocates nothing. Unlike eval(), thread-safe (all scratch is the caller's).
-    void eval_batch(const double* in, double* out, std::size_t m, std::vector<double>& scratch) const;
+    /// With slow inputs, each point has its own: kept (when given) holds the blocks' coefficients across calls,
+    /// otherwise they are evaluated anew at each call.
+    void eval_batch(const double* in, double* out, std::size_t m, std::vector<double>& scratch,
+                    LaneCoefficients* kept = nullptr) const;
     static constexpr std::size_t batch_lanes = 8;
 
     /// A grouped output's terms for the lanes (split_sums): from start, quads going into partial sums 0..3, then
@@ -93,12 +134,33 @@ public:
         const std::array<std::uint32_t, 4>* group_output;
         const std::uint32_t *group_start, *group_monomial;
         const double* group_coeff;
+        /// With slow inputs (the last `slow`): the lane kernel reads term t's coefficient, lane by lane, as
+        /// coefficient term_slot[t] (lane_slot for the lane rows) of `coefficients` at the lane's slow inputs.
+        std::size_t slow;
+        const CompiledMap* coefficients;
+        const std::uint32_t *term_slot, *lane_slot;
     };
     Tape tape() const {
-        return {num_inputs_,          left_.size(),          num_outputs(),          left_.data(),
-                right_.data(),        row_start_.data(),     term_monomial_.data(),  term_coeff_.data(),
-                lane_row_.data(),     lane_monomial_.data(), lane_coeff_.data(),     group_output_.size(),
-                group_output_.data(), group_start_.data(),   group_monomial_.data(), group_coeff_.data()};
+        return {num_inputs_,
+                left_.size(),
+                num_outputs(),
+                left_.data(),
+                right_.data(),
+                row_start_.data(),
+                term_monomial_.data(),
+                term_coeff_.data(),
+                lane_row_.data(),
+                lane_monomial_.data(),
+                lane_coeff_.data(),
+                group_output_.size(),
+                group_output_.data(),
+                group_start_.data(),
+                group_monomial_.data(),
+                group_coeff_.data(),
+                slow_,
+                coefficients_.operator->(),
+                term_slot_.data(),
+                lane_slot_.data()};
     }
     static constexpr std::size_t group_width = 4;
     static constexpr std::uint32_t no_output = UINT32_MAX;
@@ -108,24 +170,36 @@ public:
 
 private:
     std::size_t num_inputs_ = 0;
+    // two stages: the coefficient map (slow inputs -> one value per slot), the slot of each coefficient below
+    // (no_output for a group's padding), and the slow inputs' values the coefficients hold (none at first)
+    std::size_t slow_ = 0;
+    ValuePtr<CompiledMap> coefficients_;
+    std::vector<std::uint32_t> term_slot_, group_slot_, lane_slot_;
+    mutable std::vector<double> bound_, slot_values_;
+    mutable bool bound_any_ = false;
     std::vector<std::uint32_t> left_, right_;  // monomial 1 + k + m = monomial[left_[m]] * monomial[right_[m]]
     std::vector<std::uint32_t> row_start_, term_monomial_;
-    std::vector<double> term_coeff_;
+    mutable std::vector<double> term_coeff_;  // (mutable: a map with slow inputs binds its coefficients in eval)
     // groups of up to group_width outputs read together: group g's terms group_start_[g] .. group_start_[g + 1] - 1,
     // term t reading monomial group_monomial_[t] times group_coeff_[t group_width + i] for its output i
     std::vector<std::array<std::uint32_t, group_width>> group_output_;
     std::vector<std::uint32_t> group_start_, group_monomial_;
-    std::vector<double> group_coeff_;
+    mutable std::vector<double> group_coeff_;
     // the lanes' terms of a grouped output (LaneRow): eval_with's sums without the zeros
     std::vector<LaneRow> lane_row_;
     std::vector<std::uint32_t> lane_monomial_;
-    std::vector<double> lane_coeff_;
+    mutable std::vector<double> lane_coeff_;
     mutable std::vector<double> mono_;
     bool fours_ = false;  // eval() sums the groups on AVX2 (series/compile_avx2.cpp)
     std::shared_ptr<const void> native_library_;
     NativeEval native_ = nullptr;
     void group_outputs();
     void split_sums();
+    // term_monomial_ holding target numbers: made[target] its monomial, left and right the products
+    void finish(const std::vector<std::uint32_t>& made, std::vector<std::uint32_t> left,
+                std::vector<std::uint32_t> right);
+    void take_slots();
+    void bind(const double* slow) const;
     template <class T>
     void eval_with(const T* in, T* out, T* mono) const;
 };

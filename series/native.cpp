@@ -610,7 +610,8 @@ NativePlan plan_native(const std::vector<CompiledMap*>& maps, const NativeOption
         const std::size_t size = m.num_terms() + m.num_monomials();
         if (m.native()) {
             ++plan.native;
-        } else if (m.num_outputs() > 0 && size <= options.max_map_size && size <= budget) {
+        } else if (m.num_outputs() > 0 && m.num_slow_inputs() == 0 && size <= options.max_map_size &&
+                   size <= budget) {  // (a map with slow inputs binds its coefficients at run time: interpreted)
             plan.todo.push_back(i);
             budget -= size;
         }

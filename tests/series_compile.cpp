@@ -1,6 +1,7 @@
 // CompiledMap::eval_batch: m points at once in structure-of-arrays layout, each lane bit for bit eval()'s.
 #include "series/compile.hpp"
 #include "series/poly.hpp"
+#include "poisson/realisation_eval.hpp"  // absolute_coefficients
 
 #include <doctest/doctest.h>
 
@@ -204,6 +205,101 @@ TEST_CASE(
             CAPTURE(point);
             CAPTURE(o);
             CHECK(bits(fours[o]) == bits(pairs[o]));
+        }
+    }
+}
+
+namespace {
+
+// Outputs in x, y, z whose coefficients are polynomials in p, q: the grouped outputs (groups of four on shared
+// monomials) times p - 2 q^2 / 3 + 1/5, plus the next one times q, and a term in p alone.
+std::vector<Poly> parameterised_outputs(const RingPtr& r, std::mt19937& gen) {
+    const std::vector<Poly> g = grouped_outputs(r, gen);
+    const Poly p = Poly::gen(r, 3), q = Poly::gen(r, 4);
+    const Poly a = p - Poly::constant(r, Rational(2, 3)) * q * q + Poly::constant(r, Rational(1, 5));
+    std::vector<Poly> outputs;
+    for (std::size_t i = 0; i < g.size(); ++i) outputs.push_back(g[i] * a + g[(i + 1) % g.size()] * q + p * p * p);
+    return outputs;
+}
+
+// out[o] against the whole map's at the same point: within 1e-14 of the sum of its terms' sizes (the sizes' map at
+// |in|), the round-off of two sums of those terms in a different order.
+void check_close(const std::vector<double>& got, const std::vector<double>& want, const std::vector<double>& size) {
+    for (std::size_t o = 0; o < got.size(); ++o) {
+        CAPTURE(o);
+        CHECK(std::abs(got[o] - want[o]) <= 1e-14 * size[o]);
+    }
+}
+
+}  // namespace
+
+TEST_CASE("compile: a map read through its slow inputs' coefficients equals the whole map to round-off") {
+    const auto r = make_ring({"x", "y", "z", "p", "q"});
+    std::mt19937 gen(7);
+    const std::vector<Poly> outputs = parameterised_outputs(r, gen);
+    std::vector<Poly> abs_outputs;
+    for (const Poly& f : outputs) abs_outputs.push_back(absolute_coefficients(f));
+    const std::vector<std::size_t> inputs{0, 1, 2, 3, 4};
+    const CompiledMap whole = CompiledMap::build(outputs, inputs), sizes = CompiledMap::build(abs_outputs, inputs);
+    const CompiledMap two = CompiledMap::build(outputs, inputs, 2);
+    REQUIRE(two.num_slow_inputs() == 2);
+    REQUIRE(two.num_outputs() == whole.num_outputs());
+    CHECK(two.lane_cache_size(8) > 0);
+    CHECK(whole.lane_cache_size(8) == 0);
+    // the point of two stages: an evaluation costs what the map with p, q written in costs, far less than the whole
+    CHECK(2 * two.num_terms() < whole.num_terms());
+    CHECK_THROWS_AS(CompiledMap::build(outputs, inputs, 6), std::invalid_argument);
+
+    const std::size_t O = whole.num_outputs();
+    std::uniform_real_distribution<double> coordinate(-1.5, 1.5), parameter(-2.0, 2.0);
+    std::vector<double> got(O), want(O), size(O), first(O);
+    const auto at = [&](const std::vector<double>& in) {
+        std::vector<double> magnitude(in.size());
+        for (std::size_t v = 0; v < in.size(); ++v) magnitude[v] = std::abs(in[v]);
+        whole.eval(in.data(), want.data());
+        sizes.eval(magnitude.data(), size.data());
+        two.eval(in.data(), got.data());
+    };
+    SUBCASE("one point at a time, the parameters changing between evaluations") {
+        const std::vector<double> x0{0.3, -1.1, 0.7, 1.25, -0.5};
+        at(x0);
+        check_close(got, want, size);
+        first = got;
+        for (int trial = 0; trial < 20; ++trial) {
+            std::vector<double> in{coordinate(gen), coordinate(gen), coordinate(gen), parameter(gen), parameter(gen)};
+            if (trial % 2) in[3] = x0[3], in[4] = x0[4];  // the same parameters as before at another point, or others
+            at(in);
+            check_close(got, want, size);
+        }
+        at(x0);  // back to the first parameters: their coefficients again, the same bits
+        for (std::size_t o = 0; o < O; ++o) CHECK(bits(got[o]) == bits(first[o]));
+        std::vector<long double> lin(x0.begin(), x0.end()), lout(O), lscratch;
+        two.eval(lin.data(), lout.data(), lscratch);
+        for (std::size_t o = 0; o < O; ++o) CHECK(std::abs(double(lout[o]) - first[o]) <= 1e-14 * size[o]);
+    }
+    SUBCASE("points in lanes, each with its own parameters: each lane gives eval's bits") {
+        LaneCoefficients kept;
+        std::vector<double> scratch;
+        for (std::size_t m : {1, 3, 8, 19}) {
+            std::vector<double> in(5 * m), out(O * m), point(5);
+            for (std::size_t j = 0; j < m; ++j)
+                for (std::size_t v = 0; v < 5; ++v) in[v * m + j] = v < 3 ? coordinate(gen) : parameter(gen);
+            for (int call = 0; call < 3; ++call) {
+                if (call == 2) in[3 * m + m - 1] += 0.25;  // one lane's parameter changes: its block evaluated anew
+                LaneCoefficients* cache = call == 0 ? nullptr : &kept;
+                two.eval_batch(in.data(), out.data(), m, scratch, cache);
+                for (std::size_t j = 0; j < m; ++j) {
+                    for (std::size_t v = 0; v < 5; ++v) point[v] = in[v * m + j];
+                    at(point);
+                    check_close(got, want, size);
+                    for (std::size_t o = 0; o < O; ++o) {
+                        CAPTURE(m);
+                        CAPTURE(j);
+                        CAPTURE(call);
+                        CHECK(bits(out[o * m + j]) == bits(got[o]));
+                    }
+                }
+            }
         }
     }
 }
