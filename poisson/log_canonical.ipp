@@ -49,8 +49,8 @@ PGI_LANE_INLINE T expm1_near(const T& u, const T& u0, const T& em1_0) {
 // if given, u_j and e^{u_j/2} - 1 (for log_canonical_check near this point).
 template <class T, class Put>
 void RealisationEvaluator::log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put, T* exponent,
-                                                     T* em1_at) const {
-    for (std::size_t j = 0; j < n_; ++j) {
+                                                     T* em1_at, std::size_t count) const {
+    for (std::size_t j = 0; j < (count < n_ ? count : n_); ++j) {
         T u{};
         for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
             const int l = a_pattern_.inner[std::size_t(k)];
@@ -75,8 +75,8 @@ void RealisationEvaluator::log_canonical_derivatives(const T* x, const T* p, T* 
 // delta alone, as log_canonical_check writes it.
 template <class T>
 void RealisationEvaluator::log_canonical_delta(const T* x, const T* p, T* delta, const T* exponent_near,
-                                               const T* em1_near) const {
-    for (std::size_t j = 0; j < n_; ++j) {
+                                               const T* em1_near, std::size_t count) const {
+    for (std::size_t j = 0; j < (count < n_ ? count : n_); ++j) {
         T u{};
         for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
             const int l = a_pattern_.inner[std::size_t(k)];
@@ -95,8 +95,8 @@ void RealisationEvaluator::log_canonical_delta(const T* x, const T* p, T* delta,
 // then calls no exponential.
 template <class T>
 void RealisationEvaluator::log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift,
-                                               const T* exponent_near, const T* em1_near) const {
-    for (std::size_t j = 0; j < n_; ++j) {
+                                               const T* exponent_near, const T* em1_near, std::size_t count) const {
+    for (std::size_t j = 0; j < (count < n_ ? count : n_); ++j) {
         T u{}, w{};
         for (int k = a_pattern_.outer[j]; k < a_pattern_.outer[j + 1]; ++k) {
             const int l = a_pattern_.inner[std::size_t(k)];

@@ -55,6 +55,73 @@ void push_derivatives(const std::vector<Poly>& f, const SparsePattern& pattern, 
 
 }  // namespace
 
+namespace {
+
+// The polynomial form's compiled maps on the first `count` coordinates (the components alpha_i, delta_i for i < count,
+// read at x_0..x_{count-1}, p_0..p_{count-1}): alpha, delta and their derivatives where a component holds the variable
+// (alpha_i and delta_i together); the acceptance test's values alpha - x (check's shift: alpha = x + shift) and the
+// neglected parts, the sizes (every coefficient made positive), and delta apart (the Newton step reads it once, at the
+// base point it accepts and polishes).
+struct PolynomialMaps {
+    SparsePattern pattern_x, pattern_p;
+    CompiledMap map, values, size, delta;
+    std::size_t outputs = 0;
+};
+PolynomialMaps polynomial_maps(const PhaseSpace& M, const std::vector<Poly>& alpha, const std::vector<Poly>& delta,
+                               const std::vector<Poly>& neglected, std::size_t count) {
+    std::vector<std::size_t> xs, ps;
+    for (std::size_t i = 0; i < count; ++i) xs.push_back(M.x(i)), ps.push_back(M.p(i));
+    std::vector<std::size_t> inputs = xs;
+    inputs.insert(inputs.end(), ps.begin(), ps.end());
+    const std::vector<Poly> a(alpha.begin(), alpha.begin() + std::ptrdiff_t(count)),
+        d(delta.begin(), delta.begin() + std::ptrdiff_t(count));
+    std::vector<std::vector<std::size_t>> used(count);
+    for (std::size_t i = 0; i < count; ++i) {
+        used[i] = used_variables(a[i]);
+        const auto u = used_variables(d[i]);
+        used[i].insert(used[i].end(), u.begin(), u.end());
+    }
+    PolynomialMaps m;
+    m.pattern_x = derivative_pattern(used, xs);
+    m.pattern_p = derivative_pattern(used, ps);
+    std::vector<Poly> outputs = a;
+    outputs.insert(outputs.end(), d.begin(), d.end());
+    for (const auto* f : {&a, &d}) push_derivatives(*f, m.pattern_x, xs, outputs);
+    for (const auto* f : {&a, &d}) push_derivatives(*f, m.pattern_p, ps, outputs);
+    m.map = CompiledMap::build(outputs, inputs);
+    std::vector<Poly> values, sizes;
+    for (std::size_t i = 0; i < count; ++i) values.push_back(a[i] - M.x_gen(i));
+    values.insert(values.end(), neglected.begin(), neglected.end());
+    for (const auto& f : a) sizes.push_back(absolute_coefficients(f));
+    m.values = CompiledMap::build(values, inputs);
+    m.size = CompiledMap::build(sizes, inputs);
+    m.delta = CompiledMap::build(d, inputs);
+    m.outputs = std::max(outputs.size(), values.size());
+    return m;
+}
+
+// The leading coordinates that read every other: n less the trailing ones the realisation leaves alone (alpha_w = x_w,
+// delta_w = 0) whose x_w and p_w no leading component nor neglected part reads.
+std::size_t leading_coordinates(const PhaseSpace& M, const std::vector<Poly>& alpha, const std::vector<Poly>& delta,
+                                const std::vector<Poly>& neglected) {
+    const std::size_t n = M.dim();
+    std::size_t lead = n;
+    while (lead > 0 && alpha[lead - 1] == M.x_gen(lead - 1) && delta[lead - 1].is_zero()) --lead;
+    const auto reads_trailing = [&](const Poly& f) {
+        for (std::size_t v : used_variables(f))
+            for (std::size_t w = lead; w < n; ++w)
+                if (v == M.x(w) || v == M.p(w)) return true;
+        return false;
+    };
+    for (std::size_t i = 0; i < lead; ++i)
+        if (reads_trailing(alpha[i]) || reads_trailing(delta[i])) return n;
+    for (const Poly& f : neglected)
+        if (reads_trailing(f)) return n;
+    return lead;
+}
+
+}  // namespace
+
 RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi, const Realisation& r,
                                                       const std::vector<Poly>& neglected) {
     const PhaseSpace& M = pi.phase_space();
@@ -64,38 +131,24 @@ RealisationEvaluator RealisationEvaluator::polynomial(const PoissonStructure& pi
         alpha.push_back(r.alpha[i].sum());
         delta.push_back(r.beta[i].sum() - alpha.back());  // the odd part, times -2: its own expression
     }
-    std::vector<std::size_t> xs, ps, inputs;
-    for (std::size_t i = 0; i < n; ++i) xs.push_back(M.x(i)), ps.push_back(M.p(i));
-    inputs = xs;
-    inputs.insert(inputs.end(), ps.begin(), ps.end());
-    // the derivatives only where a component holds the variable: alpha_i and delta_i together
-    std::vector<std::vector<std::size_t>> used(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        used[i] = used_variables(alpha[i]);
-        const auto d = used_variables(delta[i]);
-        used[i].insert(used[i].end(), d.begin(), d.end());
-    }
     RealisationEvaluator e;
     e.n_ = n;
     e.form_ = Form::polynomial;
-    e.pattern_x_ = derivative_pattern(used, xs);
-    e.pattern_p_ = derivative_pattern(used, ps);
-    std::vector<Poly> outputs = alpha;
-    outputs.insert(outputs.end(), delta.begin(), delta.end());
-    for (const auto* f : {&alpha, &delta}) push_derivatives(*f, e.pattern_x_, xs, outputs);
-    for (const auto* f : {&alpha, &delta}) push_derivatives(*f, e.pattern_p_, ps, outputs);
-    e.map_ = CompiledMap::build(outputs, inputs);
-    // the acceptance test's values: alpha - x (check's shift; alpha = x + shift), the neglected parts; delta apart (the
-    // Newton step reads it once, at the base point it accepts and polishes)
-    std::vector<Poly> values, sizes;
-    for (std::size_t i = 0; i < n; ++i) values.push_back(alpha[i] - M.x_gen(i));
-    values.insert(values.end(), neglected.begin(), neglected.end());
-    for (const auto& a : alpha) sizes.push_back(absolute_coefficients(a));
-    e.values_map_ = CompiledMap::build(values, inputs);
-    e.size_map_ = CompiledMap::build(sizes, inputs);
-    e.delta_map_ = CompiledMap::build(delta, inputs);
+    PolynomialMaps all = polynomial_maps(M, alpha, delta, neglected, n);
+    e.pattern_x_ = std::move(all.pattern_x);
+    e.pattern_p_ = std::move(all.pattern_p);
+    e.map_ = std::move(all.map);
+    e.values_map_ = std::move(all.values);
+    e.size_map_ = std::move(all.size);
+    e.delta_map_ = std::move(all.delta);
     e.in_.resize(static_cast<Eigen::Index>(2 * n));
-    e.out_.resize(static_cast<Eigen::Index>(std::max(outputs.size(), values.size())));
+    e.out_.resize(static_cast<Eigen::Index>(all.outputs));
+    e.lead_ = leading_coordinates(M, alpha, delta, neglected);
+    if (e.lead_ < n) {
+        PolynomialMaps lead = polynomial_maps(M, alpha, delta, neglected, e.lead_);
+        e.leading_ = {std::move(lead.pattern_x), std::move(lead.pattern_p), std::move(lead.map),
+                      std::move(lead.values),    std::move(lead.size),      std::move(lead.delta)};
+    }
     return e;
 }
 
@@ -103,6 +156,9 @@ RealisationEvaluator RealisationEvaluator::log_canonical(const PoissonStructure&
     RealisationEvaluator e;
     const std::size_t n = pi.dim();
     e.n_ = n;
+    // the trailing coordinates with zero rows (a scheme's parameters): alpha_w = x_w, and no u_j reads them
+    e.lead_ = n;
+    while (e.lead_ > 0 && pi.row_support(e.lead_ - 1).empty()) --e.lead_;
     e.form_ = Form::log_canonical;
     // a_lj != 0 exactly where pi_jl != 0: the structure's pattern, symmetric
     std::vector<std::vector<int>> columns(n), with_diagonal(n);
@@ -181,7 +237,7 @@ constexpr std::size_t coth_terms = 12;
 RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& pi, std::size_t D) {
     const auto n = static_cast<Eigen::Index>(pi.dim());
     RealisationEvaluator e;
-    e.n_ = pi.dim();
+    e.n_ = e.lead_ = pi.dim();
     e.form_ = Form::lie_poisson;
     e.C_ = structure_matrices(pi);
     for (std::size_t m = 0; m <= D; ++m) e.b_.push_back((bernoulli(m) * inverse_factorial(m)).to_double());
@@ -243,7 +299,7 @@ RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) 
     const auto block = rotation_block(pi);
     if (!block) throw std::invalid_argument("RealisationEvaluator::rotation: pi is not of so(3) type");
     RealisationEvaluator e;
-    e.n_ = pi.dim();
+    e.n_ = e.lead_ = pi.dim();
     e.form_ = Form::rotation;
     e.C_ = structure_matrices(pi);
     // the even Bernoulli coefficients b_2j = B_2j/(2j)!, j = 1..20, for h(s) near s = 0
@@ -301,7 +357,8 @@ LaneMapScratch<T> RealisationEvaluator::lane_scratch() const {
     s.out.resize(std::max({map_.num_outputs(), values_map_.num_outputs(), n_}));
     if constexpr (!std::is_same_v<T, double>) {
         std::size_t block = 0;
-        for (const CompiledMap* m : {&map_, &values_map_, &size_map_, &delta_map_})
+        for (const CompiledMap* m : {&map_, &values_map_, &size_map_, &delta_map_, &leading_.map, &leading_.values,
+                                     &leading_.size, &leading_.delta})
             block = std::max(block, m->num_monomials() + m->num_inputs() + m->num_outputs());
         s.map.resize(block * CompiledMap::batch_lanes);
     }

@@ -109,10 +109,12 @@ public:
     bool has_lane_form() const {
         return form_ == Form::rotation || form_ == Form::log_canonical || form_ == Form::polynomial;
     }
-    /// The leading coordinates eval_lanes, check_lanes and delta_lanes act on (their N): every one but for the so(3)
-    /// form, whose three coordinates when they lead the others (which it leaves alone: alpha_w = x_w, delta_w = 0).
+    /// The leading coordinates eval_lanes, check_lanes and delta_lanes act on (their N): for the so(3) form its three
+    /// coordinates when they lead the others (which it leaves alone: alpha_w = x_w, delta_w = 0); for the
+    /// log-canonical and polynomial forms every coordinate but the trailing ones they leave alone and no other
+    /// component reads (a scheme's parameters).
     std::size_t leading_dimension() const {
-        return form_ == Form::rotation && block_[0] == 0 && block_[1] == 1 && block_[2] == 2 ? 3 : n_;
+        return form_ == Form::rotation && block_[0] == 0 && block_[1] == 1 && block_[2] == 2 ? 3 : lead_;
     }
     /// eval's alpha, delta, alpha_x and alpha_p (and check's values) on N coordinates (all, or leading_dimension()
     /// of them), for lanes::width states at once or one (poisson/realisation_lanes.ipp): each lane's numbers are those
@@ -138,15 +140,17 @@ public:
 private:
     enum class Form { polynomial, log_canonical, lie_poisson, rotation };
     void eval_log_canonical(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
-    template <class T, class Put>  // (poisson/log_canonical.ipp)
+    // (poisson/log_canonical.ipp) on the first `count` coordinates, all by default
+    template <class T, class Put>
     void log_canonical_derivatives(const T* x, const T* p, T* alpha, T* delta, Put put, T* exponent = nullptr,
-                                   T* em1 = nullptr) const;
+                                   T* em1 = nullptr, std::size_t count = SIZE_MAX) const;
     template <class T>
     void log_canonical_delta(const T* x, const T* p, T* delta, const T* exponent_near = nullptr,
-                             const T* em1_near = nullptr) const;
+                             const T* em1_near = nullptr, std::size_t count = SIZE_MAX) const;
     template <class T>
     void log_canonical_check(const T* x, const T* p, T* alpha, T* delta, T* size, T* shift,  // (delta may be null)
-                             const T* exponent_near = nullptr, const T* em1_near = nullptr) const;
+                             const T* exponent_near = nullptr, const T* em1_near = nullptr,
+                             std::size_t count = SIZE_MAX) const;
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     /// so(3) on its three coordinates (x3, p3: their values; the blocks 3 x 3, column-major): eval_lanes' alpha,
@@ -183,6 +187,14 @@ private:
     CompiledMap values_map_;  // polynomial: alpha - x, then the neglected parts
     CompiledMap size_map_;    // polynomial: alpha with every coefficient replaced by its absolute value
     CompiledMap delta_map_;   // polynomial: delta alone
+    // log-canonical and polynomial: the leading coordinates the lane forms act on (leading_dimension), and when they
+    // are fewer than n_, the polynomial form's patterns and maps on them alone
+    std::size_t lead_ = 0;
+    struct LeadMaps {
+        SparsePattern pattern_x, pattern_p;
+        CompiledMap map, values, size, delta;
+    };
+    LeadMaps leading_;
     mutable Eigen::VectorXd in_, out_, u_, v_prev_, v_next_;
     mutable Eigen::MatrixXd L_, W_prev_, W_next_, power_, tmp_;
     // Lie-Poisson, scaling and squaring: Z, its square, Q and its next, a^2, and dQ/dp_j for each j

@@ -234,24 +234,28 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
     if (form_ == Form::log_canonical) {  // (poisson/log_canonical.ipp; delta's derivatives not kept)
         for (auto& e : v.alpha_x) e = T{};
         for (auto& e : v.alpha_p) e = T{};
-        log_canonical_derivatives(x, p, v.alpha, v.delta, LanePut<N, T>{v}, v.exponent, v.em1);
+        log_canonical_derivatives(x, p, v.alpha, v.delta, LanePut<N, T>{v}, v.exponent, v.em1, std::size_t(N));
         return;
     }
-    // the compiled polynomial form: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
+    // the compiled polynomial form: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_), on
+    // the leading coordinates' maps when N is fewer than all
+    const bool lead = std::size_t(N) < n_;
+    const SparsePattern &pattern_x = lead ? leading_.pattern_x : pattern_x_,
+                        &pattern_p = lead ? leading_.pattern_p : pattern_p_;
     for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
-    eval_map(map_, s.in.data(), s.out.data(), s.map);
+    eval_map(lead ? leading_.map : map_, s.in.data(), s.out.data(), s.map);
     const T* o = s.out.data();
     for (int i = 0; i < N; ++i) v.alpha[i] = o[i], v.delta[i] = o[N + i];
     for (auto& e : v.alpha_x) e = T{};
     for (auto& e : v.alpha_p) e = T{};
-    const std::size_t nx = pattern_x_.nonzeros();
+    const std::size_t nx = pattern_x.nonzeros();
     const T* ax = o + 2 * N;
     const T* ap = ax + 2 * nx;
     for (std::size_t col = 0; col < std::size_t(N); ++col) {
-        for (int k = pattern_x_.outer[col]; k < pattern_x_.outer[col + 1]; ++k)
-            v.alpha_x[std::size_t(pattern_x_.inner[std::size_t(k)]) + N * col] = ax[k];
-        for (int k = pattern_p_.outer[col]; k < pattern_p_.outer[col + 1]; ++k)
-            v.alpha_p[std::size_t(pattern_p_.inner[std::size_t(k)]) + N * col] = ap[k];
+        for (int k = pattern_x.outer[col]; k < pattern_x.outer[col + 1]; ++k)
+            v.alpha_x[std::size_t(pattern_x.inner[std::size_t(k)]) + N * col] = ax[k];
+        for (int k = pattern_p.outer[col]; k < pattern_p.outer[col + 1]; ++k)
+            v.alpha_p[std::size_t(pattern_p.inner[std::size_t(k)]) + N * col] = ap[k];
     }
 }
 
@@ -283,17 +287,18 @@ void RealisationEvaluator::check_lanes(const T* x, const T* p, LaneCheck<N, T>& 
     }
     if (form_ == Form::log_canonical) {
         log_canonical_check(x, p, c.alpha, with_delta ? c.delta : nullptr, c.size, c.shift,
-                            near ? near->exponent : nullptr, near ? near->em1 : nullptr);
+                            near ? near->exponent : nullptr, near ? near->em1 : nullptr, std::size_t(N));
         return;
     }
+    const bool lead = std::size_t(N) < n_;
+    const CompiledMap& values = lead ? leading_.values : values_map_;
     for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
-    eval_map(values_map_, s.in.data(), s.out.data(), s.map);
+    eval_map(values, s.in.data(), s.out.data(), s.map);
     for (int i = 0; i < N; ++i) c.shift[i] = s.out[std::size_t(i)], c.alpha[i] = x[i] + c.shift[i];
-    for (std::size_t o = N; o < values_map_.num_outputs(); ++o)
-        c.neglected = lanes::max(c.neglected, lanes::abs(s.out[o]));
-    if (with_delta) eval_map(delta_map_, s.in.data(), c.delta, s.map);
-    for (auto& e : s.in) e = lanes::abs(e);
-    eval_map(size_map_, s.in.data(), c.size, s.map);
+    for (std::size_t o = N; o < values.num_outputs(); ++o) c.neglected = lanes::max(c.neglected, lanes::abs(s.out[o]));
+    if (with_delta) eval_map(lead ? leading_.delta : delta_map_, s.in.data(), c.delta, s.map);
+    for (int i = 0; i < 2 * N; ++i) s.in[std::size_t(i)] = lanes::abs(s.in[std::size_t(i)]);
+    eval_map(lead ? leading_.size : size_map_, s.in.data(), c.size, s.map);
     for (int i = 0; i < N; ++i) c.size[i] = c.size[i] + lanes::abs(x[i]);
 }
 
@@ -316,11 +321,11 @@ void RealisationEvaluator::delta_lanes(const T* x, const T* p, T* delta, LaneMap
         }
     }
     if (form_ == Form::log_canonical) {
-        log_canonical_delta(x, p, delta, near ? near->exponent : nullptr, near ? near->em1 : nullptr);
+        log_canonical_delta(x, p, delta, near ? near->exponent : nullptr, near ? near->em1 : nullptr, std::size_t(N));
         return;
     }
     for (int i = 0; i < N; ++i) s.in[std::size_t(i)] = x[i], s.in[std::size_t(N + i)] = p[i];
-    eval_map(delta_map_, s.in.data(), delta, s.map);
+    eval_map(std::size_t(N) < n_ ? leading_.delta : delta_map_, s.in.data(), delta, s.map);
 }
 
 #define PGI_REALISATION_LANES(T)                                                                     \

@@ -202,3 +202,80 @@ TEST_CASE("parameters: a bracket that uses a parameter in a scene names the brac
                          "or an integer",
                          SceneError);
 }
+
+namespace {
+
+// Henon-Heiles with its three constants as parameters a, b, c (a canonical structure: the compiled polynomial
+// realisation), or the values given written in.
+SchemeValues henon_heiles(bool parameters, const std::string& a = "1", const std::string& b = "1",
+                          const std::string& c = "1") {
+    SchemeValues v;
+    v.coordinates = {"q1", "q2", "p1", "p2"};
+    v.brackets = {{"q1,p1", "1"}, {"q2,p2", "1"}};
+    const auto value = [&](const char* name, const std::string& text) { return parameters ? name : "(" + text + ")"; };
+    v.hamiltonian = "(p1^2 + p2^2)/2 + " + value("a", a) + "*(q1^2 + q2^2)/2 + " + value("b", b) + "*q1^2*q2 - " +
+                    value("c", c) + "*q2^3/3";
+    v.order = 4;
+    if (parameters) v.parameters = {{"a", a}, {"b", b}, {"c", c}};
+    return v;
+}
+
+// The cyclic Lotka-Volterra system with H = a x1 + b x2 + c x3 (log-canonical), its Casimir x1 x2 x3.
+SchemeValues lotka_volterra(bool parameters, const std::string& a = "1", const std::string& b = "1",
+                            const std::string& c = "1") {
+    SchemeValues v;
+    v.coordinates = {"x1", "x2", "x3"};
+    v.brackets = {{"x1,x2", "x1*x2"}, {"x2,x3", "x2*x3"}, {"x3,x1", "x3*x1"}};
+    const auto value = [&](const char* name, const std::string& text) { return parameters ? name : "(" + text + ")"; };
+    v.hamiltonian = value("a", a) + "*x1 + " + value("b", b) + "*x2 + " + value("c", c) + "*x3";
+    v.casimirs = {"x1*x2*x3"};
+    v.order = 4;
+    if (parameters) v.parameters = {{"a", a}, {"b", b}, {"c", c}};
+    return v;
+}
+
+}  // namespace
+
+TEST_CASE("parameters: canonical and log-canonical sweeps step the coordinates alone, equal to the values written in") {
+    using Make = SchemeValues (*)(bool, const std::string&, const std::string&, const std::string&);
+    struct Case {
+        Make make;
+        Eigen::VectorXd x0;
+        double dt;
+        std::size_t coordinates;
+    };
+    const Case cases[] = {{henon_heiles, Eigen::Vector4d(0.1, -0.1, 0.2, 0.1), 0.1, 4},
+                          {lotka_volterra, Eigen::Vector3d(1.0, 2.0, 0.5), 0.05, 3}};
+    for (const Case& c : cases) {
+        const Scheme s(c.make(true, "1", "1", "1"));
+        CAPTURE(s.coordinates().size());
+        // the realisation leaves the parameters alone and nothing reads them: Newton on the coordinates, on lanes
+        const Eigen::VectorXd typical = Eigen::VectorXd::Ones(Eigen::Index(s.phase_space().dim()));
+        CHECK(s.stepper(c.dt, typical).lane_dimension() == c.coordinates);
+        constexpr std::size_t m = 20;  // two full blocks of lanes and a partial one
+        std::vector<double> a(m), b(m), cc(m);
+        std::vector<std::string> at(m), bt(m), ct(m);
+        for (std::size_t j = 0; j < m; ++j) {
+            at[j] = std::to_string(30 + j) + "/40", bt[j] = std::to_string(50 - j) + "/40",
+            ct[j] = std::to_string(j % 7 + 3) + "/5";
+            a[j] = Rational::parse(at[j]).to_double(), b[j] = Rational::parse(bt[j]).to_double(),
+            cc[j] = Rational::parse(ct[j]).to_double();
+        }
+        RowMatrix X0(Eigen::Index(m), c.x0.size());
+        for (Eigen::Index j = 0; j < X0.rows(); ++j) X0.row(j) = c.x0.transpose();
+        EnsembleOptions o;
+        o.parameters = {{"a", a}, {"b", b}, {"c", cc}};
+        const EnsembleResult r = integrate_ensemble(s, X0, c.dt, 5.0, o);
+        for (std::size_t j = 0; j < m; ++j) {
+            CAPTURE(j);
+            REQUIRE(r.members[j].status == TrajectoryStatus::ok);
+            const Trajectory tr = integrate(Scheme(c.make(false, at[j], bt[j], ct[j])), c.x0, c.dt, 5.0, 1);
+            REQUIRE(tr.status == StepStatus::ok);
+            const auto n = Eigen::Index(c.x0.size());
+            const Eigen::VectorXd expected = Eigen::Map<const Eigen::VectorXd>(tr.x.data() + tr.x.size() - n, n);
+            CHECK(relative_difference(r.x.row(Eigen::Index(j)).transpose(), expected) < 1e-13);
+            if (r.casimir_error.cols() > 0) CHECK(r.casimir_error(Eigen::Index(j), 0) < 1e-14);
+        }
+        CHECK(s.stats().terms_builds == 1);
+    }
+}
