@@ -16,7 +16,7 @@ bool SchemeChecks::ok() const {
     return std::none_of(casimirs.begin(), casimirs.end(), [](const auto& c) { return c.has_value(); });
 }
 
-namespace {
+namespace detail {  // (named, not anonymous: Scheme::Cache holds them)
 
 // A compiled step and what it serves: dt up to the one it was built for, typical states up to twice its own.
 struct StepperEntry {
@@ -31,6 +31,12 @@ struct StepperEntry {
                o.truncation_bound == options.truncation_bound;
     }
 };
+
+}  // namespace detail
+
+namespace {
+
+using detail::StepperEntry;
 
 // slot's value, built by build() the first time it is asked for (counted in builds).
 template <class T, class Build>

@@ -591,7 +591,7 @@ std::string native_source(const CompiledMap& map, const std::string& symbol, Nat
     return preamble() + map_source(map, symbol, vectors);
 }
 
-namespace {
+namespace detail {  // (named, not anonymous: NativeBuild::State holds one)
 
 // attach_native_code's plan: which maps get native code (the maps in the order given while they fit), their source
 // and symbols, and how many are native already.
@@ -601,6 +601,12 @@ struct NativePlan {
     std::vector<std::string> symbols;
     std::size_t native = 0;
 };
+
+}  // namespace detail
+
+namespace {
+
+using detail::NativePlan;
 
 NativePlan plan_native(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
     NativePlan plan;
