@@ -567,8 +567,9 @@ py::dict integrate_ensemble(const PyScheme& s, const py::object& X0_in, std::opt
         energy_warning.mutable_at(i) = e.energy_warning;
     }
     py::object x_typ = r.x_typical.size() ? py::cast(r.x_typical) : py::none();
+    py::object x = py::cast(r.x);  // (its own array: a caller writing into x leaves x_final as the run left it)
     py::object x_final = py::cast(std::move(r.x));
-    py::dict d("x"_a = x_final, "x_final"_a = x_final, "energy_error"_a = py::cast(std::move(r.energy_error)),
+    py::dict d("x"_a = x, "x_final"_a = x_final, "energy_error"_a = py::cast(std::move(r.energy_error)),
                "casimir_error"_a = py::cast(std::move(r.casimir_error)), "status"_a = status, "steps"_a = steps,
                "failed_step"_a = failed_step, "failed_t"_a = failed_t, "residual"_a = residual,
                "newton_iterations_mean"_a = newton_mean, "newton_iterations_max"_a = newton_max,

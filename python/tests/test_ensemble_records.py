@@ -83,6 +83,9 @@ def test_without_recording_x_stays_the_final_states():
     tangent = s.integrate_ensemble(X0, dt=0.1, t_end=1, tangent=True)  # a tangent map only: x stays final
     assert tangent.x.shape == (5, 3) and tangent.jacobian.shape == (5, 3, 3) and np.isnan(tangent.jacobian[2]).all()
     assert np.array_equal(tangent.x, e.x, equal_nan=True)
+    final = e.x_final.copy()
+    e.x[:] = 7.0  # x is an array of its own: writing into it leaves x_final as the run left it
+    assert np.array_equal(e.x_final, final, equal_nan=True) and not np.shares_memory(e.x, e.x_final)
 
 
 def test_what_is_recorded_is_checked_and_budgeted_before_any_work():
