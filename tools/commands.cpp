@@ -95,16 +95,19 @@ json terms_report(const Scene& scene) {
     return r;
 }
 
+// The scene's coordinates' alpha and beta; a parameter's are the parameter itself (its row of pi is zero), left out.
 json realisation_report(const Scene& scene, std::size_t D) {
     Realisation real = scene.scheme->realisation(D);
-    const PhaseSpace& M = scene.phase_space();
-    return {{"coordinates", M.coordinates()},
-            {"momenta", momenta_names(M)},
-            {"class", to_string(scene.pi.structure_class())},
-            {"realisation", real.method},
-            {"degree", D},
-            {"alpha", strings(sums(real.alpha))},
-            {"beta", strings(sums(real.beta))}};
+    const auto n = std::ptrdiff_t(scene.dim());
+    const auto first = [n](std::vector<std::string> v) { return std::vector<std::string>(v.begin(), v.begin() + n); };
+    json r = variables(scene);
+    r.update({{"momenta", first(momenta_names(scene.phase_space()))},
+              {"class", to_string(scene.pi.structure_class())},
+              {"realisation", real.method},
+              {"degree", D},
+              {"alpha", first(strings(sums(real.alpha)))},
+              {"beta", first(strings(sums(real.beta)))}});
+    return r;
 }
 
 json magnus_report(const Scene& scene, std::size_t m) {

@@ -152,6 +152,9 @@ def test_the_command_line_takes_param_and_a_parameter_file(tmp_path):
     for command in ("terms", "modified"):  # the exact reports: polynomials in the coordinates and the parameters
         j = cli_json(command, scene, "--order", "2")
         assert j["coordinates"] == ["x1", "x2", "x3"] and j["parameters"] == {"w1": "1/2", "w2": "1", "w3": "3/2"}
+    j = cli_json("realisation", scene, "--degree", "2")  # alpha and beta of the coordinates (a parameter's: itself)
+    assert j["coordinates"] == ["x1", "x2", "x3"] and j["parameters"] == {"w1": "1/2", "w2": "1", "w3": "3/2"}
+    assert len(j["alpha"]) == len(j["beta"]) == len(j["momenta"]) == 3 and "w1" not in "".join(j["alpha"])
     assert "w1" in cli_json("terms", scene, "--order", "2")["S"][0]
     assert "parameters" not in cli_json("terms", SCENES / "rigid_body.toml", "--order", "2")
     j = cli_json("integrate", scene, "--param", "w1=0.4", "--param", "w3=2/3", "--t-end", "5")
