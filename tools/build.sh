@@ -9,7 +9,8 @@ cd "$(dirname "$0")/.."
 targets=(--target pgi_core pgi pgi_python)
 [ "${1:-}" = "--all" ] && targets=()
 bash tools/deps.sh
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+source tools/cmake_configure.sh
+pgi_configure build -DCMAKE_BUILD_TYPE=Release
 cmake --build build -j "$(nproc)" "${targets[@]}"
 sudo_cmd=()
 [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)

@@ -11,7 +11,8 @@ cd "$(dirname "$0")/.."
 seconds=${1:-600}
 bash tools/deps.sh
 command -v clang++ >/dev/null || bash tools/deps.sh clang libclang-rt-14-dev
-cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPGI_FUZZ=ON >/dev/null
+source tools/cmake_configure.sh
+pgi_configure build-fuzz -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPGI_FUZZ=ON
 cmake --build build-fuzz --target pgi_fuzz_pipeline -j "$(nproc)"
 mkdir -p build-fuzz/corpus build-fuzz/crashes
 cp tools/scenes/*.toml tests/bad_scenes/*.toml tests/fuzz/regressions/* build-fuzz/corpus/

@@ -7,7 +7,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=${PGI_JOBS:-$(nproc)}
 bash tools/deps.sh texlive-latex-base libgsl-dev libboost-dev python3 valgrind
-cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPGI_SANITIZE=ON >/dev/null
+source tools/cmake_configure.sh
+pgi_configure build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPGI_SANITIZE=ON
 # every target a registered test runs (pgi_dmv_test exists when GSL and Boost are installed, as deps.sh ensures)
 cmake --build build-asan -j "$jobs" --target pgi pgi_tests pgi_dmv_test
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
@@ -18,7 +19,7 @@ ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print
 # frees, so those are not reported; leaks and invalid accesses still are.
 memcheck=(valgrind "--soname-synonyms=somalloc=libmimalloc.so*" --show-mismatched-frees=no --error-exitcode=1 --leak-check=full
           --errors-for-leak-kinds=definite,indirect,possible --quiet)
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+pgi_configure build -DCMAKE_BUILD_TYPE=Release
 cmake --build build -j "$jobs" --target pgi
 "${memcheck[@]}" ./build/pgi run tools/scenes/harmonic_oscillator.toml --t-end 1 >/dev/null
 "${memcheck[@]}" ./build/pgi report tools/scenes/rigid_body.toml --t-end 1 --format json >/dev/null
