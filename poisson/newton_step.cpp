@@ -22,7 +22,9 @@ NewtonStepper& NewtonStepper::operator=(NewtonStepper&&) noexcept = default;
 NewtonStepper::~NewtonStepper() = default;
 
 std::size_t NewtonStepper::lane_dimension() const {
-    return lane_ ? realisation_.leading_dimension() : 0;
+    if (!lane_) return 0;
+    return std::visit([](const auto& lane) { return std::size_t(std::decay_t<decltype(lane)>::dimension); },
+                      lane_->step);
 }
 
 std::string to_string(StepStatus s) {
@@ -123,7 +125,11 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.attach_native(opt.native);
     s.size_scratch(n);
     if (!s.sparse_ && s.realisation_.has_lane_form()) {
-        switch (s.realisation_.leading_dimension()) {  // (the coordinates past it step by zero: LaneStep)
+        // the realisation's leading coordinates (those past them step by zero), or all of them, whichever a LaneStep
+        // is compiled for: a log-canonical system of 5 and a parameter keeps LaneStep<6>
+        const auto compiled = [](std::size_t N) { return N == 2 || N == 3 || N == 4 || N == 6; };
+        const std::size_t leading = s.realisation_.leading_dimension();
+        switch (compiled(leading) ? leading : n) {
             case 2:
                 s.lane_.emplace(std::in_place_type<LaneStep<2, double>>, s);
                 break;

@@ -27,6 +27,7 @@
 #include <optional>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 #include <utility>
 
@@ -588,6 +589,8 @@ std::string map_source(const CompiledMap& map, const std::string& symbol, Native
 }  // namespace
 
 std::string native_source(const CompiledMap& map, const std::string& symbol, NativeVectors vectors) {
+    if (map.num_slow_inputs() > 0)  // (its coefficients are bound at run time: no constant to write)
+        throw std::invalid_argument("native_source: a map with slow inputs has no native code");
     return preamble() + map_source(map, symbol, vectors);
 }
 

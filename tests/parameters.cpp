@@ -279,3 +279,27 @@ TEST_CASE("parameters: canonical and log-canonical sweeps step the coordinates a
         CHECK(s.stats().terms_builds == 1);
     }
 }
+
+TEST_CASE("parameters: a scheme whose coordinates have no lane step of their own keeps the one of all its dimensions") {
+    // five log-canonical coordinates (no LaneStep<5>) and one parameter: LaneStep<6> over all six, as without the
+    // leading-coordinates rule, and the run equals the scheme with the value written in
+    const auto lattice = [](bool parameter) {
+        SchemeValues v;
+        v.coordinates = {"x1", "x2", "x3", "x4", "x5"};
+        v.brackets = {{"x1,x2", "x1*x2"}, {"x2,x3", "x2*x3"}, {"x3,x4", "x3*x4"}, {"x4,x5", "x4*x5"}};
+        v.hamiltonian = std::string(parameter ? "a" : "(3/4)") + "*x1 + x2 + x3 + x4 + x5";
+        v.order = 4;
+        if (parameter) v.parameters = {{"a", "3/4"}};
+        return v;
+    };
+    const Scheme s(lattice(true));
+    CHECK(s.stepper(0.05, Eigen::VectorXd::Ones(6)).lane_dimension() == 6);
+    const Eigen::VectorXd x0 = (Eigen::VectorXd(5) << 1.0, 0.5, 2.0, 1.5, 0.8).finished();
+    const Trajectory with = integrate(s, x0, 0.05, 2.0, 1),
+                     written = integrate(Scheme(lattice(false)), x0, 0.05, 2.0, 1);
+    REQUIRE(with.status == StepStatus::ok);
+    REQUIRE(written.status == StepStatus::ok);
+    const Eigen::Map<const Eigen::VectorXd> a(with.x.data() + with.x.size() - 5, 5),
+        b(written.x.data() + written.x.size() - 5, 5);
+    CHECK(relative_difference(a, b) < 1e-13);
+}
