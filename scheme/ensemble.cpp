@@ -87,7 +87,7 @@ struct RowSink {
     }
     // the state after step n (N the last)
     void observe(std::size_t n, std::size_t N, const Eigen::VectorXd& x) {
-        if (every == 0 || (n % every != 0 && n != N)) return;
+        if (!records_step(n, n == N, every)) return;
         std::copy(x.data(), x.data() + dim, next);
         next += dim, ++rows;
     }
@@ -292,9 +292,7 @@ void run_chunk(Worker& w, const Eigen::Ref<const RowMatrix>& X0, std::size_t N, 
 std::vector<double> record_times(const TrajectoryOptions& record, std::size_t N, double dt) {
     if (!record.t_eval.empty()) return record.t_eval;
     std::vector<double> t;
-    if (record.every == 0) return t;
-    for (std::size_t n = 0; n <= N; n += record.every) t.push_back(double(n) * dt);
-    if (N % record.every != 0) t.push_back(double(N) * dt);
+    for_each_recorded_step(N, record.every, [&](std::size_t n) { t.push_back(double(n) * dt); });
     return t;
 }
 

@@ -83,7 +83,7 @@ LyapunovSpectrum lyapunov(const Scheme& scheme, const Eigen::VectorXd& x0, doubl
         if (p.step == 0) return false;
         if (!tangent.after_step(stepper)) return singular = true;
         frame.after_step(tangent.last().topLeftCorner(long(n), long(n)));
-        if (p.step % every != 0 && !p.final) return false;
+        if (!records_step(p.step, p.final, every)) return false;
         r.t.push_back(p.t);
         for (std::size_t i = 0; i < n; ++i)
             r.exponents.push_back(i < r.leaf_dim ? frame.sums()[Eigen::Index(i)] / p.t : 0.0);

@@ -65,8 +65,23 @@ struct RunPlan {
 /// keeps t_end = 10, dt = 0.1 at 100 steps); +inf past what a size_t holds (plan_run refuses it).
 double steps_to_reach(double t_end, double dt);
 
-/// The rows a run of `steps` steps records when it records every `every`-th state and the last (the start, at
-/// steps = 0): steps / every + 1, one more when every does not divide steps; 1 at every = 0 (the end only).
+/// The recording rule of every run that records states by a stride (single runs, ensembles on lanes and threads,
+/// Lyapunov spectra): the state after step n is recorded when every > 0 and every divides n or the state is the
+/// run's last (step N, or a terminal event's); the start, n = 0, included. every = 0 records no state on the way.
+constexpr bool records_step(std::size_t n, bool last, std::size_t every) {
+    return every != 0 && (n % every == 0 || last);
+}
+/// The steps records_step keeps for a run of N steps, in increasing order (none at every = 0): 0, every, 2 every,
+/// ..., and N; f(n) for each, in O(N / every).
+template <class F>
+void for_each_recorded_step(std::size_t N, std::size_t every, F&& f) {
+    if (every == 0) return;
+    std::size_t n = 0;
+    for (; n <= N; n += every) f(n);
+    if (n - every != N) f(N);
+}
+/// The rows a run of `steps` steps records: for_each_recorded_step's count, steps / every + 1, one more when every
+/// does not divide steps; 1 at every = 0 (a run that records by no stride still keeps its end state).
 std::size_t recorded_steps(std::size_t steps, std::size_t every);
 
 /// Checks r (InputError naming "dt", "t_end", "every", "event_samples", "trajectories" or "t_eval" on a value outside

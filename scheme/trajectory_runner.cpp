@@ -80,7 +80,7 @@ Trajectory TrajectoryRunner::run(const Eigen::VectorXd& x0) {
             output = times->observe(stepper, p.step, p.t, p.x, timed_row), output_step = p.step;
             return output != StepStatus::ok;
         }
-        if (every == 0 || (p.step % every != 0 && !p.final)) return false;
+        if (!records_step(p.step, p.final, every)) return false;
         add_row(p.t, p.x);
         return false;
     };

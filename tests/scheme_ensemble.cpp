@@ -334,6 +334,24 @@ TEST_CASE("Run plan: whole steps reaching t_end, the rows a stride records") {
     CHECK_THROWS_WITH_AS(plan_run(r), "dt: must be positive and finite", InputError);
 }
 
+TEST_CASE("Recording rule: the enumerated steps are the predicate's, and recorded_steps counts them") {
+    for (std::size_t N = 0; N <= 40; ++N)
+        for (std::size_t every = 0; every <= 9; ++every) {
+            CAPTURE(N);
+            CAPTURE(every);
+            std::vector<std::size_t> listed, kept;
+            for_each_recorded_step(N, every, [&](std::size_t n) { listed.push_back(n); });
+            for (std::size_t n = 0; n <= N; ++n)
+                if (records_step(n, n == N, every)) kept.push_back(n);
+            CHECK(listed == kept);
+            CHECK(recorded_steps(N, every) == (every == 0 ? 1 : kept.size()));
+            if (every) CHECK(kept.back() == N);  // the last state, always
+        }
+    CHECK(records_step(5, true, 3));  // a terminal event's state is the last
+    CHECK(!records_step(5, false, 3));
+    CHECK(!records_step(6, true, 0));  // every = 0 records nothing on the way
+}
+
 TEST_CASE("Run cancel: a cancelled run stops at its next step with RunInterrupted, single and ensemble") {
     const Scene s = test::bundled("rigid_body");
     const Eigen::VectorXd x0 = Eigen::Vector3d(1, 0.5, 0.2);
