@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <iterator>
 #include <span>
 #include <cmath>
@@ -306,6 +307,8 @@ Chain chain_of(const MonomialTable& targets, std::size_t k) {
 
 void CompiledMap::finish(const std::vector<std::uint32_t>& made, std::vector<std::uint32_t> left,
                          std::vector<std::uint32_t> right) {
+    static std::atomic<std::uint64_t> builds{0};
+    serial_ = ++builds;
     for (auto& id : term_monomial_) id = made[id];
     left_ = std::move(left);
     right_ = std::move(right);
@@ -431,8 +434,11 @@ std::size_t CompiledMap::lane_cache_size(std::size_t lanes) const {
 }
 
 double* LaneCoefficients::get(const CompiledMap& map, std::size_t blocks) {
-    auto e = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& x) { return x.map == &map; });
-    if (e == entries_.end()) e = entries_.insert(entries_.end(), Entry{&map, {}});
+    auto e = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& x) { return x.serial == map.serial_; });
+    if (e == entries_.end()) {
+        if (entries_.size() == max_entries) entries_.erase(entries_.begin());  // (the oldest: its map is likely gone)
+        e = entries_.insert(entries_.end(), Entry{map.serial_, {}});
+    }
     const std::size_t block = map.lane_cache_size(CompiledMap::batch_lanes);
     if (e->cache.size() < (first_ + blocks) * block)
         e->cache.resize((first_ + blocks) * block, 0.0);  // (a new block's first value 0: it holds none)

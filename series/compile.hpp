@@ -31,16 +31,20 @@ class CompiledMap;
 class LaneCoefficients {
 public:
     /// map's cache of `blocks` blocks of CompiledMap::batch_lanes lanes from the first block (below), made (holding no
-    /// lane's values) if new.
+    /// lane's values) if new. Keyed by the map's build, not its address: copies of a map share a cache, and a map
+    /// built anew at the address of another gets its own.
     double* get(const CompiledMap& map, std::size_t blocks);
     /// The calls that follow evaluate blocks from b on: a caller that steps several blocks of lanes in turn through
     /// one scratch keeps each block's coefficients apart.
     void set_first_block(std::size_t b) { first_ = b; }
 
+    /// The maps whose caches are kept (a stepper's maps with slow inputs are a handful); the oldest goes first.
+    static constexpr std::size_t max_entries = 16;
+
 private:
     std::size_t first_ = 0;
     struct Entry {
-        const CompiledMap* map;
+        std::uint64_t serial;  // the map's build: a map rebuilt where another was never reads the other's cache
         std::vector<double> cache;
     };
     std::vector<Entry> entries_;
@@ -56,6 +60,8 @@ private:
 /// in (x, w) costs per evaluation about what the same map with w's values written in costs. Its results agree with
 /// that map's to round-off, not bit for bit (the coefficients are sums in double, not rounded once).
 class CompiledMap {
+    friend class LaneCoefficients;
+
 public:
     CompiledMap() = default;
     /// outputs are polynomials of one ring reading only the ring variables listed in inputs (which
@@ -173,6 +179,7 @@ private:
     // two stages: the coefficient map (slow inputs -> one value per slot), the slot of each coefficient below
     // (no_output for a group's padding), and the slow inputs' values the coefficients hold (none at first)
     std::size_t slow_ = 0;
+    std::uint64_t serial_ = 0;  // the build this map's terms come from (copies share it): LaneCoefficients' key
     ValuePtr<CompiledMap> coefficients_;
     std::vector<std::uint32_t> term_slot_, group_slot_, lane_slot_;
     mutable std::vector<double> bound_, slot_values_;

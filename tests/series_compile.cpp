@@ -277,6 +277,20 @@ TEST_CASE("compile: a map read through its slow inputs' coefficients equals the 
         two.eval(lin.data(), lout.data(), lscratch);
         for (std::size_t o = 0; o < O; ++o) CHECK(std::abs(double(lout[o]) - first[o]) <= 1e-14 * size[o]);
     }
+    SUBCASE("a cache kept across a map built anew in the same object holds the new map's coefficients") {
+        constexpr std::size_t m = 8;
+        std::vector<double> in(5 * m), out(O * m), again(O * m), scratch;
+        for (std::size_t v = 0; v < 5; ++v)
+            for (std::size_t j = 0; j < m; ++j) in[v * m + j] = v < 3 ? coordinate(gen) : parameter(gen);
+        LaneCoefficients kept;
+        CompiledMap map = CompiledMap::build(outputs, inputs, 2);
+        map.eval_batch(in.data(), out.data(), m, scratch, &kept);
+        std::vector<Poly> doubled;
+        for (const Poly& f : outputs) doubled.push_back(f + f);
+        map = CompiledMap::build(doubled, inputs, 2);  // the same address and parameter values, other coefficients
+        map.eval_batch(in.data(), again.data(), m, scratch, &kept);
+        for (std::size_t e = 0; e < out.size(); ++e) CHECK(bits(again[e]) == bits(2 * out[e]));  // doubling is exact
+    }
     SUBCASE("points in lanes, each with its own parameters: each lane gives eval's bits") {
         LaneCoefficients kept;
         std::vector<double> scratch;
