@@ -4,7 +4,7 @@
 // (RealisationEvaluator::leading_dimension): the others, which its realisation leaves alone (a scheme's parameters),
 // are inputs of its maps and step by exactly zero (their rows of the Newton matrix are e_w, and its columns for them
 // multiply a zero correction). T = double steps one state: it is NewtonStepper::step there. T = lanes::Pack steps
-// lanes::width states together (BatchStepper): every evaluation, the Jacobian, its LU (its inverse for N <= 3) and the
+// lanes::width states together (BatchStepper): every evaluation, the Jacobian, its LU (its inverse for N <= 4) and the
 // acceptance test run on all lanes at once, and each lane keeps its own Newton control (its iteration, backtracking,
 // simplified Newton, second attempt from xb = x) as masks. A lane's operations are the double instantiation's
 // in the same order, so its increment, status and statistics are the single step's bit for bit.
@@ -76,7 +76,7 @@ private:
 
     double dt_ = 0;
     T x_[N], xb_[N], good_[N], p_[N], r_[N], dx_[N], H_[N * N], pivot_inverse_[N];
-    T lu_[N * N];  // J's LU factors, or for N <= 3 J^{-1} (factor)
+    T lu_[N * N];  // J's LU factors, or for N <= 4 J^{-1} (factor)
     int hessian_to_[N * N] = {}, hessian_from_[N * N] = {}, hessian_count_ = 0;  // H[to[k]] = gh_[from[k]], k < count
     Mask swaps_[N * (N - 1) / 2 + 1];  // the LU's row exchanges, as masks, in the order it made them
     LaneRealisation<N, T> values_;

@@ -81,19 +81,20 @@ PGI_LANE_INLINE void commit(lanes::mask_t<T> m, const T* from, T* to) {
     for (int i = 0; i < N; ++i) to[i] = select(m, from[i], to[i]);
 }
 
-// J^{-1} for N <= 3 as the adjugate over the determinant (J column-major): one division, where the LU's pivots make a
-// chain of N (a division's latency is four multiplications'), and a solve is then one product. Without pivoting, the
-// correction's error is still about cond(J) u relative, which Newton does not see (the acceptance test certifies the
-// step); a singular J gives a non-finite correction, as a zero pivot does.
+// J^{-1} for N <= 4 as the adjugate over the determinant (J column-major; for N = 4 by the 2 x 2 minors of its first
+// two rows and of its last two, Laplace's expansion): one division, where the LU's pivots make a chain of N (a
+// division's latency is four multiplications'), no row exchanges to select, and a solve is then one product. Without
+// pivoting, the correction's error is still about cond(J) u relative, which Newton does not see (the acceptance test
+// certifies the step); a singular J gives a non-finite correction, as a zero pivot does.
 template <int N, class T>
 PGI_LANE_INLINE void small_inverse(const T* J, T* inverse) {
-    static_assert(N == 2 || N == 3);
+    static_assert(N >= 2 && N <= 4);
     const auto a = [&](int i, int j) -> const T& { return J[i + N * j]; };
     if constexpr (N == 2) {
         const T s = 1.0 / (a(0, 0) * a(1, 1) - a(0, 1) * a(1, 0));
         inverse[0] = a(1, 1) * s, inverse[1] = -a(1, 0) * s;
         inverse[2] = -a(0, 1) * s, inverse[3] = a(0, 0) * s;
-    } else {
+    } else if constexpr (N == 3) {
         // the cofactors C(i, j); inverse(j, i) = C(i, j) / det
         const T c00 = a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1), c01 = a(1, 2) * a(2, 0) - a(1, 0) * a(2, 2),
                 c02 = a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0);
@@ -105,6 +106,33 @@ PGI_LANE_INLINE void small_inverse(const T* J, T* inverse) {
         inverse[0 + 3 * 2] = (a(0, 1) * a(1, 2) - a(0, 2) * a(1, 1)) * s;
         inverse[1 + 3 * 2] = (a(0, 2) * a(1, 0) - a(0, 0) * a(1, 2)) * s;
         inverse[2 + 3 * 2] = (a(0, 0) * a(1, 1) - a(0, 1) * a(1, 0)) * s;
+    } else {
+        // the minors of rows 0, 1 (s) and of rows 2, 3 (c) on column pairs (0,1) (0,2) (0,3) (1,2) (1,3) (2,3), c
+        // reversed
+        const T s0 = a(0, 0) * a(1, 1) - a(1, 0) * a(0, 1), s1 = a(0, 0) * a(1, 2) - a(1, 0) * a(0, 2),
+                s2 = a(0, 0) * a(1, 3) - a(1, 0) * a(0, 3), s3 = a(0, 1) * a(1, 2) - a(1, 1) * a(0, 2),
+                s4 = a(0, 1) * a(1, 3) - a(1, 1) * a(0, 3), s5 = a(0, 2) * a(1, 3) - a(1, 2) * a(0, 3);
+        const T c5 = a(2, 2) * a(3, 3) - a(3, 2) * a(2, 3), c4 = a(2, 1) * a(3, 3) - a(3, 1) * a(2, 3),
+                c3 = a(2, 1) * a(3, 2) - a(3, 1) * a(2, 2), c2 = a(2, 0) * a(3, 3) - a(3, 0) * a(2, 3),
+                c1 = a(2, 0) * a(3, 2) - a(3, 0) * a(2, 2), c0 = a(2, 0) * a(3, 1) - a(3, 0) * a(2, 1);
+        const T s = 1.0 / (((s0 * c5 - s1 * c4) + (s2 * c3 + s3 * c2)) + (s5 * c0 - s4 * c1));
+        const auto put = [&](int i, int j, const T& v) { inverse[i + 4 * j] = v * s; };
+        put(0, 0, (a(1, 1) * c5 - a(1, 2) * c4) + a(1, 3) * c3);
+        put(0, 1, (a(0, 2) * c4 - a(0, 1) * c5) - a(0, 3) * c3);
+        put(0, 2, (a(3, 1) * s5 - a(3, 2) * s4) + a(3, 3) * s3);
+        put(0, 3, (a(2, 2) * s4 - a(2, 1) * s5) - a(2, 3) * s3);
+        put(1, 0, (a(1, 2) * c2 - a(1, 0) * c5) - a(1, 3) * c1);
+        put(1, 1, (a(0, 0) * c5 - a(0, 2) * c2) + a(0, 3) * c1);
+        put(1, 2, (a(3, 2) * s2 - a(3, 0) * s5) - a(3, 3) * s1);
+        put(1, 3, (a(2, 0) * s5 - a(2, 2) * s2) + a(2, 3) * s1);
+        put(2, 0, (a(1, 0) * c4 - a(1, 1) * c2) + a(1, 3) * c0);
+        put(2, 1, (a(0, 1) * c2 - a(0, 0) * c4) - a(0, 3) * c0);
+        put(2, 2, (a(3, 0) * s4 - a(3, 1) * s2) + a(3, 3) * s0);
+        put(2, 3, (a(2, 1) * s2 - a(2, 0) * s4) - a(2, 3) * s0);
+        put(3, 0, (a(1, 1) * c1 - a(1, 0) * c3) - a(1, 2) * c0);
+        put(3, 1, (a(0, 0) * c3 - a(0, 1) * c1) + a(0, 2) * c0);
+        put(3, 2, (a(3, 1) * s1 - a(3, 0) * s3) - a(3, 2) * s0);
+        put(3, 3, (a(2, 0) * s3 - a(2, 1) * s1) + a(2, 2) * s0);
     }
 }
 
@@ -150,7 +178,7 @@ const T* LaneStep<N, T>::inputs(const T* point, bool magnitudes) {
 // by an ulp, which Newton does not see).
 template <int N, class T>
 void LaneStep<N, T>::factor(Mask F, const T* J) {
-    if constexpr (N <= 3) {
+    if constexpr (N <= 4) {
         T inverse[N * N];
         small_inverse<N>(J, inverse);
         commit<N * N>(F, inverse, lu_);
@@ -180,11 +208,11 @@ void LaneStep<N, T>::factor(Mask F, const T* J) {
     commit<N>(F, inverse, pivot_inverse_);
 }
 
-// d = J^{-1} b with the kept factors: the exchanges, then L (unit diagonal) and U; for N <= 3 the kept inverse's
+// d = J^{-1} b with the kept factors: the exchanges, then L (unit diagonal) and U; for N <= 4 the kept inverse's
 // product.
 template <int N, class T>
 void LaneStep<N, T>::solve_kept(const T* b, T* d) const {
-    if constexpr (N <= 3) {
+    if constexpr (N <= 4) {
         for (int i = 0; i < N; ++i) {
             d[i] = lu_[i] * b[0];
             for (int j = 1; j < N; ++j) d[i] = d[i] + lu_[i + N * j] * b[j];
