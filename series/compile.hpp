@@ -114,7 +114,8 @@ public:
     /// (num_monomials() + num_inputs() + num_outputs()) batch_lanes doubles whatever m is; it is resized when
     /// too small: reused, it allocates nothing. Unlike eval(), thread-safe (all scratch is the caller's).
     /// With slow inputs, each point has its own: kept (when given) holds the blocks' coefficients across calls,
-    /// otherwise they are evaluated anew at each call.
+    /// otherwise they are evaluated anew at each call, in one more block's cache that scratch then also holds
+    /// (lane_cache_size(batch_lanes) doubles).
     void eval_batch(const double* in, double* out, std::size_t m, std::vector<double>& scratch,
                     LaneCoefficients* kept = nullptr) const;
     static constexpr std::size_t batch_lanes = 8;
