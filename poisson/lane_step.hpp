@@ -92,6 +92,23 @@ private:
     Mask running_{}, simplified_{}, second_{}, ended_{};
 };
 
+// Each instantiation is compiled in one file, for its instruction set: double and Pack in lane_step.cpp, Pack4 in
+// lane_step_avx2.cpp (-mavx2). Declared here, so that no other file compiles a copy of its own: a unity build puts
+// batch_step.cpp in the unit of lane_step.cpp, where the members' definitions are visible, and the baseline copy
+// of the Pack4 kernels it made was the one the linker kept (ctest lane_isa checks the program).
+extern template class LaneStep<2, double>;
+extern template class LaneStep<3, double>;
+extern template class LaneStep<4, double>;
+extern template class LaneStep<6, double>;
+extern template class LaneStep<2, lanes::Pack>;
+extern template class LaneStep<3, lanes::Pack>;
+extern template class LaneStep<4, lanes::Pack>;
+extern template class LaneStep<6, lanes::Pack>;
+extern template class LaneStep<2, lanes::Pack4>;
+extern template class LaneStep<3, lanes::Pack4>;
+extern template class LaneStep<4, lanes::Pack4>;
+extern template class LaneStep<6, lanes::Pack4>;
+
 /// The lane step a NewtonStepper holds (poisson/newton_step.hpp), one of its dimensions.
 struct LaneSteps {
     template <class Lane>

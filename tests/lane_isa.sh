@@ -38,6 +38,31 @@ check() {
     echo "lane_isa: $ymm AVX2 instructions in the kernels of $1; $count exported symbols, none other with AVX"
 }
 
+# check_program BINARY: the program's Pack4 kernels (LaneStep<N, Pack4>'s round and step) are the AVX2 file's: a copy
+# compiled elsewhere for the baseline (a unity build's neighbour of lane_step.cpp once made one), which the linker
+# may keep instead, has no AVX2 register.
+check_program() {
+    local report
+    [ -f "$1" ] || { echo "lane_isa: no program $1" >&2; exit 1; }
+    report=$(objdump -d --no-show-raw-insn -C "$1" | awk '
+        /^[0-9a-f]+ <.*>:$/ {
+            name = $0; sub(/^[0-9a-f]+ </, "", name); sub(/>:$/, "", name)
+            kernel = name ~ /^pgi::LaneStep<[0-9], pgi::lanes::PackOf<4ul> >::(round|step)\(/
+            if (kernel) ymm[name] += 0
+            next
+        }
+        kernel && /%ymm/ { ymm[name]++ }
+        END { for (n in ymm) print ymm[n] " " n }')
+    [ -n "$report" ] || { echo "lane_isa: $1 holds no LaneStep<N, Pack4> kernel" >&2; exit 1; }
+    if grep -q '^0 ' <<<"$report"; then
+        echo "lane_isa: $1 keeps a copy of these Pack4 kernels without AVX2 (not lane_step_avx2.cpp's):" >&2
+        grep '^0 ' <<<"$report" | cut -d' ' -f2- >&2
+        exit 1
+    fi
+    echo "lane_isa: the $(wc -l <<<"$report") Pack4 kernels in $1 are the AVX2 ones"
+}
+
 BUILD=$1
 check lane_step_avx2.cpp.o 'PackOf<4ul>|MaskOf<4ul>'
 check compile_avx2.cpp.o 'eval_groups|QuadSums'
+check_program "$BUILD/pgi"

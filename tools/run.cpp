@@ -252,7 +252,7 @@ json integrate_report(const Scene& scene, const IntegrateOptions& options) {
         if (csv && times) {
             output = times->observe(s, p.step, p.t, p.x, timed_row);
             if (output != StepStatus::ok) return true;
-        } else if (csv && (p.step % options.every == 0 || p.step == N)) {
+        } else if (csv && records_step(p.step, p.step == N, options.every)) {
             write_row(csv->stream(), scene, p.t, p.x, loop.values());
         }
         progress.update(p.step);
