@@ -1,7 +1,7 @@
 #include "magnus/modified_hamiltonian.hpp"
 
 #include "magnus/magnus.hpp"
-#include "poisson/bisection.hpp"
+#include "poisson/detail/bisection.hpp"
 #include "poisson/hamilton_jacobi.hpp"
 #include "series/composition.hpp"
 

@@ -1,6 +1,6 @@
 #include "poisson/events.hpp"
 
-#include "poisson/root_bracket.hpp"
+#include "poisson/detail/root_bracket.hpp"
 
 #include <algorithm>
 #include <cmath>

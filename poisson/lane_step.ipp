@@ -2,9 +2,9 @@
 // (T = double and Pack, the x86-64 baseline) and by lane_step_avx2.cpp (T = Pack4, compiled for AVX2). Its
 // helpers have internal linkage on purpose: each of those files keeps its own copy, compiled for its target.
 #pragma once
+#include "poisson/detail/newton_internals.hpp"
 #include "poisson/lane_step.hpp"
-#include "poisson/newton_step.hpp"
-#include "poisson/newton_rules.hpp"
+#include "poisson/detail/newton_rules.hpp"
 #include "series/compile_lanes.ipp"
 
 #include <cmath>
@@ -141,7 +141,7 @@ PGI_LANE_INLINE void small_inverse(const T* J, T* inverse) {
 template <int N, class T>
 LaneStep<N, T>::LaneStep(const NewtonStepper& s)
     : gh_(s.with_hessian().width(), T{}), scratch_(s.dim(), T{}), passive_(s.dim() - N, T{}), inputs_(s.dim(), T{}),
-      maps_(s.realisation_.lane_scratch<T>()) {
+      maps_(s.in_->realisation_.lane_scratch<T>()) {
     if constexpr (lanes != 1) s.size_lane_maps(dt_maps_);
     for (auto& e : H_) e = T{};
     for (auto& e : lu_) e = T{};
@@ -151,12 +151,12 @@ LaneStep<N, T>::LaneStep(const NewtonStepper& s)
     for (auto& m : swaps_) m = lanes::none_mask<T>();
     // Hess S_dt's entries on the first N coordinates: with_hessian's outputs are grad S_dt (every coordinate's),
     // then the Hessian's pattern values
-    const SparsePattern& P = s.gradient_.hessian;
+    const SparsePattern& P = s.in_->gradient_.hessian;
     for (std::size_t col = 0; col < std::size_t(N); ++col)
         for (int k = P.outer[col]; k < P.outer[col + 1]; ++k)
             if (const auto row = std::size_t(P.inner[std::size_t(k)]); row < std::size_t(N)) {
                 hessian_to_[hessian_count_] = int(row + N * col);
-                hessian_from_[hessian_count_++] = int(P.cols + s.gradient_.hessian_value[std::size_t(k)]);
+                hessian_from_[hessian_count_++] = int(P.cols + s.in_->gradient_.hessian_value[std::size_t(k)]);
             }
 }
 
@@ -245,7 +245,7 @@ void LaneStep<N, T>::evaluate(const NewtonStepper& s, Mask F, T* J) {
     for (int k = 0; k < hessian_count_; ++k) H[hessian_to_[k]] = gh_[std::size_t(hessian_from_[k])];
     LaneRealisation<N, T> v;
     for (int i = 0; i < N; ++i) v.exponent[i] = v.em1[i] = T{};  // (written by the log-canonical form only)
-    s.realisation_.eval_lanes<N>(xb_, gh_.data(), v, maps_);
+    s.in_->realisation_.eval_lanes<N>(xb_, gh_.data(), v, maps_);
     for (int i = 0; i < N; ++i)
         for (int j = 0; j < N; ++j) {
             T acc = v.alpha_x[i + N * j];
@@ -278,11 +278,11 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
         commit<N>(by_hessian, p, p_);
     }
     if (lanes::any(anew)) {
-        eval_dt(s.gradient_.gradient, inputs(xb_, false), dt_, scratch_.data(), dt_maps_);
+        eval_dt(s.in_->gradient_.gradient, inputs(xb_, false), dt_, scratch_.data(), dt_maps_);
         commit<N>(anew, scratch_.data(), p_);
     }
     // (values_: this step's last Newton system, nearby; delta is taken once, by finish)
-    s.realisation_.check_lanes<N>(xb_, p_, check_, maps_, &values_, /*with_delta=*/false);
+    s.in_->realisation_.check_lanes<N>(xb_, p_, check_, maps_, &values_, /*with_delta=*/false);
     T r[N], tol[N];
     for (int i = 0; i < N; ++i) {
         r[i] = (xb_[i] - x_[i]) + check_.shift[i];  // alpha - x to below the ulps of x
@@ -293,7 +293,7 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
     if (lanes::any(strict_fails)) {
         T absolute[N], wide[N];
         for (int i = 0; i < N; ++i) absolute[i] = lanes::abs(xb_[i]);
-        eval_dt(s.gradient_.gradient_size, inputs(absolute, true), std::abs(dt_), scratch_.data(), dt_maps_);
+        eval_dt(s.in_->gradient_.gradient_size, inputs(absolute, true), std::abs(dt_), scratch_.data(), dt_maps_);
         const T* sizes = scratch_.data();
         constexpr double c = residual_kappa * unit_roundoff;
         for (int i = 0; i < N; ++i) {
@@ -343,7 +343,7 @@ void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
     const Mask solved = lanes::both(E, lanes::negate(ill));
     if (!lanes::any(solved)) return;  // (a failed test: no delta to take)
     polish(solved);
-    s.realisation_.delta_lanes<N>(xb_, p_, check_.delta, maps_, &values_);
+    s.in_->realisation_.delta_lanes<N>(xb_, p_, check_.delta, maps_, &values_);
     commit<N>(solved, check_.delta, increment);
     const Mask non_finite = lanes::both(solved, lanes::negate(all_finite<N>(check_.delta)));
     end(non_finite, StepStatus::non_finite);
@@ -443,7 +443,7 @@ void LaneStep<N, T>::round(const NewtonStepper& s, T* increment) {
         finish(s, accepted, increment);
     }
     const Mask next = lanes::both(on, lanes::negate(accepted));
-    const Mask simplify = newton_rules::simplifies(s.simplified_newton_, small, c, scale);
+    const Mask simplify = newton_rules::simplifies(s.in_->simplified_newton_, small, c, scale);
     simplified_ = select(next, simplify, simplified_);
 }
 

@@ -1,7 +1,10 @@
 #include "poisson/newton_step.hpp"
 
+#include "poisson/detail/newton_internals.hpp"
+#include "series/detail/native_tier.hpp"
+
 #include "poisson/lane_step.hpp"
-#include "poisson/newton_rules.hpp"
+#include "poisson/detail/newton_rules.hpp"
 
 #include <algorithm>
 #include <array>
@@ -14,12 +17,30 @@
 namespace pgi {
 
 // Defaulted here, where LaneSteps is defined (series/value_ptr.hpp).
-NewtonStepper::NewtonStepper() = default;
+NewtonStepper::NewtonStepper() {
+    in_.emplace();
+}
 NewtonStepper::NewtonStepper(const NewtonStepper&) = default;
 NewtonStepper::NewtonStepper(NewtonStepper&&) noexcept = default;
 NewtonStepper& NewtonStepper::operator=(const NewtonStepper&) = default;
 NewtonStepper& NewtonStepper::operator=(NewtonStepper&&) noexcept = default;
 NewtonStepper::~NewtonStepper() = default;
+
+const Predictor& NewtonStepper::predictor() const {
+    return in_->predictor_;
+}
+
+const DtSeriesMap& NewtonStepper::with_hessian() const {
+    return in_->gradient_.with_hessian;
+}
+
+const Eigen::VectorXd& NewtonStepper::evaluated_alpha() const {
+    return sparse_ ? in_->sparse_values_.alpha : in_->v_.alpha;
+}
+
+const Eigen::VectorXd& NewtonStepper::evaluated_delta() const {
+    return sparse_ ? in_->sparse_values_.delta : in_->v_.delta;
+}
 
 std::size_t NewtonStepper::lane_dimension() const {
     if (!lane_) return 0;
@@ -96,39 +117,42 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.k_ = opt.k;
     s.dt_ = s.step_dt_ = opt.dt;
     s.opt_ = opt;
-    s.gradient_ = compile_gradient(M, S, opt.dt, newton_matrix_truncation(pi, opt, x_typical), zero_rows(pi));
+    s.in_->gradient_ = compile_gradient(M, S, opt.dt, newton_matrix_truncation(pi, opt, x_typical), zero_rows(pi));
 
     // the truncation degree (and evaluator), sized at p0 = grad S_dt(x_typical): docs/math.md 4 and 6
     Eigen::VectorXd p0(static_cast<Eigen::Index>(n));
-    s.gradient_.gradient.eval(x_typical.data(), opt.dt, p0.data());
+    s.in_->gradient_.gradient.eval(x_typical.data(), opt.dt, p0.data());
     RealisationPtr probe = realisation(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, n));
     StepRealisation r = step_realisation(pi, opt, probe, realisation, x_typical, p0);
-    s.realisation_ = std::move(r.evaluator);
-    s.simplified_newton_ = r.simplified_newton;
+    s.in_->realisation_ = std::move(r.evaluator);
+    s.in_->simplified_newton_ = r.simplified_newton;
     s.info_ = {std::move(r.method), r.degree, r.exact, r.truncation_estimate, 0};
     // J = alpha_x + alpha_p Hess S_dt on its pattern: dense or sparse (NewtonMatrix::choose)
-    s.matrix_ = NewtonMatrix(s.realisation_.pattern_x(), s.realisation_.pattern_p(), s.gradient_.hessian, opt.solver);
-    s.sparse_ = s.matrix_.solver() == NewtonSolver::sparse;
-    s.info_.solver = s.matrix_.solver();
+    s.in_->matrix_ = NewtonMatrix(s.in_->realisation_.pattern_x(), s.in_->realisation_.pattern_p(),
+                                  s.in_->gradient_.hessian, opt.solver);
+    s.sparse_ = s.in_->matrix_.solver() == NewtonSolver::sparse;
+    s.info_.solver = s.in_->matrix_.solver();
 
     // the predictor, xb = x + sum_m dt^m u_m, its order chosen by cost at opt.dt
     // (the acceptance test's evaluation of alpha costs about a third of eval's, which adds the derivatives)
-    const NewtonCost cost = newton_cost(s.gradient_.with_hessian.planned_cost() + s.realisation_.cost(s.sparse_),
-                                        s.gradient_.gradient.planned_cost() + s.realisation_.cost(s.sparse_) / 3,
-                                        s.matrix_.factor_cost(), s.matrix_.solve_cost(), s.simplified_newton_);
+    const NewtonCost cost =
+        newton_cost(s.in_->gradient_.with_hessian.planned_cost() + s.in_->realisation_.cost(s.sparse_),
+                    s.in_->gradient_.gradient.planned_cost() + s.in_->realisation_.cost(s.sparse_) / 3,
+                    s.in_->matrix_.factor_cost(), s.in_->matrix_.solve_cost(), s.in_->simplified_newton_);
     // a closed form is deepened for the predictor only if its choice goes past the first orders (the radial
     // recursion is not: its cost is the point of its probe)
     const bool closed = realisation_form(pi.structure_class(), opt.realisation) != RealisationForm::radial;
-    s.predictor_ = Predictor::choose(M, *probe, S, opt, cost, x_typical, closed ? realisation : RealisationSource{});
-    s.info_.predictor_order = s.predictor_.order();
-    s.info_.hessian_terms = s.gradient_.hessian_terms;
+    s.in_->predictor_ =
+        Predictor::choose(M, *probe, S, opt, cost, x_typical, closed ? realisation : RealisationSource{});
+    s.info_.predictor_order = s.in_->predictor_.order();
+    s.info_.hessian_terms = s.in_->gradient_.hessian_terms;
     s.attach_native(opt.native);
     s.size_scratch(n);
-    if (!s.sparse_ && s.realisation_.has_lane_form()) {
+    if (!s.sparse_ && s.in_->realisation_.has_lane_form()) {
         // the realisation's leading coordinates (those past them step by zero), or all of them, whichever a LaneStep
         // is compiled for: a log-canonical system of 5 and a parameter keeps LaneStep<6>
         const auto compiled = [](std::size_t N) { return N == 2 || N == 3 || N == 4 || N == 6; };
-        const std::size_t leading = s.realisation_.leading_dimension();
+        const std::size_t leading = s.in_->realisation_.leading_dimension();
         switch (compiled(leading) ? leading : n) {
             case 2:
                 s.lane_.emplace(std::in_place_type<LaneStep<2, double>>, s);
@@ -163,8 +187,8 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const Poly& H, co
 // Those a step at the build's dt runs first (the Newton system's, the predictor's, the realisation's), then those of
 // other steps and the acceptance test's rarer ones: native code takes them in this order while they fit.
 std::vector<CompiledMap*> NewtonStepper::compiled_maps() {
-    const std::vector<DtSeriesMap*> series = {&gradient_.with_hessian, &predictor_.series(), &gradient_.gradient,
-                                              &gradient_.gradient_size};
+    const std::vector<DtSeriesMap*> series = {&in_->gradient_.with_hessian, &in_->predictor_.series(),
+                                              &in_->gradient_.gradient, &in_->gradient_.gradient_size};
     std::vector<CompiledMap*> maps, later;
     for (DtSeriesMap* m : series) {
         const std::vector<CompiledMap*> c = m->compiled_maps();
@@ -172,14 +196,14 @@ std::vector<CompiledMap*> NewtonStepper::compiled_maps() {
         maps.push_back(c.front());
         later.insert(later.end(), c.begin() + 1, c.end());
     }
-    for (CompiledMap* c : realisation_.compiled_maps()) maps.push_back(c);
+    for (CompiledMap* c : in_->realisation_.compiled_maps()) maps.push_back(c);
     maps.insert(maps.end(), later.begin(), later.end());
     return maps;
 }
 
 void NewtonStepper::size_lane_maps(BatchScratch& scratch) const {
     std::size_t monomials = 0;
-    for (const DtSeriesMap* m : {&gradient_.with_hessian, &gradient_.gradient, &predictor_.series()})
+    for (const DtSeriesMap* m : {&in_->gradient_.with_hessian, &in_->gradient_.gradient, &in_->predictor_.series()})
         if (const CompiledMap* planned = m->planned()) monomials = std::max(monomials, planned->num_monomials());
     if (scratch.map.size() < monomials * CompiledMap::batch_lanes)
         scratch.map.resize(monomials * CompiledMap::batch_lanes);
@@ -192,23 +216,23 @@ void NewtonStepper::set_dt(double dt) {
 
 void NewtonStepper::size_scratch(std::size_t n) {
     const auto N = static_cast<Eigen::Index>(n);
-    check_ = RealisationCheck(n);
+    in_->check_ = RealisationCheck(n);
     for (auto* v : {&xb_, &xb_good_, &p_, &r_, &dx_, &gsize_, &tol_}) v->setZero(N);
-    gh_.setZero(static_cast<Eigen::Index>(gradient_.with_hessian.width()));
-    hessian_.setZero(static_cast<Eigen::Index>(gradient_.hessian.nonzeros()));
+    gh_.setZero(static_cast<Eigen::Index>(in_->gradient_.with_hessian.width()));
+    hessian_.setZero(static_cast<Eigen::Index>(in_->gradient_.hessian.nonzeros()));
     if (sparse_) {  // nothing n x n: the values live on the patterns
-        sparse_values_ = realisation_.sparse_values();
+        in_->sparse_values_ = in_->realisation_.sparse_values();
         return;
     }
-    v_ = RealisationValues(n);
+    in_->v_ = RealisationValues(n);
     hess_.setZero(N, N);
     J_.setZero(N, N);
     D_.setZero(N, N);
-    algebra_ = DenseAlgebra(n);
+    in_->algebra_ = DenseAlgebra(n);
 }
 
 void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
-    gradient_.with_hessian.eval(xb.data(), step_dt_, gh_.data());
+    in_->gradient_.with_hessian.eval(xb.data(), step_dt_, gh_.data());
     take_gradient_at(xb);
 }
 
@@ -217,21 +241,21 @@ void NewtonStepper::evaluate_at(const Eigen::VectorXd& xb) {
 void NewtonStepper::take_gradient_at(const Eigen::VectorXd& xb) {
     const auto n = xb.size();
     p_ = gh_.head(n);
-    expand_hessian(gradient_, gh_.data() + n, hessian_.data());
+    expand_hessian(in_->gradient_, gh_.data() + n, hessian_.data());
     if (sparse_) {
-        realisation_.eval(xb, p_, sparse_values_);
+        in_->realisation_.eval(xb, p_, in_->sparse_values_);
         return;
     }
-    gradient_.hessian.scatter(hessian_.data(), hess_);
-    realisation_.eval(xb, p_, v_);
+    in_->gradient_.hessian.scatter(hessian_.data(), hess_);
+    in_->realisation_.eval(xb, p_, in_->v_);
 }
 
 void NewtonStepper::assemble() {
     if (sparse_) {
-        matrix_.assemble(sparse_values_.alpha_x.data(), sparse_values_.alpha_p.data(), hessian_.data());
+        in_->matrix_.assemble(in_->sparse_values_.alpha_x.data(), in_->sparse_values_.alpha_p.data(), hessian_.data());
         return;
     }
-    algebra_.jacobian(v_.alpha_x, v_.alpha_p, hess_, J_);
+    in_->algebra_.jacobian(in_->v_.alpha_x, in_->v_.alpha_p, hess_, J_);
 }
 
 const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
@@ -242,7 +266,8 @@ const Eigen::MatrixXd& NewtonStepper::newton_system(const Eigen::VectorXd& xb) {
 const Eigen::MatrixXd& NewtonStepper::jacobian_at(const Eigen::VectorXd& xb) {
     evaluate_at(xb);
     assemble();
-    if (sparse_) J_ = matrix_.dense();  // (the benchmarks' and tangent maps' dense view; Newton reads matrix_)
+    if (sparse_)
+        J_ = in_->matrix_.dense();  // (the benchmarks' and tangent maps' dense view; Newton reads in_->matrix_)
     return J_;
 }
 
@@ -254,28 +279,28 @@ const Eigen::MatrixXd& NewtonStepper::jacobian_at(const Eigen::VectorXd& xb) {
 bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction) {
     if (small_correction) {
         if (sparse_)
-            gradient_.hessian.multiply(hessian_.data(), dx_, r_);
+            in_->gradient_.hessian.multiply(hessian_.data(), dx_, r_);
         else
-            algebra_.product(hess_, dx_, r_);
+            in_->algebra_.product(hess_, dx_, r_);
         p_ -= r_;
     } else {
-        gradient_.gradient.eval(xb_.data(), step_dt_, p_.data());
+        in_->gradient_.gradient.eval(xb_.data(), step_dt_, p_.data());
     }
-    realisation_.check(xb_, p_, check_, /*with_delta=*/false);  // (delta once, by finish)
-    r_ = (xb_ - x) + check_.shift;                              // alpha - x to below the ulps of x
+    in_->realisation_.check(xb_, p_, in_->check_, /*with_delta=*/false);  // (delta once, by finish)
+    r_ = (xb_ - x) + in_->check_.shift;                                   // alpha - x to below the ulps of x
     residual_ = r_.lpNorm<Eigen::Infinity>();
-    tol_ = residual_kappa * unit_roundoff * (x.cwiseAbs() + check_.size);
+    tol_ = residual_kappa * unit_roundoff * (x.cwiseAbs() + in_->check_.size);
     if (!within_tolerance()) {
         r_ = xb_.cwiseAbs();
-        gradient_.gradient_size.eval(r_.data(), std::abs(step_dt_), gsize_.data());
+        in_->gradient_.gradient_size.eval(r_.data(), std::abs(step_dt_), gsize_.data());
         add_propagated_sizes();
-        r_ = (xb_ - x) + check_.shift;
+        r_ = (xb_ - x) + in_->check_.shift;
         within_tolerance();
     }
     tolerance_ = tol_.lpNorm<Eigen::Infinity>();
     const double size =
         std::max({x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min()});
-    truncation_ = check_.neglected / size;
+    truncation_ = in_->check_.neglected / size;
     return ratio_ <= 1;
 }
 
@@ -284,16 +309,16 @@ bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction
 void NewtonStepper::add_propagated_sizes() {
     const double c = residual_kappa * unit_roundoff;
     if (sparse_) {
-        const SparsePattern& P = realisation_.pattern_p();
+        const SparsePattern& P = in_->realisation_.pattern_p();
         for (std::size_t l = 0; l < P.cols; ++l)
             for (int k = P.outer[l]; k < P.outer[l + 1]; ++k)
                 tol_[P.inner[std::size_t(k)]] +=
-                    c * std::abs(sparse_values_.alpha_p[std::size_t(k)]) * gsize_[Eigen::Index(l)];
+                    c * std::abs(in_->sparse_values_.alpha_p[std::size_t(k)]) * gsize_[Eigen::Index(l)];
         return;
     }
     const auto n = tol_.size();
     for (Eigen::Index i = 0; i < n; ++i)
-        for (Eigen::Index l = 0; l < n; ++l) tol_[i] += c * std::abs(v_.alpha_p(i, l)) * gsize_[l];
+        for (Eigen::Index l = 0; l < n; ++l) tol_[i] += c * std::abs(in_->v_.alpha_p(i, l)) * gsize_[l];
 }
 
 // ratio_ = max_i |r_i| / tol_i; whether it is at most 1.
@@ -310,8 +335,8 @@ StepStatus NewtonStepper::finish(double x_norm, Eigen::VectorXd& increment) {
     if (newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm, xb_.lpNorm<Eigen::Infinity>())))
         return StepStatus::ill_conditioned;
     polish(x_norm);
-    realisation_.delta(xb_, p_, check_.delta);
-    increment = check_.delta;
+    in_->realisation_.delta(xb_, p_, in_->check_.delta);
+    increment = in_->check_.delta;
     if (!increment.allFinite()) return StepStatus::non_finite;
     return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
 }
@@ -325,20 +350,20 @@ void NewtonStepper::polish(double x_norm) {
     if (!solve(true) || !dx_.allFinite()) return;
     xb_ -= dx_;
     if (sparse_)
-        gradient_.hessian.multiply(hessian_.data(), dx_, r_);
+        in_->gradient_.hessian.multiply(hessian_.data(), dx_, r_);
     else
-        algebra_.product(hess_, dx_, r_);
+        in_->algebra_.product(hess_, dx_, r_);
     p_ -= r_;
 }
 
 // dx = J^{-1} r_ with the J just assembled (factored and kept), or with the kept factors (again): false when
 // the sparse factorisation fails (J singular; the dense LU shows it as a non-finite dx).
 bool NewtonStepper::solve(bool again) {
-    if (sparse_) return again ? matrix_.solve_again(r_, dx_) : matrix_.solve(r_, dx_);
+    if (sparse_) return again ? in_->matrix_.solve_again(r_, dx_) : in_->matrix_.solve(r_, dx_);
     if (again)
-        algebra_.solve_again(r_, dx_);
+        in_->algebra_.solve_again(r_, dx_);
     else
-        algebra_.solve(J_, r_, dx_);
+        in_->algebra_.solve(J_, r_, dx_);
     return true;
 }
 
@@ -397,7 +422,7 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
         const bool settled = newton_rules::settled(small, correction_, previous, residual_, previous_residual);
         previous = correction_, previous_residual = residual_;
         if (settled && accept_check(x, small)) return finish(x_norm, increment);
-        simplified = newton_rules::simplifies(simplified_newton_, small, correction_, scale);
+        simplified = newton_rules::simplifies(in_->simplified_newton_, small, correction_, scale);
     }
     return StepStatus::newton_not_converged;
 }
@@ -443,7 +468,7 @@ void NewtonStepper::attach_native(NativePolicy policy) {
 StepStatus NewtonStepper::step_now(const Eigen::VectorXd& x, double dt, Eigen::VectorXd& increment) {
     if (lane_) return lane_step(x, dt, increment);
     if (!begin_step(x, dt)) return StepStatus::non_finite;
-    predictor_.eval(x, dt, xb_);
+    in_->predictor_.eval(x, dt, xb_);
     return solve_from_prediction(x, increment, false);
 }
 
@@ -505,16 +530,16 @@ double NewtonStepper::residual_at_solution(const Eigen::VectorXd& x) {
 
 double NewtonStepper::residual_at(const Eigen::VectorXd& x, const Eigen::VectorXd& xb) {
     step_dt_ = dt_;
-    gradient_.gradient.eval(xb.data(), step_dt_, p_.data());
-    realisation_.check(xb, p_, check_, /*with_delta=*/false);
-    return (check_.alpha - x).lpNorm<Eigen::Infinity>();
+    in_->gradient_.gradient.eval(xb.data(), step_dt_, p_.data());
+    in_->realisation_.check(xb, p_, in_->check_, /*with_delta=*/false);
+    return (in_->check_.alpha - x).lpNorm<Eigen::Infinity>();
 }
 
 Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
     Eigen::VectorXd inc(x.size());
     if (step(x, inc) != StepStatus::ok) throw std::runtime_error("NewtonStepper::tangent_map: the step failed");
     Eigen::MatrixXd jacobian;
-    last_step_jacobian(jacobian);  // poisson/step_jacobian.cpp
+    last_step_jacobian(jacobian);  // poisson/detail/step_jacobian.cpp
     return jacobian;
 }
 

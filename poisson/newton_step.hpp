@@ -1,18 +1,12 @@
 #pragma once
 // NewtonStepper: the paper's Poisson integrator of order k (docs/math.md 6): solve alpha(xb, grad S_dt(xb)) = x
 // for xb, then x_new = beta(xb, grad S_dt(xb)), written as x_new = x + (beta - alpha)(xb, grad S_dt(xb)).
-// Its build has three named pieces: the realisation's truncation degree (poisson/truncation_degree), the
-// predictor (poisson/predictor), and here Newton with the acceptance test. dt is a run-time argument.
-#include "poisson/dense_algebra.hpp"
-#include "poisson/dt_series.hpp"
+// Its build has three named pieces: the realisation's truncation degree (poisson/detail/truncation_degree), the
+// predictor (poisson/detail/predictor), and here Newton with the acceptance test. dt is a run-time argument.
 #include "poisson/hamilton_jacobi.hpp"
-#include "poisson/newton_matrix.hpp"
-#include "poisson/predictor.hpp"
-#include "poisson/sparse_hessian.hpp"
+#include "poisson/realisation.hpp"
 #include "poisson/step_options.hpp"
-#include "poisson/truncation_degree.hpp"
 #include "series/native.hpp"
-#include "series/native_tier.hpp"
 #include "series/value_ptr.hpp"
 
 #include <Eigen/Dense>
@@ -39,6 +33,11 @@ std::string to_string(StepStatus s);
 template <int N, class T>
 class LaneStep;
 struct LaneSteps;
+class Predictor;
+class DtSeriesMap;
+class NativeTier;
+class CompiledMap;
+struct BatchScratch;
 
 class NewtonStepper {
 public:
@@ -83,13 +82,14 @@ public:
                                             std::size_t stride, Eigen::VectorXd& increment);
     /// What step_predicted is given: the predictor, and grad S_dt with Hess S_dt on its upper triangle (width()
     /// outputs; CompiledGradient).
-    const Predictor& predictor() const { return predictor_; }
-    const DtSeriesMap& with_hessian() const { return gradient_.with_hessian; }
+    const Predictor& predictor() const;
+    const DtSeriesMap& with_hessian() const;
     /// Dphi_dt(x) by implicit differentiation: I + (delta_x + delta_p Hess S) J^{-1} at the solution.
     Eigen::MatrixXd tangent_map(const Eigen::VectorXd& x);
     /// Sets jacobian (n x n) to the derivative of the last step's map at the state it stepped from, by the implicit
-    /// function theorem at its accepted base point with the whole Hess S_dt (poisson/step_jacobian.cpp). Requires the
-    /// last step to have returned ok. False when the Newton matrix there is singular (jacobian then not finite).
+    /// function theorem at its accepted base point with the whole Hess S_dt (poisson/detail/step_jacobian.cpp).
+    /// Requires the last step to have returned ok. False when the Newton matrix there is singular (jacobian then not
+    /// finite).
     bool last_step_jacobian(Eigen::MatrixXd& jacobian);
 
     /// One evaluation of the Newton system at xb, at dt(): F = alpha(xb, grad S_dt(xb)) and its Jacobian J.
@@ -167,29 +167,22 @@ private:
     void size_scratch(std::size_t n);
     std::vector<CompiledMap*> compiled_maps();  // every map the step evaluates, for native code (StepOptions::native)
     void assemble();                            // J at the point evaluate_at saw
-    const Eigen::VectorXd& evaluated_alpha() const { return sparse_ ? sparse_values_.alpha : v_.alpha; }
-    const Eigen::VectorXd& evaluated_delta() const { return sparse_ ? sparse_values_.delta : v_.delta; }
+    const Eigen::VectorXd& evaluated_alpha() const;
+    const Eigen::VectorXd& evaluated_delta() const;
 
     std::size_t k_ = 1;
     double dt_ = 0;       // the default step
     double step_dt_ = 0;  // the step being taken
     StepOptions opt_;
     StepInfo info_;
-    RealisationEvaluator realisation_;
-    bool simplified_newton_ = true;  // StepRealisation::simplified_newton
-    CompiledGradient
-        gradient_;         // (x, dt) -> grad S_dt (n), Hess S_dt on its pattern; grad S_dt alone; its terms' sizes
-    Predictor predictor_;  // (x, dt) -> xb, the base point's series in dt
-    NewtonMatrix matrix_;  // the sparse path's J (its pattern and SparseLU, kept for simplified Newton)
+    // the realisation's evaluator, the maps, the predictor, the Newton matrix: poisson/detail/newton_internals.hpp
+    struct Internals;
+    ValuePtr<Internals> in_;
     bool sparse_ = false;
-    SparseRealisationValues sparse_values_;
-    RealisationCheck check_;
     Eigen::VectorXd gsize_, tol_;
-    RealisationValues v_;
     Eigen::VectorXd xb_, xb_good_, p_, r_, dx_, gh_;  // gh_: with_hessian's outputs (the Hessian's upper triangle)
     Eigen::VectorXd hessian_;                         // Hess S_dt on its whole pattern (expand_hessian)
     Eigen::MatrixXd hess_, J_, D_;
-    DenseAlgebra algebra_;  // the dense path's J, LU and products
     // the same step over lanes, where it exists (then step() is its one-lane instantiation); empty otherwise
     ValuePtr<LaneSteps> lane_;
     std::shared_ptr<NativeTier> native_tier_;  // shared with the copies; null once settled or not wanted

@@ -1,7 +1,7 @@
 #include "poisson/realisation_eval.hpp"
 
 #include "poisson/log_canonical.ipp"
-#include "poisson/newton_rules.hpp"
+#include "poisson/detail/newton_rules.hpp"
 
 #include <flint/fmpq.h>
 

@@ -1,13 +1,17 @@
 #pragma once
 // The step's options and what its build chose (docs/math.md 6), shared by the truncation degree, the
 // predictor and Newton.
-#include "poisson/newton_matrix.hpp"
 #include "poisson/realisation.hpp"
 #include "series/native.hpp"
 
 #include <string>
 
 namespace pgi {
+
+/// How the step solves with its Newton matrix J (NewtonMatrix): dense LU, or sparse on J's pattern.
+enum class NewtonSolver { dense, sparse };
+/// How the step chooses: by measurement (automatic), or as asked (the tests compare the two).
+enum class NewtonSolverChoice { automatic, dense, sparse };
 
 struct StepOptions {
     std::size_t k = 2;  // Hamilton-Jacobi order
@@ -22,7 +26,8 @@ struct StepOptions {
     NewtonSolverChoice solver =
         NewtonSolverChoice::automatic;  // the Newton matrix dense or sparse (NewtonMatrix::choose)
     /// Whether the step's compiled maps run native code (series/native.hpp): the same bits, faster steps. automatic: a
-    /// kept library at once, else built in the background once the step has run long enough (series/native_tier.hpp).
+    /// kept library at once, else built in the background once the step has run long enough
+    /// (series/detail/native_tier.hpp).
     NativePolicy native = NativePolicy::automatic;
 };
 

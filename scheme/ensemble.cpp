@@ -2,7 +2,7 @@
 
 #include "scheme/input.hpp"
 #include "scheme/run_loop.hpp"
-#include "scheme/trajectory_runner.hpp"
+#include "scheme/detail/trajectory_runner.hpp"
 #include "poisson/batch_step.hpp"
 
 #include <tbb/blocked_range.h>

@@ -54,7 +54,7 @@ struct EnsembleOptions {
     /// What each trajectory records besides its final state and errors (every = 0: nothing, the default): rows every
     /// `every` steps or at t_eval, the crossings of events, the tangent map. Rows every `every` steps are kept on
     /// lanes (batch applies); with t_eval, events or a tangent map the trajectories run one at a time per thread,
-    /// each through pgi::integrate's own code (scheme/trajectory_runner.hpp).
+    /// each through pgi::integrate's own code (scheme/detail/trajectory_runner.hpp).
     TrajectoryOptions record = final_state_only();
 };
 

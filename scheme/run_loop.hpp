@@ -84,9 +84,9 @@ public:
         commit(first);
         return true;
     }
-    /// A state between the run's own (a partial step's: scheme/time_output.hpp): its invariants evaluated (values()
-    /// and error(i) describe it until the next state) and counted in error_max(), not in drift_per_step() (a fit
-    /// against the step index). false when one is not finite (non_finite() names it).
+    /// A state between the run's own (a partial step's: scheme/detail/time_output.hpp): its invariants evaluated
+    /// (values() and error(i) describe it until the next state) and counted in error_max(), not in drift_per_step() (a
+    /// fit against the step index). false when one is not finite (non_finite() names it).
     bool observe_between(const Eigen::VectorXd& y) {
         if (!evaluate(y)) return false;
         for (std::size_t i = 0; i < values_.size(); ++i) worst_[i] = std::max(worst_[i], error(i));

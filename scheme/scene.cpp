@@ -1,7 +1,7 @@
 #include "scheme/scene.hpp"
 
 #include "scheme/input.hpp"
-#include "scheme/input_file.hpp"
+#include "scheme/detail/input_file.hpp"
 
 #include <toml++/toml.h>
 
@@ -98,7 +98,7 @@ private:
         throw SceneError(file_, key, problem);
     }
 
-    // The input rules (scheme/input_file.hpp), at most max_scene_bytes.
+    // The input rules (scheme/detail/input_file.hpp), at most max_scene_bytes.
     std::string file_text() const {
         try {
             return read_input_file(file_, max_scene_bytes, "scene");

@@ -2,6 +2,7 @@
 
 #include "magnus/modified_hamiltonian.hpp"
 #include "poisson/hamilton_jacobi.hpp"
+#include "poisson/detail/truncation_degree.hpp"
 
 #include <algorithm>
 #include <cmath>

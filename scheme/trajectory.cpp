@@ -1,7 +1,7 @@
 #include "scheme/trajectory.hpp"
 
 #include "scheme/run_loop.hpp"
-#include "scheme/trajectory_runner.hpp"
+#include "scheme/detail/trajectory_runner.hpp"
 
 #include <cmath>
 #include <cstdio>

@@ -59,7 +59,7 @@ struct Trajectory {
     std::vector<Crossing> crossings;  // with events: every crossing, in time order
     bool terminal_event = false;      // a terminal event ended the run: its crossing is the last row
     /// With tangent: row-major dim x dim, d x(t_last) / d x0, the product of the Jacobians of the steps taken
-    /// (poisson/step_jacobian.hpp); empty without.
+    /// (poisson/detail/step_jacobian.hpp); empty without.
     std::vector<double> jacobian;
     /// The run's last state (dim values): at t_end, or a terminal crossing's, or the last reached before a failure.
     std::vector<double> x_last;
@@ -109,7 +109,7 @@ RunRequest trajectory_request(const Scheme& scheme, double dt, double t_end, con
 /// alongside it (InputError with a terminal event, which ends the run between steps).
 /// t_eval: the rows are at these times instead (every is ignored; t equal to them, InputError from plan_run unless
 /// finite, strictly increasing and in [0, t_end]), each state a true partial step of the method from the run's last
-/// state before it (scheme/time_output.hpp): the run itself, its final state and its jacobian are those without
+/// state before it (scheme/detail/time_output.hpp): the run itself, its final state and its jacobian are those without
 /// t_eval. A partial step that fails ends the run as a failed step does (message naming the requested time); after a
 /// terminal crossing the later times have no row.
 Trajectory integrate(const Scheme& scheme, const Eigen::VectorXd& x0, double dt, double t_end, std::size_t every = 1,

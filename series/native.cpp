@@ -1,8 +1,8 @@
 #include "series/native.hpp"
 
-#include "series/child_process.hpp"
+#include "series/detail/child_process.hpp"
 #include "series/message.hpp"
-#include "series/sha256.hpp"
+#include "series/detail/sha256.hpp"
 
 #include <dirent.h>
 #include <dlfcn.h>

@@ -50,7 +50,7 @@ struct NativeOptions {
     /// (KEY.cpp, KEY.so, KEY.hash, KEY.PID-N.EXT, KEY 16 hex digits) are looked at, never another file (a library
     /// loaded by a running process stays mapped: only its name goes).
     std::uintmax_t cache_limit_bytes = std::uintmax_t(256) << 20;
-    /// The compiler's process group is killed past this (series/child_process.hpp).
+    /// The compiler's process group is killed past this (series/detail/child_process.hpp).
     std::chrono::seconds timeout{300};
     /// The terms and monomials compiled at most, over all maps: the maps are taken in the order given while they
     /// fit, the rest stay interpreted (the compiler's time grows with the source: 0.1-0.3 s per thousand here).

@@ -10,7 +10,7 @@
 //   number     := digits ['.' digits] [('e'|'E') ['+'|'-'] digits], exactly: 0.05 is 1/20 (Rational::parse)
 #include "series/poly.hpp"
 
-#include "series/decimal.hpp"
+#include "series/detail/decimal.hpp"
 
 #include <algorithm>
 #include <cctype>

@@ -1,6 +1,6 @@
 #include "series/rational.hpp"
 
-#include "series/decimal.hpp"
+#include "series/detail/decimal.hpp"
 
 #include <flint/arith.h>
 #include <flint/fmpz.h>

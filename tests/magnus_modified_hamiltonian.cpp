@@ -2,7 +2,7 @@
 // backward error property, exactly as series and numerically.
 #include "magnus/magnus.hpp"
 #include "magnus/modified_hamiltonian.hpp"
-#include "poisson/bisection.hpp"
+#include "poisson/detail/bisection.hpp"
 #include "poisson/hamilton_jacobi.hpp"
 #include "series/composition.hpp"
 #include "poisson/integrate.hpp"

@@ -4,7 +4,8 @@
 // error grows from 1e4 to 1e5 steps like a random walk's (about sqrt(10)), not like a bias's (10x). A bias of
 // 1e-17 per step, which every step's acceptance test passes, fails both.
 #include "poisson/integrate.hpp"
-#include "poisson/newton_rules.hpp"
+#include "poisson/detail/newton_rules.hpp"
+#include "poisson/realisation_eval.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>

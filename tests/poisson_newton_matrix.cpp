@@ -1,7 +1,9 @@
-// The sparse Newton path (poisson/newton_matrix, sparse_hessian, sparse_pattern, realisation_eval_sparse): the
+// The sparse Newton path (poisson/detail/newton_matrix, sparse_hessian, sparse_pattern, realisation_eval_sparse): the
 // same steps as the dense path to the step's own round-off tolerance, on banded and non-banded patterns, for the
 // closed and the compiled polynomial realisation; honest failures; the patterns stay local.
+#include "poisson/detail/newton_matrix.hpp"
 #include "poisson/newton_step.hpp"
+#include "poisson/detail/sparse_hessian.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>

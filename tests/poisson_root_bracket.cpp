@@ -1,5 +1,5 @@
 // The bracketed Newton root finder: round-off accuracy, the safeguard, and degenerate brackets.
-#include "poisson/root_bracket.hpp"
+#include "poisson/detail/root_bracket.hpp"
 
 #include <doctest/doctest.h>
 

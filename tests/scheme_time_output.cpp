@@ -1,5 +1,5 @@
-// Output at requested times (pgi::integrate with t_eval, scheme/time_output.hpp): each row is the run's own state
-// or a true partial step of the same method from the state before it, the run itself is unchanged, and every row
+// Output at requested times (pgi::integrate with t_eval, scheme/detail/time_output.hpp): each row is the run's own
+// state or a true partial step of the same method from the state before it, the run itself is unchanged, and every row
 // keeps the Casimirs to round-off.
 #include "scheme/trajectory.hpp"
 #include "test_util.hpp"

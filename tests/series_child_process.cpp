@@ -1,6 +1,7 @@
-// Child processes (series/child_process.hpp) and the message rule (series/message.hpp): a child's output is bounded,
-// its group killed past the time-out with everything it started, its status reported; diagnostics one bounded line.
-#include "series/child_process.hpp"
+// Child processes (series/detail/child_process.hpp) and the message rule (series/message.hpp): a child's output is
+// bounded, its group killed past the time-out with everything it started, its status reported; diagnostics one bounded
+// line.
+#include "series/detail/child_process.hpp"
 #include "series/message.hpp"
 
 #include <doctest/doctest.h>

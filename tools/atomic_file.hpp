@@ -2,8 +2,8 @@
 // AtomicFile: output written to a fresh temporary file beside its target (created exclusively, with an
 // unpredictable name, never through a link), flushed to disk and renamed into place by commit(), so a
 // reader never sees half a file; an uncommitted file is removed by the destructor, and by
-// the signal handler (series/child_process.hpp) when SIGINT or SIGTERM ends the program.
-#include "series/child_process.hpp"
+// the signal handler (series/detail/child_process.hpp) when SIGINT or SIGTERM ends the program.
+#include "series/detail/child_process.hpp"
 
 #include <cerrno>
 #include <cstring>

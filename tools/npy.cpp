@@ -1,7 +1,7 @@
 #include "tools/npy.hpp"
 
 #include "scheme/input.hpp"
-#include "scheme/input_file.hpp"
+#include "scheme/detail/input_file.hpp"
 
 #include <bit>
 #include <charconv>

@@ -12,7 +12,7 @@
 #include "tools/lyapunov.hpp"
 #include "tools/exit_codes.hpp"
 #include "tools/option_values.hpp"
-#include "scheme/input_file.hpp"
+#include "scheme/detail/input_file.hpp"
 
 #include <CLI/CLI.hpp>
 

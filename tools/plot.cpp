@@ -1,6 +1,6 @@
 #include "tools/plot.hpp"
 
-#include "series/child_process.hpp"
+#include "series/detail/child_process.hpp"
 #include "series/message.hpp"
 #include "tools/atomic_file.hpp"
 
@@ -86,7 +86,7 @@ std::string quoted(const std::string& s) {
 // quote or @ of the user's.
 constexpr const char* script_preamble = "pgi_q = \"\\047\"; pgi_at = \"\\100\"\n";
 
-// gnuplot runs as every child does (series/child_process.hpp): no shell, its own process group, killed past a
+// gnuplot runs as every child does (series/detail/child_process.hpp): no shell, its own process group, killed past a
 // minute or on a signal, its diagnostics bounded and sanitised.
 void run_gnuplot(const fs::path& script) {
     const ChildResult run = run_child({"gnuplot", script.string()},

@@ -4,7 +4,7 @@
 #include "tools/csv.hpp"
 
 #include "scheme/run_loop.hpp"
-#include "scheme/time_output.hpp"
+#include "scheme/detail/time_output.hpp"
 
 #include <fmt/format.h>
 

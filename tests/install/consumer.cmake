@@ -16,6 +16,13 @@ foreach(f include/pgi/pgi.hpp include/pgi/scheme/scheme.hpp include/pgi/poisson/
     message(FATAL_ERROR "not installed: ${f}")
   endif()
 endforeach()
+# Each layer's detail/ (its internals) is not installed: the example below, built against the prefix alone, shows
+# that no public header includes one.
+foreach(dir series poisson magnus scheme)
+  if(EXISTS ${WORK}/prefix/include/pgi/${dir}/detail)
+    message(FATAL_ERROR "installed: include/pgi/${dir}/detail")
+  endif()
+endforeach()
 # The interface needs FLINT and Eigen only (the static library links oneTBB and toml++ privately, found by
 # pgiConfig.cmake): no tool's package may appear in the exported targets.
 file(READ ${WORK}/prefix/lib/cmake/pgi/pgiTargets.cmake targets)

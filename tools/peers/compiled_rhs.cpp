@@ -1,6 +1,6 @@
 #include "tools/peers/compiled_rhs.hpp"
 
-#include "series/child_process.hpp"
+#include "series/detail/child_process.hpp"
 #include "series/message.hpp"
 #include "series/native.hpp"
 

@@ -22,7 +22,7 @@
 // whose maximum energy and Casimir errors are both at or below pgi's, or "none reaches them".
 // Suite (--suite): one run of every method at the scene's order and dt (adaptive peers at tolerance
 // --tol, default 1e-6) with its outcome: finished or why not, errors, watched quantities (final / initial).
-#include "series/child_process.hpp"
+#include "series/detail/child_process.hpp"
 #include "series/message.hpp"
 #include "tools/atomic_file.hpp"
 #include "tools/exit_codes.hpp"
@@ -262,8 +262,8 @@ json suite(const Problem& pr, const std::vector<Method>& methods, const State& x
 // The work-precision diagram from the CSV, by gnuplot and tools/peers/plot.gp, written beside svg and
 // renamed into place. The script hands the CSV's path to awk through sh and gnuplot expands @macros even in
 // quotes: a path or title with a quote, @, `, $, \\ or a control character is refused, never passed on. gnuplot runs
-// as every child of pgi does (series/child_process: no shell, its own process group, a time-out, bounded output).
-// Throws if gnuplot is missing or fails.
+// as every child of pgi does (series/detail/child_process: no shell, its own process group, a time-out, bounded
+// output). Throws if gnuplot is missing or fails.
 void plot_work_precision(const std::string& csv, const std::string& svg, const std::string& title) {
     for (const auto* s : {&csv, &svg, &title})
         for (char c : *s)

@@ -1,4 +1,4 @@
-#include "series/sha256.hpp"
+#include "series/detail/sha256.hpp"
 
 #include <array>
 #include <bit>

@@ -1,8 +1,8 @@
-#include "poisson/truncation_degree.hpp"
+#include "poisson/detail/truncation_degree.hpp"
 
 #include "poisson/hamilton_jacobi.hpp"
-#include "poisson/newton_rules.hpp"
-#include "poisson/predictor.hpp"
+#include "poisson/detail/newton_rules.hpp"
+#include "poisson/detail/predictor.hpp"
 
 #include <algorithm>
 #include <cmath>

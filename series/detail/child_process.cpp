@@ -1,4 +1,4 @@
-#include "series/child_process.hpp"
+#include "series/detail/child_process.hpp"
 
 #include <fcntl.h>
 #include <poll.h>

@@ -1,4 +1,4 @@
-#include "poisson/dense_algebra.hpp"
+#include "poisson/detail/dense_algebra.hpp"
 
 #include <type_traits>
 

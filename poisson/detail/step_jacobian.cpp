@@ -1,4 +1,6 @@
-#include "poisson/step_jacobian.hpp"
+#include "poisson/detail/step_jacobian.hpp"
+
+#include "poisson/detail/newton_internals.hpp"
 
 namespace pgi {
 
@@ -39,23 +41,23 @@ void one_plus_right_divide_any(const Eigen::MatrixXd& D, const Eigen::MatrixXd& 
 bool NewtonStepper::last_step_jacobian(Eigen::MatrixXd& jacobian) {
     const Eigen::Index n = xb_.size();
     // p = grad S_dt(xb), Hess S_dt(xb) on its pattern (whole: the full Hessian's map when the Newton matrix's is not)
-    if (gradient_.full_hessian.empty()) {
-        gradient_.with_hessian.eval(xb_.data(), step_dt_, gh_.data());
+    if (in_->gradient_.full_hessian.empty()) {
+        in_->gradient_.with_hessian.eval(xb_.data(), step_dt_, gh_.data());
         p_ = gh_.head(n);
     } else {
-        gradient_.gradient.eval(xb_.data(), step_dt_, p_.data());
-        gradient_.full_hessian.eval(xb_.data(), step_dt_, gh_.data() + n);
+        in_->gradient_.gradient.eval(xb_.data(), step_dt_, p_.data());
+        in_->gradient_.full_hessian.eval(xb_.data(), step_dt_, gh_.data() + n);
     }
-    expand_hessian(gradient_, gh_.data() + n, hessian_.data());
-    gradient_.hessian.scatter(hessian_.data(), hess_);
+    expand_hessian(in_->gradient_, gh_.data() + n, hessian_.data());
+    in_->gradient_.hessian.scatter(hessian_.data(), hess_);
     // the realisation's dense derivatives at (xb, p): a tangent map is dense anyway (sized here on the sparse path)
-    if (v_.alpha.size() != n) v_ = RealisationValues(std::size_t(n));
-    realisation_.eval(xb_, p_, v_);
+    if (in_->v_.alpha.size() != n) in_->v_ = RealisationValues(std::size_t(n));
+    in_->realisation_.eval(xb_, p_, in_->v_);
     // A = alpha_x + alpha_p Hess S_dt;  D = delta_x + delta_p Hess S_dt;  jacobian = I + D A^{-1}
-    J_ = v_.alpha_x;
-    J_.noalias() += v_.alpha_p * hess_;
-    D_ = v_.delta_x;
-    D_.noalias() += v_.delta_p * hess_;
+    J_ = in_->v_.alpha_x;
+    J_.noalias() += in_->v_.alpha_p * hess_;
+    D_ = in_->v_.delta_x;
+    D_.noalias() += in_->v_.delta_p * hess_;
     one_plus_right_divide_any(D_, J_, jacobian);
     return jacobian.allFinite();
 }

@@ -3,6 +3,7 @@
 // (docs/math.md 6), on its pattern fixed at build time, and its solve: partial-pivoting dense LU, or Eigen's
 // SparseLU (COLAMD ordering; the symbolic analysis once, at build, a numeric factorisation per matrix).
 #include "poisson/sparse_pattern.hpp"
+#include "poisson/step_options.hpp"
 
 #include <Eigen/Dense>
 #include <Eigen/SparseCore>
@@ -11,10 +12,6 @@
 #include <memory>
 
 namespace pgi {
-
-enum class NewtonSolver { dense, sparse };
-/// How the step chooses: by measurement (automatic), or as asked (the tests compare the two).
-enum class NewtonSolverChoice { automatic, dense, sparse };
 
 class NewtonMatrix {
 public:

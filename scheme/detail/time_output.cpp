@@ -1,4 +1,4 @@
-#include "scheme/time_output.hpp"
+#include "scheme/detail/time_output.hpp"
 
 #include <cmath>
 #include <cstdio>

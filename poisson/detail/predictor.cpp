@@ -1,7 +1,7 @@
-#include "poisson/predictor.hpp"
+#include "poisson/detail/predictor.hpp"
 
-#include "poisson/bisection.hpp"
-#include "poisson/newton_rules.hpp"
+#include "poisson/detail/bisection.hpp"
+#include "poisson/detail/newton_rules.hpp"
 
 #include <algorithm>
 #include <cmath>

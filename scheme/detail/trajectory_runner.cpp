@@ -1,7 +1,7 @@
-#include "scheme/trajectory_runner.hpp"
+#include "scheme/detail/trajectory_runner.hpp"
 
-#include "poisson/step_jacobian.hpp"
-#include "scheme/time_output.hpp"
+#include "poisson/detail/step_jacobian.hpp"
+#include "scheme/detail/time_output.hpp"
 
 namespace pgi {
 

@@ -1,4 +1,4 @@
-#include "poisson/sparse_hessian.hpp"
+#include "poisson/detail/sparse_hessian.hpp"
 
 #include "poisson/realisation_eval.hpp"
 

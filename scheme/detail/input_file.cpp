@@ -1,4 +1,4 @@
-#include "scheme/input_file.hpp"
+#include "scheme/detail/input_file.hpp"
 
 #include "scheme/input.hpp"
 

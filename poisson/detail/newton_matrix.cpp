@@ -1,4 +1,4 @@
-#include "poisson/newton_matrix.hpp"
+#include "poisson/detail/newton_matrix.hpp"
 
 #include <algorithm>
 

@@ -1,4 +1,4 @@
-#include "poisson/bisection.hpp"
+#include "poisson/detail/bisection.hpp"
 
 #include "series/composition.hpp"
 
