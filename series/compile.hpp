@@ -27,7 +27,7 @@ class CompiledMap;
 
 /// The lanes' coefficients of maps with parameters (CompiledMap::build's slow inputs), kept by their caller across
 /// calls, so that a map's coefficients are evaluated again only where a lane's parameter values changed. Entries are
-/// keyed by the map's address: one cache serves the maps of one owner (a stepper's, while it lives).
+/// keyed by the map's build (get): one cache serves the maps of one owner (a stepper's, while it lives).
 class LaneCoefficients {
 public:
     /// map's cache of `blocks` blocks of CompiledMap::batch_lanes lanes from the first block (below), made (holding no
