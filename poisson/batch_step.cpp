@@ -1,5 +1,7 @@
 #include "poisson/batch_step.hpp"
 
+#include "poisson/detail/predictor.hpp"
+
 #include <algorithm>
 #include <stdexcept>
 

@@ -1,6 +1,7 @@
 #include "poisson/newton_step.hpp"
 
 #include "poisson/detail/newton_internals.hpp"
+#include "poisson/detail/truncation_degree.hpp"
 #include "series/detail/native_tier.hpp"
 
 #include "poisson/lane_step.hpp"
