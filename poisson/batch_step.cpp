@@ -1,6 +1,6 @@
 #include "poisson/batch_step.hpp"
 
-#include "poisson/detail/predictor.hpp"
+#include "poisson/predictor.hpp"
 
 #include <algorithm>
 #include <stdexcept>

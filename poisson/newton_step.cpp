@@ -2,7 +2,7 @@
 
 #include "poisson/detail/newton_internals.hpp"
 #include "poisson/detail/truncation_degree.hpp"
-#include "series/detail/native_tier.hpp"
+#include "series/native_tier.hpp"
 
 #include "poisson/lane_step.hpp"
 #include "poisson/detail/newton_rules.hpp"
@@ -17,7 +17,8 @@
 
 namespace pgi {
 
-// Defaulted here, where LaneSteps is defined (series/value_ptr.hpp).
+// Here, where LaneSteps and Internals are defined (series/value_ptr.hpp); a stepper always holds its Internals (a
+// moved-from one excepted, which may only be assigned to or destroyed).
 NewtonStepper::NewtonStepper() {
     in_.emplace();
 }
@@ -540,7 +541,7 @@ Eigen::MatrixXd NewtonStepper::tangent_map(const Eigen::VectorXd& x) {
     Eigen::VectorXd inc(x.size());
     if (step(x, inc) != StepStatus::ok) throw std::runtime_error("NewtonStepper::tangent_map: the step failed");
     Eigen::MatrixXd jacobian;
-    last_step_jacobian(jacobian);  // poisson/detail/step_jacobian.cpp
+    last_step_jacobian(jacobian);  // poisson/step_jacobian.cpp
     return jacobian;
 }
 

@@ -2,11 +2,14 @@
 // NewtonStepper: the paper's Poisson integrator of order k (docs/math.md 6): solve alpha(xb, grad S_dt(xb)) = x
 // for xb, then x_new = beta(xb, grad S_dt(xb)), written as x_new = x + (beta - alpha)(xb, grad S_dt(xb)).
 // Its build has three named pieces: the realisation's truncation degree (poisson/detail/truncation_degree), the
-// predictor (poisson/detail/predictor), and here Newton with the acceptance test. dt is a run-time argument.
+// predictor (poisson/predictor), and here Newton with the acceptance test. dt is a run-time argument.
+#include "poisson/dt_series.hpp"
 #include "poisson/hamilton_jacobi.hpp"
+#include "poisson/predictor.hpp"
 #include "poisson/realisation.hpp"
 #include "poisson/step_options.hpp"
 #include "series/native.hpp"
+#include "series/native_tier.hpp"
 #include "series/value_ptr.hpp"
 
 #include <Eigen/Dense>
@@ -33,11 +36,6 @@ std::string to_string(StepStatus s);
 template <int N, class T>
 class LaneStep;
 struct LaneSteps;
-class Predictor;
-class DtSeriesMap;
-class NativeTier;
-class CompiledMap;
-struct BatchScratch;
 
 class NewtonStepper {
 public:
@@ -87,7 +85,7 @@ public:
     /// Dphi_dt(x) by implicit differentiation: I + (delta_x + delta_p Hess S) J^{-1} at the solution.
     Eigen::MatrixXd tangent_map(const Eigen::VectorXd& x);
     /// Sets jacobian (n x n) to the derivative of the last step's map at the state it stepped from, by the implicit
-    /// function theorem at its accepted base point with the whole Hess S_dt (poisson/detail/step_jacobian.cpp).
+    /// function theorem at its accepted base point with the whole Hess S_dt (poisson/step_jacobian.cpp).
     /// Requires the last step to have returned ok. False when the Newton matrix there is singular (jacobian then not
     /// finite).
     bool last_step_jacobian(Eigen::MatrixXd& jacobian);

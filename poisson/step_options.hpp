@@ -27,7 +27,7 @@ struct StepOptions {
         NewtonSolverChoice::automatic;  // the Newton matrix dense or sparse (NewtonMatrix::choose)
     /// Whether the step's compiled maps run native code (series/native.hpp): the same bits, faster steps. automatic: a
     /// kept library at once, else built in the background once the step has run long enough
-    /// (series/detail/native_tier.hpp).
+    /// (series/native_tier.hpp).
     NativePolicy native = NativePolicy::automatic;
 };
 

@@ -2,7 +2,7 @@
 // types and ranges checked, results as objects, StepFailure raised from a failed step's report, sympy conversions.
 // Every failure here becomes a Python exception: the library's InputError, ResourceLimitError (a run above its
 // budget: RunBudgetError), NativeCodeError; std::bad_alloc a MemoryError; Ctrl-C a KeyboardInterrupt (interruptible).
-#include "poisson/detail/step_jacobian.hpp"
+#include "poisson/step_jacobian.hpp"
 #include "scheme/ensemble.hpp"
 #include "scheme/evaluators.hpp"
 #include "scheme/lyapunov.hpp"
@@ -254,7 +254,7 @@ void report_failure(py::dict& r, const pgi::NewtonStepper& st, pgi::StepStatus s
     r["residual"] = st.last_residual();
 }
 
-// One step with its Jacobian (poisson/detail/step_jacobian.hpp): the new state and d x_new / d x, or the failure's
+// One step with its Jacobian (poisson/step_jacobian.hpp): the new state and d x_new / d x, or the failure's
 // report. On the extended state (x, w) at the parameters' values: the coordinates' block (w's rows are those of I).
 py::dict step_jacobian(PyScheme& s, const Eigen::VectorXd& x_in, std::optional<double> dt_in,
                        const pgi::ParameterValues& parameters) {

@@ -1,6 +1,6 @@
 #include "scheme/lyapunov.hpp"
 
-#include "poisson/detail/step_jacobian.hpp"
+#include "poisson/step_jacobian.hpp"
 #include "scheme/run_loop.hpp"
 #include "scheme/trajectory.hpp"
 

@@ -1,6 +1,6 @@
 #pragma once
 // Lyapunov exponents of a Scheme's step by Benettin's method: tangent vectors carried by the step's exact Jacobian
-// (poisson/detail/step_jacobian.hpp) along one run of the one run loop (scheme/run_loop.hpp), re-orthonormalised after
+// (poisson/step_jacobian.hpp) along one run of the one run loop (scheme/run_loop.hpp), re-orthonormalised after
 // every step by Householder QR, log |R_ii| summed. The vectors span the tangent space of the Casimirs' level set at
 // x0 (the step maps it onto the level set's at the next state: grad C(step(x)) J = grad C(x)), so the exponents on
 // the leaf come first and the c directions across it (one per Casimir) are reported as exactly 0 (docs/user-guide.md).

@@ -59,7 +59,7 @@ struct Trajectory {
     std::vector<Crossing> crossings;  // with events: every crossing, in time order
     bool terminal_event = false;      // a terminal event ended the run: its crossing is the last row
     /// With tangent: row-major dim x dim, d x(t_last) / d x0, the product of the Jacobians of the steps taken
-    /// (poisson/detail/step_jacobian.hpp); empty without.
+    /// (poisson/step_jacobian.hpp); empty without.
     std::vector<double> jacobian;
     /// The run's last state (dim values): at t_end, or a terminal crossing's, or the last reached before a failure.
     std::vector<double> x_last;

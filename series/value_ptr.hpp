@@ -33,8 +33,11 @@ public:
         return *p_;
     }
     explicit operator bool() const { return p_ != nullptr; }
-    T& operator*() const { return *p_; }
-    T* operator->() const { return p_.get(); }
+    // const as a value member is: a const holder reads its T, it does not change it
+    T& operator*() { return *p_; }
+    const T& operator*() const { return *p_; }
+    T* operator->() { return p_.get(); }
+    const T* operator->() const { return p_.get(); }
 
 private:
     std::unique_ptr<T> p_;

@@ -1,7 +1,7 @@
 // The compiled step: measured orders, Casimirs over long runs, the Poisson property of one step,
 // the midpoint rule, and stiff and extreme cases (docs/math.md 5-6).
 #include "poisson/integrate.hpp"
-#include "poisson/detail/predictor.hpp"
+#include "poisson/predictor.hpp"
 #include "lie_reference.hpp"
 #include "test_util.hpp"
 

@@ -1,7 +1,7 @@
-// The step's tangent map by the implicit function theorem (poisson/detail/step_jacobian.hpp, docs/math.md 6): against
+// The step's tangent map by the implicit function theorem (poisson/step_jacobian.hpp, docs/math.md 6): against
 // central differences of the step on every bundled scene (each realisation form), a Poisson map's identities, other
 // dt and the sparse path.
-#include "poisson/detail/step_jacobian.hpp"
+#include "poisson/step_jacobian.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>

@@ -1,6 +1,6 @@
 // A run's tangent map (pgi::integrate with tangent): the product of its steps' Jacobians, computed alongside the
 // steps by the one run loop's observer (scheme/trajectory.cpp), and refused where it would not be one.
-#include "poisson/detail/step_jacobian.hpp"
+#include "poisson/step_jacobian.hpp"
 #include "scheme/trajectory.hpp"
 #include "test_util.hpp"
 

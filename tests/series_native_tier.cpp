@@ -1,7 +1,7 @@
-// Native code by default (NativePolicy::automatic, series/detail/native_tier.hpp): a kept library is attached at the
+// Native code by default (NativePolicy::automatic, series/native_tier.hpp): a kept library is attached at the
 // build without a compiler; a step that has run long enough builds its native code in the background and switches to it
 // without changing a bit of the trajectory; no compiler means an interpreted run and a failure that names it.
-#include "series/detail/native_tier.hpp"
+#include "series/native_tier.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>

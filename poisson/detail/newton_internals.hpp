@@ -6,7 +6,7 @@
 #include "poisson/detail/dense_algebra.hpp"
 #include "poisson/detail/newton_matrix.hpp"
 #include "poisson/newton_step.hpp"
-#include "poisson/detail/predictor.hpp"
+#include "poisson/predictor.hpp"
 #include "poisson/realisation_eval.hpp"
 #include "poisson/detail/sparse_hessian.hpp"
 

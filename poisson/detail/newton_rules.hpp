@@ -1,7 +1,7 @@
 #pragma once
 // The Newton step's tolerances and decisions (docs/math.md 6), in one place for the step on one state
 // (poisson/newton_step.cpp: T = double, each decision a bool), its lanes (poisson/lane_step.ipp: T = double or a
-// Pack, each decision a mask over the lanes) and the predictor's cost model (poisson/detail/predictor.cpp).
+// Pack, each decision a mask over the lanes) and the predictor's cost model (poisson/predictor.cpp).
 #include "poisson/lanes.hpp"
 
 #include <cmath>

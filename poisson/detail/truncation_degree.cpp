@@ -2,7 +2,7 @@
 
 #include "poisson/hamilton_jacobi.hpp"
 #include "poisson/detail/newton_rules.hpp"
-#include "poisson/detail/predictor.hpp"
+#include "poisson/predictor.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
 #include "scheme/detail/trajectory_runner.hpp"
 
-#include "poisson/detail/step_jacobian.hpp"
+#include "poisson/step_jacobian.hpp"
 #include "scheme/detail/time_output.hpp"
 
 namespace pgi {

@@ -16,13 +16,24 @@ foreach(f include/pgi/pgi.hpp include/pgi/scheme/scheme.hpp include/pgi/poisson/
     message(FATAL_ERROR "not installed: ${f}")
   endif()
 endforeach()
-# Each layer's detail/ (its internals) is not installed: the example below, built against the prefix alone, shows
-# that no public header includes one.
+# Each layer's detail/ (its internals) is not installed, and every installed header compiles against the prefix
+# alone (one unit includes them all as a consumer would): no public header includes an internal one.
 foreach(dir series poisson magnus scheme)
   if(EXISTS ${WORK}/prefix/include/pgi/${dir}/detail)
     message(FATAL_ERROR "installed: include/pgi/${dir}/detail")
   endif()
 endforeach()
+file(GLOB_RECURSE installed RELATIVE ${WORK}/prefix/include ${WORK}/prefix/include/pgi/*.hpp)
+set(unit "")
+foreach(h ${installed})
+  string(APPEND unit "#include <${h}>\n")
+endforeach()
+file(WRITE ${WORK}/headers/all_headers.cpp "${unit}")
+file(WRITE ${WORK}/headers/CMakeLists.txt "cmake_minimum_required(VERSION 3.20)\nproject(pgi_headers CXX)\n"
+     "find_package(pgi CONFIG REQUIRED)\nadd_library(all_headers OBJECT all_headers.cpp)\n"
+     "target_link_libraries(all_headers PRIVATE pgi::pgi)\n")
+run(${CMAKE_COMMAND} -S ${WORK}/headers -B ${WORK}/headers/build -DCMAKE_PREFIX_PATH=${WORK}/prefix)
+run(${CMAKE_COMMAND} --build ${WORK}/headers/build)
 # The interface needs FLINT and Eigen only (the static library links oneTBB and toml++ privately, found by
 # pgiConfig.cmake): no tool's package may appear in the exported targets.
 file(READ ${WORK}/prefix/lib/cmake/pgi/pgiTargets.cmake targets)

@@ -8,7 +8,7 @@
 // (--dt: instead of the scene's; --jit: the step's maps as native code, StepOptions::jit; its compilation is in
 // build_seconds).
 #include "poisson/integrate.hpp"
-#include "poisson/detail/predictor.hpp"
+#include "poisson/predictor.hpp"
 #include "scheme/scene.hpp"
 
 #include <nlohmann/json.hpp>

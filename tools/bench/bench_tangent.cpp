@@ -1,8 +1,8 @@
-// Cost of the step's tangent map (poisson/detail/step_jacobian.hpp) against the step itself: on each scene at its dt
+// Cost of the step's tangent map (poisson/step_jacobian.hpp) against the step itself: on each scene at its dt
 // and order, along the first STEPS states of its orbit, the median time per call (7 repetitions) of the step alone and
 // of the step followed by its Jacobian (NewtonStepper::last_step_jacobian), and their ratios, measured in the same run.
 // Prints one JSON object per scene. Usage: pgi_bench_tangent SCENE... [--steps STEPS] (default 20000)
-#include "poisson/detail/step_jacobian.hpp"
+#include "poisson/step_jacobian.hpp"
 #include "scheme/scene.hpp"
 
 #include <nlohmann/json.hpp>

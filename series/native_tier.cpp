@@ -1,4 +1,4 @@
-#include "series/detail/native_tier.hpp"
+#include "series/native_tier.hpp"
 
 #include <exception>
 

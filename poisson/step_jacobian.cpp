@@ -1,4 +1,4 @@
-#include "poisson/detail/step_jacobian.hpp"
+#include "poisson/step_jacobian.hpp"
 
 #include "poisson/detail/newton_internals.hpp"
 

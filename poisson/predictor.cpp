@@ -1,4 +1,4 @@
-#include "poisson/detail/predictor.hpp"
+#include "poisson/predictor.hpp"
 
 #include "poisson/detail/bisection.hpp"
 #include "poisson/detail/newton_rules.hpp"
