@@ -462,7 +462,7 @@ void NewtonStepper::attach_native(NativePolicy policy) {
         return;
     }
     native_maps_ = info_.native_maps = attach_kept_native_code(maps);
-    if (native_maps_ > 0) return;
+    if (NativeTier::estimated_build_seconds(maps) == 0) return;  // (every map native, or empty)
     native_tier_ = std::make_shared<NativeTier>(maps);
     native_countdown_ = native_sample_period;
 }

@@ -688,9 +688,12 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
     }
 }
 
+// native code reads group_coeff_'s pairs as aligned SSE2 vectors (series/native.cpp, preamble)
+static_assert(__STDCPP_DEFAULT_NEW_ALIGNMENT__ >= 16 && CompiledMap::group_width % 2 == 0);
+
 void CompiledMap::eval(const double* in, double* out) const {
     if (native_) {
-        native_(in, out);
+        native_(in, term_coeff_.data(), group_coeff_.data(), out);
         return;
     }
     if (slow_) bind(in + (num_inputs_ - slow_));

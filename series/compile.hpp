@@ -100,8 +100,11 @@ public:
     void set_group_vectors(GroupVectors v);
     bool groups_in_fours() const { return fours_; }
 
-    /// What eval runs once native code is attached (series/native.hpp): the same outputs, bit for bit.
-    using NativeEval = void (*)(const double* in, double* out);
+    /// What eval runs once native code is attached (series/native.hpp): the same outputs, bit for bit. The code holds
+    /// the map's structure (its monomials, terms, groups and which of their coefficients are zero) and reads the
+    /// coefficients at run time, the rows' from term_coeff and the groups' from group_coeff (Tape), so one function
+    /// serves every map of the same structure: the same polynomials at another dt or with other parameter values.
+    using NativeEval = void (*)(const double* in, const double* term_coeff, const double* group_coeff, double* out);
     /// eval() runs f from now on, library keeping its code loaded (shared by the copies of this map).
     void attach_native(std::shared_ptr<const void> library, NativeEval f) {
         native_library_ = std::move(library), native_ = f;

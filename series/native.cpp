@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
 #include <cerrno>
 #include <cstdint>
 #include <cstdio>
@@ -37,25 +38,18 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A coefficient as a C++ hexadecimal literal: the double itself, no decimal rounding in between.
-std::string literal(double c) {
-    char buffer[40];
-    std::snprintf(buffer, sizeof buffer, "%a", c);
-    return buffer;
-}
-
 // The terms of an output the interpreter evaluates from its row (eval_with), each with the partial sum (0..3) it
-// adds it to, in its order: the first L - L mod 4 terms round-robin, the rest into sum 0.
+// adds it to, in its order: the first L - L mod 4 terms round-robin, the rest into sum 0; coeff is the term's index
+// in the map's term_coeff.
 struct Term {
     int sum;
-    std::uint32_t monomial;
-    double coeff;
+    std::uint32_t monomial, coeff;
 };
 std::vector<Term> row_terms(const CompiledMap::Tape& tape, std::size_t o) {
     std::vector<Term> terms;
     const std::uint32_t start = tape.row_start[o], L = tape.row_start[o + 1] - start, rounds = L / 4 * 4;
     for (std::uint32_t i = 0; i < L; ++i)
-        terms.push_back({i < rounds ? int(i % 4) : 0, tape.term_monomial[start + i], tape.term_coeff[start + i]});
+        terms.push_back({i < rounds ? int(i % 4) : 0, tape.term_monomial[start + i], start + i});
     return terms;
 }
 
@@ -440,14 +434,42 @@ struct Statement {
     std::size_t size;
 };
 
+// Where the code reads each coefficient: the first place in the map's arrays that holds the same bits (the same
+// coefficient read once, as the compiler keeps one constant once). Which coefficients are equal is part of the
+// structure the code holds: it does not change with dt (two terms are equal at every dt when their S_j's are).
+class CoefficientReads {
+public:
+    explicit CoefficientReads(const CompiledMap::Tape& tape) : tape_(tape) {}
+    std::string row(std::uint32_t t) {
+        const auto [it, added] = rows_.try_emplace(std::bit_cast<std::uint64_t>(tape_.term_coeff[t]), t);
+        return "rc[" + std::to_string(it->second) + "]";
+    }
+    // lanes first .. first + width - 1 of group term t, as a vector
+    std::string group(std::uint32_t t, std::size_t first, std::size_t width) {
+        std::array<std::uint64_t, 5> key{width};
+        for (std::size_t i = 0; i < width; ++i)
+            key[1 + i] = std::bit_cast<std::uint64_t>(tape_.group_coeff[4 * std::size_t(t) + first + i]);
+        const auto [it, added] = groups_.try_emplace(key, 4 * std::size_t(t) + first);
+        std::string read = width == 4 ? "pgi_load4(gc + " : "pgi_load2(gc + ";
+        read += std::to_string(it->second);
+        read += ')';
+        return read;
+    }
+
+private:
+    const CompiledMap::Tape& tape_;
+    std::map<std::uint64_t, std::uint32_t> rows_;
+    std::map<std::array<std::uint64_t, 5>, std::size_t> groups_;
+};
+
 // An output evaluated from its row: four sums started at +0 as the interpreter's (a first term of -0 leaves +0).
 template <class Name>
-Statement row_statement(const CompiledMap::Tape& tape, std::size_t out, Name name) {
+Statement row_statement(const CompiledMap::Tape& tape, std::size_t out, Name name, CoefficientReads& reads) {
     std::ostringstream o;
     const std::vector<Term> terms = row_terms(tape, out);
     o << "  { double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;\n";
     for (const Term& t : terms)
-        o << "    s" << t.sum << " += " << literal(t.coeff) << " * " << name(t.monomial) << ";\n";
+        o << "    s" << t.sum << " += " << reads.row(t.coeff) << " * " << name(t.monomial) << ";\n";
     o << "    out[" << out << "] = (s0 + s1) + (s2 + s3); }\n";
     return {o.str(), terms.size() + 1};
 }
@@ -459,7 +481,7 @@ Statement row_statement(const CompiledMap::Tape& tape, std::size_t out, Name nam
 // +0 and is left out. wide: the four lanes as one AVX2 vector, the same operations lane by lane (a masked +0 added
 // to a sum begun at +0 leaves it as it is: such a sum is never -0).
 template <class Name>
-Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name name, bool wide) {
+Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name name, bool wide, CoefficientReads& reads) {
     std::ostringstream o;
     const std::uint32_t start = tape.group_start[g], L = tape.group_start[g + 1] - start, rounds = L / 4 * 4;
     const auto has_output = [&](std::size_t lane) { return tape.group_output[g][lane] != CompiledMap::no_output; };
@@ -472,18 +494,17 @@ Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name nam
         const double* c = &tape.group_coeff[4 * std::size_t(t)];
         const std::size_t width = wide ? 4 : 2;
         for (std::size_t first = 0; first < 4; first += width) {
-            std::string coeffs, mask;
+            std::string mask;
             bool any = false, masked = false;
             for (std::size_t lane = first; lane < first + width; ++lane) {
                 const bool zero = c[lane] == 0,
                            keep = !zero || !has_output(lane);  // a lane without an output is never read
                 any = any || !zero;
                 masked = masked || !keep;
-                coeffs += (lane > first ? ", " : "") + literal(c[lane]);
                 mask += std::string(lane > first ? ", " : "") + (keep ? "-1" : "0");
             }
             if (!any) continue;
-            const std::string product = (wide ? "pgi_v4{" : "pgi_v2{") + coeffs + "} * " + name(tape.group_monomial[t]);
+            const std::string product = reads.group(t, first, width) + " * " + name(tape.group_monomial[t]);
             o << "    " << (wide ? "s" : first ? "h" : "l") << sum << " += ";
             if (!masked)
                 o << product << ";\n";
@@ -513,12 +534,11 @@ std::vector<Statement> statements(const CompiledMap::Tape& tape, Name name, bool
         all.push_back({"  " + name(std::uint32_t(1 + tape.inputs + k), true) + " = " + name(tape.left[k], false) +
                            " * " + name(tape.right[k], false) + ";\n",
                        1});
+    CoefficientReads reads(tape);
+    const auto read = [&](std::uint32_t k) { return name(k, false); };
     for (std::size_t out = 0; out < tape.outputs; ++out)
-        if (tape.lane_row[out].start == UINT32_MAX)
-            all.push_back(row_statement(tape, out, [&](std::uint32_t k) { return name(k, false); }));
-    for (std::size_t g = 0; g < tape.groups; ++g)
-        all.push_back(group_statement(
-            tape, g, [&](std::uint32_t k) { return name(k, false); }, wide));
+        if (tape.lane_row[out].start == UINT32_MAX) all.push_back(row_statement(tape, out, read, reads));
+    for (std::size_t g = 0; g < tape.groups; ++g) all.push_back(group_statement(tape, g, read, wide, reads));
     return all;
 }
 
@@ -530,7 +550,8 @@ void write_single(std::ostream& o, const CompiledMap::Tape& tape, const std::str
         return n;
     };
     o << "extern \"C\" " << target_attribute(wide) << "void " << symbol
-      << "(const double* __restrict in, double* __restrict out) {\n  const double m0 = 1.0;\n";
+      << "(const double* __restrict in, const double* __restrict rc, const double* __restrict gc, "
+         "double* __restrict out) {\n  const double m0 = 1.0;\n";
     for (std::size_t v = 0; v < tape.inputs; ++v) o << "  const double m" << v + 1 << " = in[" << v << "];\n";
     for (const Statement& s : statements(tape, name, wide)) o << s.text;
     o << "}\n";
@@ -546,8 +567,9 @@ void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::str
     std::size_t pieces = 0, size = 0;
     const auto open_piece = [&] {
         o << "static __attribute__((noinline)) " << target_attribute(wide) << "void " << symbol << "_" << pieces
-          << "(double* __restrict m, double* __restrict out) {\n";
-        call << "  " << symbol << "_" << pieces++ << "(m, out);\n";
+          << "(double* __restrict m, const double* __restrict rc, const double* __restrict gc, "
+             "double* __restrict out) {\n";
+        call << "  " << symbol << "_" << pieces++ << "(m, rc, gc, out);\n";
         size = 0;
     };
     open_piece();
@@ -557,7 +579,8 @@ void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::str
         size += s.size;
     }
     o << "}\nextern \"C\" " << target_attribute(wide) << "void " << symbol
-      << "(const double* __restrict in, double* __restrict out) {\n";
+      << "(const double* __restrict in, const double* __restrict rc, const double* __restrict gc, "
+         "double* __restrict out) {\n";
     o << "  double m[" << 1 + tape.inputs + tape.products << "];\n  m[0] = 1.0;\n";
     for (std::size_t v = 0; v < tape.inputs; ++v) o << "  m[" << v + 1 << "] = in[" << v << "];\n";
     o << call.str() << "}\n";
@@ -567,13 +590,19 @@ void write_pieces(std::ostream& o, const CompiledMap::Tape& tape, const std::str
 constexpr std::size_t single_function_size = 2000;
 
 // What every source starts with: a group's lanes as GCC's vector extension, pairs (SSE2 on x86-64, as GroupSums)
-// or, wide, fours (AVX2).
+// or, wide, fours (AVX2), and how a group's coefficients are read: a pair aligned (group_coeff is operator new's,
+// 16-byte aligned, and a pair starts at an even index), so that SSE2's multiply reads it from memory itself; four
+// unaligned (AVX2's multiply reads any address).
 std::string preamble() {
     return "// pgi: compiled maps as straight-line code (series/native.hpp)\n"
            "typedef double pgi_v2 __attribute__((vector_size(16)));\n"
            "typedef long long pgi_m2 __attribute__((vector_size(16)));\n"
            "typedef double pgi_v4 __attribute__((vector_size(32)));\n"
-           "typedef long long pgi_m4 __attribute__((vector_size(32)));\n";
+           "typedef long long pgi_m4 __attribute__((vector_size(32)));\n"
+           "typedef double pgi_a2 __attribute__((vector_size(16), may_alias));\n"
+           "typedef double pgi_u4 __attribute__((vector_size(32), aligned(8), may_alias));\n"
+           "#define pgi_load2(p) (*(const pgi_a2*)(p))\n"
+           "#define pgi_load4(p) ((pgi_v4)(*(const pgi_u4*)(p)))\n";
 }
 
 std::string map_source(const CompiledMap& map, const std::string& symbol, NativeVectors vectors) {
@@ -596,13 +625,14 @@ std::string native_source(const CompiledMap& map, const std::string& symbol, Nat
 
 namespace detail {  // (named, not anonymous: NativeBuild::State holds one)
 
-// attach_native_code's plan: which maps get native code (the maps in the order given while they fit), their source
-// and symbols, and how many are native already.
+// attach_native_code's plan: which maps get native code (the maps in the order given while they fit), each map's
+// source (a library of its own: a map's library serves it wherever it comes again, whatever the other maps of a step
+// at another dt are), and how many are native already.
 struct NativePlan {
     std::vector<std::size_t> todo;
-    std::string source;
-    std::vector<std::string> symbols;
+    std::vector<std::string> sources;
     std::size_t native = 0;
+    NativeVectors vectors = NativeVectors::automatic;
 };
 
 }  // namespace detail
@@ -611,8 +641,12 @@ namespace {
 
 using detail::NativePlan;
 
+// The one function of each map's library.
+const std::vector<std::string> map_symbols = {"pgi_map"};
+
 NativePlan plan_native(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
     NativePlan plan;
+    plan.vectors = options.vectors;
     std::size_t budget = options.max_size;
     for (std::size_t i = 0; i < maps.size(); ++i) {
         const CompiledMap& m = *maps[i];
@@ -622,33 +656,37 @@ NativePlan plan_native(const std::vector<CompiledMap*>& maps, const NativeOption
         } else if (m.num_outputs() > 0 && m.num_slow_inputs() == 0 && size <= options.max_map_size &&
                    size <= budget) {  // (a map with slow inputs binds its coefficients at run time: interpreted)
             plan.todo.push_back(i);
+            plan.sources.push_back(preamble() + map_source(m, map_symbols.front(), options.vectors));
             budget -= size;
         }
-    }
-    if (plan.todo.empty()) return plan;
-    plan.source = preamble();
-    for (std::size_t i = 0; i < plan.todo.size(); ++i) {
-        plan.symbols.push_back("pgi_map_" + std::to_string(i));
-        plan.source += map_source(*maps[plan.todo[i]], plan.symbols.back(), options.vectors);
     }
     return plan;
 }
 
-// The plan's maps in maps (the maps planned, or a copy of them in the same order) given the library's functions;
-// how many maps run native code afterwards.
+// The plan's maps in maps (the maps planned, or a copy of them in the same order) given their libraries (null: the
+// map stays as it is); how many maps run native code afterwards. checked: maps may be other maps than the planned
+// ones (a copy planned at another dt since), and each is given its library only if its source is the planned one.
 std::size_t attach_planned(const std::vector<CompiledMap*>& maps, const NativePlan& plan,
-                           const std::shared_ptr<void>& handle) {
-    std::size_t native = 0;
-    for (const CompiledMap* m : maps) native += m->native() ? 1 : 0;
-    const std::shared_ptr<const void> loaded = handle;
+                           const std::vector<std::shared_ptr<void>>& libraries, bool checked = false) {
     for (std::size_t i = 0; i < plan.todo.size(); ++i) {
-        CompiledMap& m = *maps.at(plan.todo[i]);
-        if (m.native()) continue;
-        m.attach_native(loaded,
-                        reinterpret_cast<CompiledMap::NativeEval>(::dlsym(handle.get(), plan.symbols[i].c_str())));
-        ++native;
+        if (plan.todo[i] >= maps.size()) break;
+        CompiledMap& m = *maps[plan.todo[i]];
+        if (m.native() || !libraries.at(i)) continue;
+        if (checked && preamble() + map_source(m, map_symbols.front(), plan.vectors) != plan.sources[i]) continue;
+        m.attach_native(libraries[i], reinterpret_cast<CompiledMap::NativeEval>(
+                                          ::dlsym(libraries[i].get(), map_symbols.front().c_str())));
     }
-    return native;
+    return std::size_t(std::count_if(maps.begin(), maps.end(), [](const CompiledMap* m) { return m->native(); }));
+}
+
+// Each planned map's library: kept or, when compile is set, built (NativeCodeError at the first that cannot be);
+// without compile, null for those not kept.
+std::vector<std::shared_ptr<void>> plan_libraries(const NativePlan& plan, const NativeOptions& options, bool compile,
+                                                  const std::atomic<bool>* cancel = nullptr) {
+    std::vector<std::shared_ptr<void>> libraries;
+    for (const std::string& source : plan.sources)
+        libraries.push_back(library_for(source, map_symbols, options, compile, cancel));
+    return libraries;
 }
 
 }  // namespace
@@ -668,15 +706,14 @@ std::string to_string(NativePolicy p) {
 std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
     const NativePlan plan = plan_native(maps, options);
     if (plan.todo.empty()) return plan.native;
-    return attach_planned(maps, plan, library_for(plan.source, plan.symbols, options));
+    return attach_planned(maps, plan, plan_libraries(plan, options, true));
 }
 
 std::size_t attach_kept_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
     const NativePlan plan = plan_native(maps, options);
     if (plan.todo.empty()) return plan.native;
     try {
-        if (std::shared_ptr<void> kept = library_for(plan.source, plan.symbols, options, false))
-            return attach_planned(maps, plan, kept);
+        return attach_planned(maps, plan, plan_libraries(plan, options, false));
     } catch (const std::exception&) {
         // no usable cache (or no readable library in it): the maps stay interpreted, as without a kept library
     }
@@ -687,7 +724,7 @@ struct NativeBuild::State {
     NativePlan plan;
     NativeOptions options;
     std::atomic<bool> cancel{false}, done{false};
-    std::shared_ptr<void> handle;  // written by the build's thread before done, read after
+    std::vector<std::shared_ptr<void>> libraries;  // written by the build's thread before done, read after
     std::string failure;
     std::thread thread;
 };
@@ -703,7 +740,7 @@ NativeBuild::NativeBuild(const std::vector<CompiledMap*>& maps, const NativeOpti
     }
     st.thread = std::thread([&st] {
         try {
-            st.handle = library_for(st.plan.source, st.plan.symbols, st.options, true, &st.cancel);
+            st.libraries = plan_libraries(st.plan, st.options, true, &st.cancel);
         } catch (const std::exception& e) {
             st.failure = e.what();
         }
@@ -725,8 +762,8 @@ void NativeBuild::wait() const {
 }
 
 std::size_t NativeBuild::attach(const std::vector<CompiledMap*>& maps) const {
-    if (!done() || !state_->handle) return 0;
-    return attach_planned(maps, state_->plan, state_->handle);
+    if (!done() || state_->libraries.empty()) return 0;
+    return attach_planned(maps, state_->plan, state_->libraries, true);
 }
 
 std::string NativeBuild::failure() const {

@@ -6,7 +6,9 @@
 // by the interpreter's operations in the interpreter's order (the same monomial products, the same four
 // partial sums and their pairing; the library and the generated code are compiled with -ffp-contract=off), so
 // a native map's outputs are the interpreter's, bit for bit, and every contract that holds for one holds for
-// the other (the batch step's lanes equal the single step, for instance).
+// the other (the batch step's lanes equal the single step, for instance). The code holds a map's structure, not its
+// coefficients, which it reads from the map at run time (CompiledMap::NativeEval): a library built once serves the
+// same maps at every dt a stepper is planned for, and is kept and found under that structure.
 #include "series/compile.hpp"
 
 #include <chrono>
@@ -73,29 +75,31 @@ enum class NativePolicy {
 };
 std::string to_string(NativePolicy p);
 
-/// The C++ source of map's evaluator, a translation unit of its own: extern "C" void symbol(const double* in, double*
-/// out), the interpreter's operations in its order (CompiledMap::eval_with and the lane rows of split_sums).
+/// The C++ source of map's evaluator, a translation unit of its own: extern "C" void symbol(const double* in, const
+/// double* term_coeff, const double* group_coeff, double* out) (CompiledMap::NativeEval), the interpreter's operations
+/// in its order (CompiledMap::eval_with and the lane rows of split_sums).
 std::string native_source(const CompiledMap& map, const std::string& symbol,
                           NativeVectors vectors = NativeVectors::automatic);
 
-/// Builds native code for the maps (one source, one compiler call, or none when the cache has it) and attaches
-/// each map's to it, the maps in the order given (the most used first) while they fit in max_size. Skips maps
-/// already native and empty ones. Returns how many maps run native code afterwards. Throws NativeCodeError (the maps
-/// then stay interpreted).
+/// Builds native code for the maps and attaches it, the maps in the order given (the most used first) while they fit
+/// in max_size: each map a library of its own (its source, one compiler call, or none when the cache keeps it), so that
+/// a map found again in another step (the same S_dt's maps beside a predictor of another order, at another dt) finds
+/// its library. Skips maps already native and empty ones. Returns how many maps run native code afterwards. Throws
+/// NativeCodeError (the maps then stay interpreted).
 std::size_t attach_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
 
-/// attach_native_code without a compiler: attaches the library the cache keeps for these maps, if it keeps one (the
+/// attach_native_code without a compiler: attaches the libraries the cache keeps for these maps, those it keeps (the
 /// same checks as attach_native_code's). Returns how many maps run native code afterwards. Never throws: without a
 /// usable cache or a kept library the maps stay as they were.
 std::size_t attach_kept_native_code(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
 
 /// attach_native_code on a thread of its own, as a JIT's second tier compiles hot code while the interpreter goes on:
-/// the library of the maps (attach_native_code's choice and source) is built or found while the caller keeps
+/// the libraries of the maps (attach_native_code's choice and sources) are built or found while the caller keeps
 /// evaluating them interpreted; attach() then gives the maps, or any copy of them, their native code. The destructor
 /// cancels a build still running (its compiler's group is killed) and waits for its thread.
 class NativeBuild {
 public:
-    /// Starts the build of maps' library (the maps are read here, not kept). Throws only std::system_error (no
+    /// Starts the build of maps' libraries (the maps are read here, not kept). Throws only std::system_error (no
     /// thread); the build's own failures are kept (failure()).
     explicit NativeBuild(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
     NativeBuild(const NativeBuild&) = delete;
@@ -106,8 +110,9 @@ public:
     /// Returns once done() (from any thread).
     void wait() const;
     /// Once done and built: attaches each planned map's native code in maps (the maps the build was started from,
-    /// or a copy of them in the same order) and returns how many of maps run native code; before that, or after a
-    /// failure, 0 and nothing attached.
+    /// or a copy of them in the same order, each given its library only if it still has the planned structure: a
+    /// copy may have been planned at another dt since) and returns how many of maps run native code; before that, or
+    /// after a failure, 0 and nothing attached.
     std::size_t attach(const std::vector<CompiledMap*>& maps) const;
     /// Why the build failed: "" while it runs and after a success.
     std::string failure() const;

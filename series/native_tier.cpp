@@ -6,20 +6,24 @@ namespace pgi {
 
 namespace {
 
-// The compiler's time for a library: a fixed start, then per term and monomial of the source (the g++ 12 of the
-// reference machine at -O2; tools/bench/bench_native_tier measures both).
-constexpr double build_start_seconds = 0.3, build_seconds_per_term = 2e-4;
+// The compiler's time for a map's library: a fixed start, then per term and monomial of the source (the g++ 12 of the
+// reference machine at -O2: `pgi_bench_step SCENE K --jit` prints a build's build_seconds).
+constexpr double build_start_seconds = 0.1, build_seconds_per_term = 2e-4;
 
 }  // namespace
 
-double NativeTier::estimated_build_seconds(const std::vector<CompiledMap*>& maps) {
-    double terms = 0;
-    for (const CompiledMap* m : maps) terms += double(m->num_terms() + m->num_monomials());
-    return build_start_seconds + build_seconds_per_term * terms;
+double NativeTier::estimated_build_seconds(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
+    double seconds = 0;
+    for (const CompiledMap* m : maps) {
+        const std::size_t size = m->num_terms() + m->num_monomials();
+        if (!m->native() && m->num_outputs() > 0 && m->num_slow_inputs() == 0 && size <= options.max_map_size)
+            seconds += build_start_seconds + build_seconds_per_term * double(size);
+    }
+    return seconds;
 }
 
 NativeTier::NativeTier(const std::vector<CompiledMap*>& maps, NativeOptions options)
-    : options_(std::move(options)), threshold_ns_(start_share * estimated_build_seconds(maps) * 1e9) {}
+    : options_(std::move(options)), threshold_ns_(start_share * estimated_build_seconds(maps, options_) * 1e9) {}
 
 bool NativeTier::spend(std::chrono::nanoseconds spent) {
     const long long total = spent_ns_.fetch_add(spent.count()) + spent.count();

@@ -17,9 +17,10 @@ namespace pgi {
 
 class NativeTier {
 public:
-    /// The maps' compiler time, estimated from their size: a fixed start plus a time per term and monomial (the
-    /// compiler's time grows with the source, NativeOptions::max_size), measured by tools/bench/bench_native_tier.
-    static double estimated_build_seconds(const std::vector<CompiledMap*>& maps);
+    /// The compiler's time for the maps not native yet, estimated from their size: per map (a library each) a fixed
+    /// start plus a time per term and monomial (the compiler's time grows with the source, NativeOptions::max_size),
+    /// measured with pgi_bench_step --jit. 0 when every map that options would compile is native.
+    static double estimated_build_seconds(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
     /// The build starts once the time sampled in the maps' steps reaches this share of the estimated build.
     static constexpr double start_share = 0.5;
 
