@@ -19,14 +19,14 @@ bool SchemeChecks::ok() const {
 
 namespace detail {  // (named, not anonymous: Scheme::Cache holds them)
 
-// A compiled step and what it serves: dt up to the one it was built for, typical states up to twice its own.
+// A compiled step and what it serves: its own dt, typical states up to twice its own.
 struct StepperEntry {
     StepOptions options;
     double scale;  // |x_typical|_inf of the build
     NewtonStepper stepper;
     std::uint64_t used;
     bool serves(const StepOptions& o, double x_scale) const {
-        return o.dt <= options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order &&
+        return o.dt == options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order &&
                o.solver == options.solver && o.native == options.native && o.max_degree == options.max_degree &&
                o.newton_max_iter == options.newton_max_iter && o.newton_tol == options.newton_tol &&
                o.truncation_bound == options.truncation_bound;
@@ -321,10 +321,7 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
     const double scale = x_typical.size() ? x_typical.lpNorm<Eigen::Infinity>() : 0.0;
     std::lock_guard lock(cache_->mutex);
     auto& cache = cache_->steppers;
-    // the build for the smallest dt that serves this one
-    auto best = cache.end();
-    for (auto it = cache.begin(); it != cache.end(); ++it)
-        if (it->serves(opt, scale) && (best == cache.end() || it->options.dt < best->options.dt)) best = it;
+    auto best = std::find_if(cache.begin(), cache.end(), [&](const StepperEntry& e) { return e.serves(opt, scale); });
     if (best == cache.end()) {
         NewtonStepper built = NewtonStepper::build(
             pi_, terms_locked(), [this](std::size_t D) { return realisation_locked(D); }, opt, x_typical);
@@ -337,9 +334,7 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
     }
     best->used = ++cache_->clock;
     best->stepper.adopt_native();  // native code the copies' steps had built, from now on in every copy
-    NewtonStepper copy = best->stepper;
-    copy.set_dt(opt.dt);
-    return copy;
+    return best->stepper;
 }
 
 SchemeStats Scheme::stats() const {

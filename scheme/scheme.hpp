@@ -140,9 +140,12 @@ public:
     std::vector<Poly> modified_hamiltonian(std::size_t m) const;
     /// The compiled step for steps up to dt, its realisation degree and predictor chosen at dt and the
     /// typical state x_typical (NewtonStepper::build, from this scheme's realisation and S_1..S_k), returned
-    /// as a copy of its own (a stepper holds scratch, so each caller steps its own) whose dt() is dt. dt is a
-    /// run-time argument of the compiled step: a build serves every dt up to the one it was built for and
-    /// every typical state up to twice its own in norm; only a larger dt or state builds again. At most
+    /// as a copy of its own (a stepper holds scratch, so each caller steps its own) whose dt() is dt. A build
+    /// serves its own dt and every typical state up to twice its own in norm; another dt or a larger state builds
+    /// again. The exact phase (the realisation, S_1..S_k) is the scheme's, computed once: a build at another dt only
+    /// sums and compiles S_dt's maps at that dt and chooses the predictor and the truncations for it, a few
+    /// milliseconds for the bundled scenes (each dt's step then costs what it costs at its own dt: a build's
+    /// run-time dt below its own runs the stacked S_j and Horner, up to twice the time). At most
     /// stepper_cache_size builds are kept (the least recently used is dropped). Throws what require_valid
     /// throws first: S_1..S_k (terms(), modified_hamiltonian(), every stepper) exist only for a valid scheme.
     /// Native code as the scheme's jit policy says (always: NativeCodeError if it cannot be built).

@@ -143,7 +143,7 @@ TEST_CASE("Scheme: the step for a (dt, x_typical) is built once and every copy s
     CHECK(ia == id);
     NewtonStepper half = s.scheme->stepper(s.dt / 2, x0);
     CHECK(half.dt() == s.dt / 2);
-    CHECK(half.built_dt() == s.dt);  // served by the build for s.dt
+    CHECK(half.built_dt() == s.dt / 2);  // a build of its own, planned at its dt
 }
 
 TEST_CASE("Scheme: the checks, S_1..S_k and the step share one realisation and one S, in either order") {
@@ -168,53 +168,46 @@ TEST_CASE("Scheme: the checks, S_1..S_k and the step share one realisation and o
 }
 
 TEST_CASE(
-    "Scheme: a new dt rebuilds nothing; the step built for a larger dt equals the smaller one's own to round-off") {
+    "Scheme: each dt gets a build planned at it, the exact phase computed once; a build's run-time dt below its own "
+    "agrees to round-off") {
     for (const auto& name : {"rigid_body", "lotka_volterra", "henon_heiles", "nambu"}) {
         CAPTURE(name);
         const Scene s = test::bundled(name);
         const Eigen::VectorXd x0 = vec(*s.x0);
         const Scheme scheme = *s.scheme, fresh = *s.scheme;
         NewtonStepper big = scheme.stepper(0.1, x0);
-        Eigen::VectorXd x = x0, inc(x0.size());
-        for (int i = 0; i < 5; ++i) {
-            REQUIRE(big.step(x, inc) == StepStatus::ok);
-            x += inc;
-        }
         const SchemeStats before = scheme.stats();
-        NewtonStepper served = scheme.stepper(0.05, x0);
+        NewtonStepper own = scheme.stepper(0.05, x0);
         const SchemeStats after = scheme.stats();
-        CHECK(after.stepper_builds == before.stepper_builds);
+        CHECK(after.stepper_builds == before.stepper_builds + 1);
         CHECK(after.realisation_builds == before.realisation_builds);
         CHECK(after.terms_builds == before.terms_builds);
-        CHECK(served.built_dt() == 0.1);
-        CHECK(served.dt() == 0.05);
-        NewtonStepper own = fresh.stepper(0.05, x0);
         CHECK(own.built_dt() == 0.05);
-        // Both solve alpha(xb, grad S_dt(xb)) = x at the same dt, each accepted only within its componentwise
-        // tolerance (last_tolerance(): 64 u (|x| + the sizes of the terms summed)), and add the same increment
-        // expression; they differ only in the predictor's start (its order) and, for a truncated series, in
-        // neglected terms below u/4 |x|. So each step's states differ by at most about the two tolerances, and
-        // over N steps of this Poisson map (no exponential growth over t = N dt = 1) by N times that.
-        Eigen::VectorXd a = x0, b = x0, ia(x0.size()), ib(x0.size());
+        CHECK(own.dt() == 0.05);
+        // its S_dt summed at 0.05 (not the stacked S_j and Horner); the same dt again is served by the kept build
+        CHECK(own.with_hessian().planned_at(0.05) != nullptr);
+        (void)scheme.stepper(0.05, x0);
+        CHECK(scheme.stats().stepper_builds == after.stepper_builds);
+        // a build at 0.05 of another scheme of the same problem (its own exact phase) takes the same steps, bit for bit
+        NewtonStepper other = fresh.stepper(0.05, x0);
+        Eigen::VectorXd a = x0, b = x0, c = x0, ia(x0.size()), ib(x0.size()), ic(x0.size());
+        // The build at 0.1 stepping 0.05 (its run-time dt) and the build at 0.05 both solve alpha(xb, grad S_dt(xb)) =
+        // x at the same dt, each accepted only within its componentwise tolerance (last_tolerance(): 64 u (|x| + the
+        // sizes of the terms summed)), and add the same increment expression; they differ only in the predictor's
+        // start (its order) and, for a truncated series, in neglected terms below u/4 |x|. So each step's states
+        // differ by at most about the two tolerances, and over N steps of this Poisson map (no exponential growth
+        // over t = N dt = 1) by N times that.
         double bound = 0;
         const int N = 20;
         for (int i = 0; i < N; ++i) {
-            REQUIRE(served.step(a, ia) == StepStatus::ok);
-            REQUIRE(own.step(b, ib) == StepStatus::ok);
-            a += ia, b += ib;
-            bound += 2 * std::max(served.last_tolerance(), own.last_tolerance());
-        }
-        CHECK((a - b).lpNorm<Eigen::Infinity>() <= bound);
-        // the run-time dt of the same stepper equals the served copy's default, bit for bit
-        Eigen::VectorXd c = x0, ic(x0.size());
-        for (int i = 0; i < N; ++i) {
+            REQUIRE(own.step(a, ia) == StepStatus::ok);
+            REQUIRE(other.step(b, ib) == StepStatus::ok);
             REQUIRE(big.step(c, 0.05, ic) == StepStatus::ok);
-            c += ic;
+            a += ia, b += ib, c += ic;
+            bound += 2 * std::max(own.last_tolerance(), big.last_tolerance());
         }
-        CHECK(c == a);
-        // a larger dt builds again
-        (void)scheme.stepper(0.2, x0);
-        CHECK(scheme.stats().stepper_builds == before.stepper_builds + 1);
+        CHECK(a == b);
+        CHECK((c - a).lpNorm<Eigen::Infinity>() <= bound);
     }
 }
 
@@ -223,11 +216,13 @@ TEST_CASE("Scheme: the stepper cache is bounded") {
     const Scheme scheme = *s.scheme;
     const Eigen::VectorXd x0 = vec(*s.x0);
     for (int i = 1; i <= int(Scheme::stepper_cache_size) + 4; ++i)
-        (void)scheme.stepper(0.01 * i, x0);  // each larger: a build each
+        (void)scheme.stepper(0.01 * i, x0);  // each dt a build
     CHECK(scheme.stats().stepper_builds == Scheme::stepper_cache_size + 4);
     CHECK(scheme.stats().steppers_kept == Scheme::stepper_cache_size);
-    (void)scheme.stepper(0.01, x0);  // served by a kept build
+    (void)scheme.stepper(0.01 * (Scheme::stepper_cache_size + 4), x0);  // the newest: served by its kept build
     CHECK(scheme.stats().stepper_builds == Scheme::stepper_cache_size + 4);
+    (void)scheme.stepper(0.01, x0);  // the oldest: dropped, built again
+    CHECK(scheme.stats().stepper_builds == Scheme::stepper_cache_size + 5);
 }
 
 TEST_CASE("Scheme: a report computes the realisation, S, Htilde and the step once each") {

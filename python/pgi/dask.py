@@ -33,9 +33,9 @@ _cache_lock = threading.Lock()
 
 
 def _worker_scheme(description, dt):
-    """The worker's Scheme for this description and dt, built on first use and kept on the worker. One per dt:
-    a Scheme's step built for a larger dt serves smaller ones, equal to their own build only to round-off,
-    so a worker's scheme sees the dts of one run only, as the local run's does."""
+    """The worker's Scheme for this description and dt, built on first use and kept on the worker. One per dt,
+    so that a worker's scheme sees the dts of one run only, as the local run's does (its kept steps then stay
+    those of the run)."""
     from distributed import get_worker
     worker = get_worker()
     key = (repr(description), dt)
