@@ -37,7 +37,8 @@ using NativeVectors = GroupVectors;
 struct NativeOptions {
     /// The compiler's command: empty means $PGI_CXX, else $CXX, else "c++" (its first word searched on PATH), split
     /// into words as the shell splits them but without command substitution (`ccache g++`, `g++-12 -march=native`).
-    /// Called as `compiler... -O2 -ffp-contract=off -fPIC -shared -w [-mavx2] -o LIB SOURCE`.
+    /// Called as `compiler... -O2 -ffp-contract=off -fPIC -shared -nostdlib -fno-stack-protector -w -o LIB SOURCE`
+    /// (the code calls no library: nothing to link, nothing to load beside it).
     std::string compiler;
     NativeVectors vectors = NativeVectors::automatic;
     /// Where built libraries are kept, keyed by a hash of their source and command (a later build of the same maps
