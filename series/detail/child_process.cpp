@@ -173,9 +173,11 @@ ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& 
     for (;;) {
         pollfd p{read_end.fd, POLLIN, 0};
         if (open && ::poll(&p, 1, 20) > 0) open = drain(read_end.fd, result.output, options.output_limit);
-        if (!open) ::usleep(20000);  // output closed (or a grandchild holds it): only the exit is awaited
         siginfo_t info{};
         if (::waitid(P_PID, id_t(pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == pid) break;
+        // output closed (at the child's exit, or it closed it, or a grandchild holds it): only the exit is awaited,
+        // looked at again in 5 ms (a compiler's end was seen 20 ms late when this slept first)
+        if (!open) ::usleep(5000);
         if (std::chrono::steady_clock::now() > deadline) {
             timed_out = true;
             break;
