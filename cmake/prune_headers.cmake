@@ -1,22 +1,32 @@
 # Run by `cmake --install` after pgi's headers (CMakeLists.txt): removes the headers an earlier install of pgi put
 # in the prefix that this one no longer installs (a header moved to detail/, or removed), then lists this install's
-# headers for the next. Only files named in pgi's own list (PGI_HEADER_LIST, written by a previous install) are
-# removed, and only regular files under include/pgi: a file pgi did not install is never touched. An install made
-# before pgi kept the list leaves its old headers (remove <prefix>/include/pgi by hand once).
-# Reads PGI_INCLUDE_DIR and PGI_HEADER_LIST (relative to the prefix), set by the install code before it.
-# (the install's list of files names them without $DESTDIR; the files themselves are under it)
-set(installed_headers "${CMAKE_INSTALL_PREFIX}/${PGI_INCLUDE_DIR}/pgi")
-set(headers "$ENV{DESTDIR}${installed_headers}")
-set(list_file "$ENV{DESTDIR}${CMAKE_INSTALL_PREFIX}/${PGI_HEADER_LIST}")
-# this install's headers, relative to include/pgi
-set(now "")
-foreach(f ${CMAKE_INSTALL_MANIFEST_FILES})
-  string(FIND "${f}" "${installed_headers}/" at)
-  if(at EQUAL 0)
-    file(RELATIVE_PATH relative "${installed_headers}" "${f}")
-    list(APPEND now "${relative}")
+# headers for the next. Only files named in pgi's own list (written by a previous install) are removed, and only
+# regular files under include/pgi named by a relative path: a file pgi did not install is never touched. Nothing is
+# removed unless every header of this install is found where the list's names point (a prefix or a directory this
+# script would resolve otherwise than the install did). An install made before pgi kept the list leaves its old
+# headers (remove <prefix>/include/pgi by hand once).
+# Reads PGI_HEADERS (this install's headers, relative to include/pgi), PGI_INCLUDE_DIR and PGI_HEADER_LIST (relative
+# to the prefix, or absolute), set by the install code before it.
+function(installed_path out path)
+  if(NOT IS_ABSOLUTE "${path}")
+    set(path "${CMAKE_INSTALL_PREFIX}/${path}")
+  endif()
+  get_filename_component(path "${path}" ABSOLUTE)
+  set(${out} "$ENV{DESTDIR}${path}" PARENT_SCOPE)
+endfunction()
+installed_path(headers "${PGI_INCLUDE_DIR}/pgi")
+installed_path(list_file "${PGI_HEADER_LIST}")
+set(now ${PGI_HEADERS})
+set(found TRUE)
+foreach(relative ${now})
+  if(NOT EXISTS "${headers}/${relative}")
+    set(found FALSE)
   endif()
 endforeach()
+if(NOT now OR NOT found)
+  message(WARNING "pgi: this install's headers are not all under ${headers}: no old header removed, no list kept")
+  return()
+endif()
 if(EXISTS "${list_file}")
   file(STRINGS "${list_file}" before)
   foreach(relative ${before})
@@ -35,5 +45,7 @@ endif()
 list(SORT now)
 string(REPLACE ";" "\n" text "${now}")
 file(WRITE "${list_file}" "${text}\n")
-list(APPEND CMAKE_INSTALL_MANIFEST_FILES "${CMAKE_INSTALL_PREFIX}/${PGI_HEADER_LIST}")
+string(LENGTH "$ENV{DESTDIR}" skip)
+string(SUBSTRING "${list_file}" ${skip} -1 listed)
+list(APPEND CMAKE_INSTALL_MANIFEST_FILES "${listed}")
 message(STATUS "Installing: ${list_file}")

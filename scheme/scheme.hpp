@@ -138,7 +138,7 @@ public:
     /// H_0..H_m of the modified Hamiltonian (docs/math.md section 7), H_0 = H. Kept and returned as a
     /// prefix when less is asked later; extended (recomputed to the new m) when more is.
     std::vector<Poly> modified_hamiltonian(std::size_t m) const;
-    /// The compiled step for steps up to dt, its realisation degree and predictor chosen at dt and the
+    /// The compiled step for steps of dt, its realisation degree and predictor chosen at dt and the
     /// typical state x_typical (NewtonStepper::build, from this scheme's realisation and S_1..S_k), returned
     /// as a copy of its own (a stepper holds scratch, so each caller steps its own) whose dt() is dt. A build
     /// serves its own dt and every typical state up to twice its own in norm; another dt or a larger state builds

@@ -101,7 +101,7 @@ public:
     bool groups_in_fours() const { return fours_; }
 
     /// What eval runs once native code is attached (series/native.hpp): the same outputs, bit for bit. The code holds
-    /// the map's structure (its monomials, terms, groups and which of their coefficients are zero) and reads the
+    /// the map's structure (its monomials, terms, groups, which of their coefficients are zero or equal) and reads the
     /// coefficients at run time, the rows' from term_coeff and the groups' from group_coeff (Tape), so one function
     /// serves every map of the same structure: the same polynomials at another dt or with other parameter values.
     using NativeEval = void (*)(const double* in, const double* term_coeff, const double* group_coeff, double* out);

@@ -30,6 +30,7 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <system_error>
 #include <thread>
 #include <utility>
 
@@ -438,7 +439,8 @@ struct Statement {
 
 // Where the code reads each coefficient: the first place in the map's arrays that holds the same bits (the same
 // coefficient read once, as the compiler keeps one constant once). Which coefficients are equal is part of the
-// structure the code holds: it does not change with dt (two terms are equal at every dt when their S_j's are).
+// structure the code holds, and of its source: two terms whose S_j's coefficients are equal are equal at every dt; a
+// coincidence at one dt only makes another source, a library of its own (the source is the key and is compared).
 class CoefficientReads {
 public:
     explicit CoefficientReads(const CompiledMap::Tape& tape) : tape_(tape) {}
@@ -625,6 +627,23 @@ std::string native_source(const CompiledMap& map, const std::string& symbol, Nat
     return preamble() + map_source(map, symbol, vectors);
 }
 
+std::vector<std::size_t> native_candidates(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
+    std::vector<std::size_t> todo;
+    std::size_t budget = options.max_size;
+    for (std::size_t i = 0; i < maps.size(); ++i) {
+        const CompiledMap& m = *maps[i];
+        const std::size_t size = m.num_terms() + m.num_monomials();
+        if (m.native()) {
+            budget -= std::min(budget, size);  // (kept native code counts: max_size bounds the maps' native code)
+        } else if (m.num_outputs() > 0 && m.num_slow_inputs() == 0 && size <= options.max_map_size &&
+                   size <= budget) {  // (a map with slow inputs binds its coefficients at run time: interpreted)
+            todo.push_back(i);
+            budget -= size;
+        }
+    }
+    return todo;
+}
+
 namespace detail {  // (named, not anonymous: NativeBuild::State holds one)
 
 // attach_native_code's plan: which maps get native code (the maps in the order given while they fit), each map's
@@ -649,25 +668,17 @@ const std::vector<std::string> map_symbols = {"pgi_map"};
 NativePlan plan_native(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
     NativePlan plan;
     plan.vectors = options.vectors;
-    std::size_t budget = options.max_size;
-    for (std::size_t i = 0; i < maps.size(); ++i) {
-        const CompiledMap& m = *maps[i];
-        const std::size_t size = m.num_terms() + m.num_monomials();
-        if (m.native()) {
-            ++plan.native;
-        } else if (m.num_outputs() > 0 && m.num_slow_inputs() == 0 && size <= options.max_map_size &&
-                   size <= budget) {  // (a map with slow inputs binds its coefficients at run time: interpreted)
-            plan.todo.push_back(i);
-            plan.sources.push_back(preamble() + map_source(m, map_symbols.front(), options.vectors));
-            budget -= size;
-        }
-    }
+    plan.native =
+        std::size_t(std::count_if(maps.begin(), maps.end(), [](const CompiledMap* m) { return m->native(); }));
+    plan.todo = native_candidates(maps, options);
+    for (const std::size_t i : plan.todo)
+        plan.sources.push_back(preamble() + map_source(*maps[i], map_symbols.front(), options.vectors));
     return plan;
 }
 
 // The plan's maps in maps (the maps planned, or a copy of them in the same order) given their libraries (null: the
 // map stays as it is); how many maps run native code afterwards. checked: maps may be other maps than the planned
-// ones (a copy planned at another dt since), and each is given its library only if its source is the planned one.
+// ones, and each is given its library only if its source is the planned one.
 std::size_t attach_planned(const std::vector<CompiledMap*>& maps, const NativePlan& plan,
                            const std::vector<std::shared_ptr<void>>& libraries, bool checked = false) {
     for (std::size_t i = 0; i < plan.todo.size(); ++i) {
@@ -693,13 +704,19 @@ std::vector<std::shared_ptr<void>> plan_libraries(const NativePlan& plan, const 
     std::atomic<std::size_t> next{0};
     const auto work = [&] {
         for (std::size_t i; (i = next.fetch_add(1)) < n;) try {
+                if (cancel && cancel->load(std::memory_order_relaxed))
+                    throw NativeCodeError("native code: the build was cancelled");  // (no compiler started)
                 libraries[i] = library_for(plan.sources[i], map_symbols, options, compile, cancel);
             } catch (...) {
                 errors[i] = std::current_exception();
             }
     };
     std::vector<std::thread> helpers;
-    for (std::size_t t = 1; t < std::min(compilers, n); ++t) helpers.emplace_back(work);
+    try {
+        for (std::size_t t = 1; t < std::min(compilers, n); ++t) helpers.emplace_back(work);
+    } catch (const std::system_error&) {
+        // no more threads: those started and this one take every map
+    }
     work();
     for (std::thread& h : helpers) h.join();
     for (const std::exception_ptr& e : errors)
@@ -708,9 +725,10 @@ std::vector<std::shared_ptr<void>> plan_libraries(const NativePlan& plan, const 
 }
 
 // The compilers run at once: every core when the caller waits for them (attach_native_code), all but the one the
-// caller steps on when they build in the background (NativeBuild).
+// caller steps on when they build in the background (NativeBuild); at most 4, so that several builds at once stay
+// within the table of children and temporaries a signal cleans up (series/detail/child_process.cpp: 32 and 64).
 std::size_t compilers(bool background) {
-    const std::size_t cores = std::max(1u, std::thread::hardware_concurrency());
+    const std::size_t cores = std::min(4u, std::max(1u, std::thread::hardware_concurrency()));
     return background ? std::max<std::size_t>(1, cores - 1) : cores;
 }
 
@@ -787,7 +805,8 @@ void NativeBuild::wait() const {
 }
 
 std::size_t NativeBuild::attach(const std::vector<CompiledMap*>& maps) const {
-    if (!done() || state_->libraries.empty()) return 0;
+    if (!done() || state_->libraries.empty())
+        return std::size_t(std::count_if(maps.begin(), maps.end(), [](const CompiledMap* m) { return m->native(); }));
     return attach_planned(maps, state_->plan, state_->libraries, true);
 }
 

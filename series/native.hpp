@@ -55,8 +55,9 @@ struct NativeOptions {
     std::uintmax_t cache_limit_bytes = std::uintmax_t(256) << 20;
     /// The compiler's process group is killed past this (series/detail/child_process.hpp).
     std::chrono::seconds timeout{300};
-    /// The terms and monomials compiled at most, over all maps: the maps are taken in the order given while they
-    /// fit, the rest stay interpreted (the compiler's time grows with the source: 0.1-0.3 s per thousand here).
+    /// The terms and monomials compiled at most, over all maps (those already native, from the cache, counted): the
+    /// maps are taken in the order given while they fit, the rest stay interpreted (the compiler's time grows with
+    /// the source: 0.1-0.3 s per thousand here).
     std::size_t max_size = 6000;
     /// A map of more terms and monomials than this stays interpreted (its code, about 20 bytes a term, would crowd
     /// the instruction cache). Measured with native code for every map below it (pgi_bench_step --jit, two runs each):
@@ -81,6 +82,10 @@ std::string to_string(NativePolicy p);
 /// in its order (CompiledMap::eval_with and the lane rows of split_sums).
 std::string native_source(const CompiledMap& map, const std::string& symbol,
                           NativeVectors vectors = NativeVectors::automatic);
+
+/// The maps attach_native_code would compile now (their indices): those not native yet, in the order given, while
+/// they fit in max_size with the native ones counted first, each of at most max_map_size, none with slow inputs.
+std::vector<std::size_t> native_candidates(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
 
 /// Builds native code for the maps and attaches it, the maps in the order given (the most used first) while they fit
 /// in max_size: each map a library of its own (its source, one compiler call, or none when the cache keeps it), so that
@@ -111,9 +116,9 @@ public:
     /// Returns once done() (from any thread).
     void wait() const;
     /// Once done and built: attaches each planned map's native code in maps (the maps the build was started from,
-    /// or a copy of them in the same order, each given its library only if it still has the planned structure: a
-    /// copy may have been planned at another dt since) and returns how many of maps run native code; before that, or
-    /// after a failure, 0 and nothing attached.
+    /// or maps in the same order, each given its library only if it has the planned structure: its source is the
+    /// planned one) and returns how many of maps run native code; before that, or
+    /// after a failure, nothing is attached and the count is of those native already (kept from the cache).
     std::size_t attach(const std::vector<CompiledMap*>& maps) const;
     /// Why the build failed: "" while it runs and after a success.
     std::string failure() const;

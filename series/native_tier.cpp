@@ -1,5 +1,6 @@
 #include "series/native_tier.hpp"
 
+#include <algorithm>
 #include <exception>
 
 namespace pgi {
@@ -14,11 +15,9 @@ constexpr double build_start_seconds = 0.1, build_seconds_per_term = 2e-4;
 
 double NativeTier::estimated_build_seconds(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
     double seconds = 0;
-    for (const CompiledMap* m : maps) {
-        const std::size_t size = m->num_terms() + m->num_monomials();
-        if (!m->native() && m->num_outputs() > 0 && m->num_slow_inputs() == 0 && size <= options.max_map_size)
-            seconds += build_start_seconds + build_seconds_per_term * double(size);
-    }
+    for (const std::size_t i : native_candidates(maps, options))
+        seconds +=
+            build_start_seconds + build_seconds_per_term * double(maps[i]->num_terms() + maps[i]->num_monomials());
     return seconds;
 }
 
@@ -56,8 +55,8 @@ bool NativeTier::settled() const {
 }
 
 std::size_t NativeTier::attach(const std::vector<CompiledMap*>& maps) const {
-    const std::shared_ptr<NativeBuild> b = current();
-    return b ? b->attach(maps) : 0;
+    if (const std::shared_ptr<NativeBuild> b = current()) return b->attach(maps);
+    return std::size_t(std::count_if(maps.begin(), maps.end(), [](const CompiledMap* m) { return m->native(); }));
 }
 
 void NativeTier::wait() const {

@@ -35,7 +35,8 @@ public:
     void start(const std::vector<CompiledMap*>& maps);
     /// The build ended (with native code or a failure): no more spend() is needed.
     bool settled() const;
-    /// Gives maps their native code once it is built (NativeBuild::attach); how many run native code, 0 before.
+    /// Gives maps their native code once it is built (NativeBuild::attach); how many of maps run native code (those
+    /// kept from the cache before, and after a failed build).
     std::size_t attach(const std::vector<CompiledMap*>& maps) const;
     /// The time sampled so far, and whether a build was started.
     std::chrono::nanoseconds spent() const { return std::chrono::nanoseconds(spent_ns_.load()); }

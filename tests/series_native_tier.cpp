@@ -163,6 +163,35 @@ TEST_CASE("native tier: a compiler that cannot be run leaves the maps interprete
     CHECK(cache.files() == 0);  // no temporary left behind
 }
 
+TEST_CASE(
+    "native tier: maps kept native count against the size budget, and stay counted after a failed build of the "
+    "rest") {
+    const TestCache cache("partial");
+    const auto r = make_ring({"x", "y"});
+    const Poly x = Poly::gen(r, 0), y = Poly::gen(r, 1);
+    CompiledMap kept = some_map(), other = CompiledMap::build({pow(x, 4) + y, x * pow(y, 2)}, {0, 1});
+    REQUIRE(attach_native_code({&kept}) == 1);  // kept from now on
+    NativeOptions small;
+    small.max_size = kept.num_terms() + kept.num_monomials() + other.num_terms() + other.num_monomials() - 1;
+    // the budget holds the kept map and not both: nothing more to compile, and no time to spend on it
+    CHECK(native_candidates({&kept, &other}, small).empty());
+    CHECK(NativeTier::estimated_build_seconds({&kept, &other}, small) == 0);
+    CHECK(native_candidates({&kept, &other}) == std::vector<std::size_t>{1});
+    CHECK(NativeTier::estimated_build_seconds({&kept, &other}) > 0);
+    // a build of the rest that fails leaves the kept map native, and says so
+    NativeTier tier({&kept, &other});
+    {
+        const NoCompilerOnPath no_compiler;
+        REQUIRE(tier.spend(std::chrono::seconds(100)));
+        tier.start({&kept, &other});
+        tier.wait();
+    }
+    CHECK_FALSE(tier.failure().empty());
+    CHECK(tier.attach({&kept, &other}) == 1);
+    CHECK(kept.native());
+    CHECK_FALSE(other.native());
+}
+
 TEST_CASE("native tier: a long run switches to native code mid-run and keeps the interpreter's bits" *
           doctest::skip(test::sanitized)) {
     const TestCache cache("switch");
