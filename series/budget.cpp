@@ -145,10 +145,7 @@ void Budget::account(std::string_view operation, std::size_t terms) const {
         busy_ += now - begun_;
     last_ = now;
     estimated_ = false;
-    // past half the memory budget, memory is read at every look, not once in 20 ms: a 20 ms window of a loaded
-    // machine could otherwise take the process past an address-space cap before the budget sees it (exit 5, where
-    // the budget's exit 4 was due)
-    if (now >= next_poll_ || resident_ > limits_.max_bytes / 2) poll(now);
+    if (now >= next_poll_) poll(now);
 }
 
 void Budget::poll(Clock::time_point now) const {
