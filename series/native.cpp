@@ -627,6 +627,10 @@ std::string native_source(const CompiledMap& map, const std::string& symbol, Nat
     return preamble() + map_source(map, symbol, vectors);
 }
 
+std::size_t native_count(const std::vector<CompiledMap*>& maps) {
+    return std::size_t(std::count_if(maps.begin(), maps.end(), [](const CompiledMap* m) { return m->native(); }));
+}
+
 std::vector<std::size_t> native_candidates(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
     std::vector<std::size_t> todo;
     std::size_t budget = options.max_size;
@@ -668,8 +672,7 @@ const std::vector<std::string> map_symbols = {"pgi_map"};
 NativePlan plan_native(const std::vector<CompiledMap*>& maps, const NativeOptions& options) {
     NativePlan plan;
     plan.vectors = options.vectors;
-    plan.native =
-        std::size_t(std::count_if(maps.begin(), maps.end(), [](const CompiledMap* m) { return m->native(); }));
+    plan.native = native_count(maps);
     plan.todo = native_candidates(maps, options);
     for (const std::size_t i : plan.todo)
         plan.sources.push_back(preamble() + map_source(*maps[i], map_symbols.front(), options.vectors));
@@ -689,7 +692,7 @@ std::size_t attach_planned(const std::vector<CompiledMap*>& maps, const NativePl
         m.attach_native(libraries[i], reinterpret_cast<CompiledMap::NativeEval>(
                                           ::dlsym(libraries[i].get(), map_symbols.front().c_str())));
     }
-    return std::size_t(std::count_if(maps.begin(), maps.end(), [](const CompiledMap* m) { return m->native(); }));
+    return native_count(maps);
 }
 
 // Each planned map's library: kept or, when compile is set, built, by up to `compilers` compilers at once (each map's
@@ -805,8 +808,7 @@ void NativeBuild::wait() const {
 }
 
 std::size_t NativeBuild::attach(const std::vector<CompiledMap*>& maps) const {
-    if (!done() || state_->libraries.empty())
-        return std::size_t(std::count_if(maps.begin(), maps.end(), [](const CompiledMap* m) { return m->native(); }));
+    if (!done() || state_->libraries.empty()) return native_count(maps);
     return attach_planned(maps, state_->plan, state_->libraries, true);
 }
 

@@ -83,6 +83,9 @@ std::string to_string(NativePolicy p);
 std::string native_source(const CompiledMap& map, const std::string& symbol,
                           NativeVectors vectors = NativeVectors::automatic);
 
+/// How many of maps run native code now.
+std::size_t native_count(const std::vector<CompiledMap*>& maps);
+
 /// The maps attach_native_code would compile now (their indices): those not native yet, in the order given, while
 /// they fit in max_size with the native ones counted first, each of at most max_map_size, none with slow inputs.
 std::vector<std::size_t> native_candidates(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});

@@ -56,7 +56,7 @@ bool NativeTier::settled() const {
 
 std::size_t NativeTier::attach(const std::vector<CompiledMap*>& maps) const {
     if (const std::shared_ptr<NativeBuild> b = current()) return b->attach(maps);
-    return std::size_t(std::count_if(maps.begin(), maps.end(), [](const CompiledMap* m) { return m->native(); }));
+    return native_count(maps);
 }
 
 void NativeTier::wait() const {
