@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <utility>
 
 namespace pgi {
 
@@ -38,11 +39,31 @@ std::string seconds_text(double s) {
 
 }  // namespace
 
-std::size_t resident_memory() {
+namespace {
+
+// /proc/self/statm's first two fields in bytes: the address space in use and the resident set; zeros where unreadable.
+std::pair<std::size_t, std::size_t> address_space_and_resident() {
     std::ifstream in("/proc/self/statm");
     std::size_t size = 0, resident = 0;
-    if (!(in >> size >> resident)) return 0;
-    return resident * static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+    if (!(in >> size >> resident)) return {0, 0};
+    const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+    return {size * page, resident * page};
+}
+
+bool address_space_capped() {
+    rlimit as{};
+    return ::getrlimit(RLIMIT_AS, &as) == 0 && as.rlim_cur != RLIM_INFINITY;
+}
+
+}  // namespace
+
+std::size_t resident_memory() {
+    return address_space_and_resident().second;
+}
+
+std::size_t memory_in_use() {
+    const auto [address_space, resident] = address_space_and_resident();
+    return address_space_capped() ? std::max(address_space, resident) : resident;
 }
 
 std::size_t default_memory_budget() {
@@ -155,7 +176,7 @@ void Budget::poll(Clock::time_point now) const {
         refuse(BudgetExceeded::Resource::time, "the exact phase has run " + seconds_text(elapsed) +
                                                    ", above the time budget of " + seconds_text(limits_.max_seconds) +
                                                    " (raise it with --max-seconds)");
-    resident_ = resident_memory();
+    resident_ = memory_in_use();
     if (resident_ > limits_.max_bytes)
         refuse(BudgetExceeded::Resource::memory,
                "the process uses " + megabytes(static_cast<double>(resident_)) + ", above the memory budget of " +

@@ -4,6 +4,8 @@
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>
+#include <sys/mman.h>
+#include <sys/resource.h>
 
 #include <string>
 
@@ -76,6 +78,25 @@ TEST_CASE("a product is refused before it is formed when its bytes would exceed 
     const Poly c = wide(roomy, 300, 600, 0) * wide(roomy, 300, 600, 7);
     CHECK(c.length() > 300);
     CHECK(c.length() <= 90000);
+}
+
+// A limit of ulimit -v caps the address space, which runs 40-50 MB above the resident memory: a budget of resident
+// memory at 3/4 of the cap let FLINT fail (exit 5) before the budget stopped the phase (exit 4).
+TEST_CASE("under an address-space limit the memory budget counts the address space in use") {
+    if (pgi::test::sanitized) return;  // (AddressSanitizer's reserves are terabytes of address space)
+    rlimit before{};
+    REQUIRE(::getrlimit(RLIMIT_AS, &before) == 0);
+    // 256 MB of address space, never touched: none of it resident
+    constexpr std::size_t reserve = std::size_t(256) << 20;
+    void* block = ::mmap(nullptr, reserve, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    REQUIRE(block != MAP_FAILED);
+    if (before.rlim_cur == RLIM_INFINITY) CHECK(memory_in_use() < resident_memory() + reserve / 2);
+    rlimit capped = before;
+    capped.rlim_cur = before.rlim_max == RLIM_INFINITY ? rlim_t(1) << 46 : before.rlim_max;  // finite, far above use
+    REQUIRE(::setrlimit(RLIMIT_AS, &capped) == 0);
+    CHECK(memory_in_use() >= resident_memory() + reserve);
+    REQUIRE(::setrlimit(RLIMIT_AS, &before) == 0);
+    ::munmap(block, reserve);
 }
 
 // issue 11.3
