@@ -451,9 +451,11 @@ bool processor_has_avx2() {
 
 std::size_t CompiledMap::saved_by_fours() const {
     std::size_t saved = 0;
+    // (with slow inputs, the structure's zeros: the slots', whatever values the coefficients hold now)
+    const auto nonzero = [this](std::size_t i) { return slow_ ? group_slot_[i] != no_output : group_coeff_[i] != 0; };
     for (std::size_t t = 0; t < group_monomial_.size(); ++t) {
-        const double* c = &group_coeff_[group_width * t];
-        saved += (c[0] != 0 || c[1] != 0) && (c[2] != 0 || c[3] != 0);
+        const std::size_t i = group_width * t;
+        saved += (nonzero(i) || nonzero(i + 1)) && (nonzero(i + 2) || nonzero(i + 3));
     }
     return saved;
 }
@@ -692,11 +694,12 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
 static_assert(__STDCPP_DEFAULT_NEW_ALIGNMENT__ >= 16 && CompiledMap::group_width % 2 == 0);
 
 void CompiledMap::eval(const double* in, double* out) const {
+    if (slow_) bind(in + (num_inputs_ - slow_));
     if (native_) {
         native_(in, term_coeff_.data(), group_coeff_.data(), out);
-        return;
+        const std::size_t O = num_outputs();
+        if (!slow_ || std::all_of(out, out + O, [](double v) { return std::isfinite(v); })) return;
     }
-    if (slow_) bind(in + (num_inputs_ - slow_));
     eval_with(in, out, mono_.data());
 }
 

@@ -104,6 +104,9 @@ public:
     /// the map's structure (its monomials, terms, groups, which of their coefficients are zero or equal) and reads the
     /// coefficients at run time, the rows' from term_coeff and the groups' from group_coeff (Tape), so one function
     /// serves every map of the same structure: the same polynomials at another dt or with other parameter values.
+    /// With slow inputs the structure is the slots' (a coefficient zero or equal at every value of the slow inputs),
+    /// eval binds the coefficients first, and an output that is not finite is evaluated again by the interpreter,
+    /// which masks a coefficient that is zero at these values (an infinite monomial times it adds nothing).
     using NativeEval = void (*)(const double* in, const double* term_coeff, const double* group_coeff, double* out);
     /// eval() runs f from now on, library keeping its code loaded (shared by the copies of this map).
     void attach_native(std::shared_ptr<const void> library, NativeEval f) {
@@ -149,6 +152,8 @@ public:
         std::size_t slow;
         const CompiledMap* coefficients;
         const std::uint32_t *term_slot, *lane_slot;
+        /// With slow inputs: the slot of group_coeff[t group_width + i] (no_output: zero at any slow inputs' values).
+        const std::uint32_t* group_slot;
     };
     Tape tape() const {
         return {num_inputs_,
@@ -170,7 +175,8 @@ public:
                 slow_,
                 coefficients_.operator->(),
                 term_slot_.data(),
-                lane_slot_.data()};
+                lane_slot_.data(),
+                group_slot_.data()};
     }
     static constexpr std::size_t group_width = 4;
     static constexpr std::uint32_t no_output = UINT32_MAX;

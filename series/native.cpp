@@ -437,22 +437,34 @@ struct Statement {
     std::size_t size;
 };
 
-// Where the code reads each coefficient: the first place in the map's arrays that holds the same bits (the same
-// coefficient read once, as the compiler keeps one constant once). Which coefficients are equal is part of the
-// structure the code holds, and of its source: two terms whose S_j's coefficients are equal are equal at every dt; a
-// coincidence at one dt only makes another source, a library of its own (the source is the key and is compared).
+// Which coefficient a term's is, for the structure the code holds: its bits or, with slow inputs, its slot (the
+// coefficients are bound from the slow inputs' values at run time: those of one slot are equal at every value).
+std::uint64_t row_identity(const CompiledMap::Tape& tape, std::uint32_t t) {
+    return tape.slow ? tape.term_slot[t] : std::bit_cast<std::uint64_t>(tape.term_coeff[t]);
+}
+std::uint64_t group_identity(const CompiledMap::Tape& tape, std::size_t i) {
+    return tape.slow ? tape.group_slot[i] : std::bit_cast<std::uint64_t>(tape.group_coeff[i]);
+}
+// Whether group coefficient i is zero whatever the map's dt or slow inputs (then its lane is masked).
+bool group_zero(const CompiledMap::Tape& tape, std::size_t i) {
+    return tape.slow ? tape.group_slot[i] == CompiledMap::no_output : tape.group_coeff[i] == 0;
+}
+
+// Where the code reads each coefficient: the first place in the map's arrays that holds the same one (row_identity;
+// read once, as the compiler keeps one constant once). Which coefficients are equal is part of the structure the code
+// holds, and of its source: two terms whose S_j's coefficients are equal are equal at every dt; a coincidence at one
+// dt only makes another source, a library of its own (the source is the key and is compared).
 class CoefficientReads {
 public:
     explicit CoefficientReads(const CompiledMap::Tape& tape) : tape_(tape) {}
     std::string row(std::uint32_t t) {
-        const auto [it, added] = rows_.try_emplace(std::bit_cast<std::uint64_t>(tape_.term_coeff[t]), t);
+        const auto [it, added] = rows_.try_emplace(row_identity(tape_, t), t);
         return "rc[" + std::to_string(it->second) + "]";
     }
     // lanes first .. first + width - 1 of group term t, as a vector
     std::string group(std::uint32_t t, std::size_t first, std::size_t width) {
         std::array<std::uint64_t, 5> key{width};
-        for (std::size_t i = 0; i < width; ++i)
-            key[1 + i] = std::bit_cast<std::uint64_t>(tape_.group_coeff[4 * std::size_t(t) + first + i]);
+        for (std::size_t i = 0; i < width; ++i) key[1 + i] = group_identity(tape_, 4 * std::size_t(t) + first + i);
         const auto [it, added] = groups_.try_emplace(key, 4 * std::size_t(t) + first);
         std::string read = width == 4 ? "pgi_load4(gc + " : "pgi_load2(gc + ";
         read += std::to_string(it->second);
@@ -495,13 +507,12 @@ Statement group_statement(const CompiledMap::Tape& tape, std::size_t g, Name nam
     for (std::uint32_t p = 0; p < L; ++p) {
         const std::uint32_t t = start + p;
         const int sum = p < rounds ? int(p % 4) : 0;
-        const double* c = &tape.group_coeff[4 * std::size_t(t)];
         const std::size_t width = wide ? 4 : 2;
         for (std::size_t first = 0; first < 4; first += width) {
             std::string mask;
             bool any = false, masked = false;
             for (std::size_t lane = first; lane < first + width; ++lane) {
-                const bool zero = c[lane] == 0,
+                const bool zero = group_zero(tape, 4 * std::size_t(t) + lane),
                            keep = !zero || !has_output(lane);  // a lane without an output is never read
                 any = any || !zero;
                 masked = masked || !keep;
@@ -622,8 +633,6 @@ std::string map_source(const CompiledMap& map, const std::string& symbol, Native
 }  // namespace
 
 std::string native_source(const CompiledMap& map, const std::string& symbol, NativeVectors vectors) {
-    if (map.num_slow_inputs() > 0)  // (its coefficients are bound at run time: no constant to write)
-        throw std::invalid_argument("native_source: a map with slow inputs has no native code");
     return preamble() + map_source(map, symbol, vectors);
 }
 
@@ -639,8 +648,7 @@ std::vector<std::size_t> native_candidates(const std::vector<CompiledMap*>& maps
         const std::size_t size = m.num_terms() + m.num_monomials();
         if (m.native()) {
             budget -= std::min(budget, size);  // (kept native code counts: max_size bounds the maps' native code)
-        } else if (m.num_outputs() > 0 && m.num_slow_inputs() == 0 && size <= options.max_map_size &&
-                   size <= budget) {  // (a map with slow inputs binds its coefficients at run time: interpreted)
+        } else if (m.num_outputs() > 0 && size <= options.max_map_size && size <= budget) {
             todo.push_back(i);
             budget -= size;
         }

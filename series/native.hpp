@@ -87,7 +87,7 @@ std::string native_source(const CompiledMap& map, const std::string& symbol,
 std::size_t native_count(const std::vector<CompiledMap*>& maps);
 
 /// The maps attach_native_code would compile now (their indices): those not native yet, in the order given, while
-/// they fit in max_size with the native ones counted first, each of at most max_map_size, none with slow inputs.
+/// they fit in max_size with the native ones counted first, each of at most max_map_size.
 std::vector<std::size_t> native_candidates(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
 
 /// Builds native code for the maps and attaches it, the maps in the order given (the most used first) while they fit

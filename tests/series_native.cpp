@@ -146,6 +146,59 @@ TEST_CASE(
     }
 }
 
+TEST_CASE(
+    "native: a map with parameters (slow inputs) gives the interpreter's bits at any of their values, one library for "
+    "all, a coefficient that vanishes at some values and overflowing monomials included") {
+    const auto r = make_ring({"unused", "a", "b", "c", "p", "q"});
+    std::mt19937 gen(8);
+    const std::vector<Poly> base = mixed_outputs(r, gen);
+    const Poly p = Poly::gen(r, 4), q = Poly::gen(r, 5), one = Poly::constant(r, Rational(1));
+    // coefficients that are polynomials in p and q: p - 1 vanishes at p = 1, q^2 - p at q^2 = p
+    std::vector<Poly> outputs;
+    for (std::size_t i = 0; i < base.size(); ++i)
+        outputs.push_back(base[i] * (i % 2 ? p - one : q * q - p) + base[(i + 3) % base.size()] * q);
+    const CompiledMap built = CompiledMap::build(outputs, {3, 1, 2, 4, 5}, 2);
+    REQUIRE(built.num_slow_inputs() == 2);
+    REQUIRE(built.tape().groups > 0);
+    std::vector<CompiledMap> maps(2, built);
+    const CompiledMap interpreted = built;
+    // bound before the build to values where coefficients vanish or coincide: the structure is still the slots'
+    std::vector<double> scratch(built.num_outputs());
+    const double at_one[5] = {0.5, 0.5, 0.5, 1.0, 1.0}, elsewhere[5] = {0.5, 0.5, 0.5, 0.5, -1.5};
+    maps[0].eval(at_one, scratch.data());
+    maps[1].eval(elsewhere, scratch.data());
+    NativeOptions options = test_options("parameters");
+    REQUIRE(attach_native_code({&maps[0], &maps[1]}, options) == 2);
+    std::size_t libraries = 0;  // the two copies have one structure: one source, one library
+    for (const auto& e : fs::directory_iterator(options.cache_dir)) libraries += e.path().extension() == ".so";
+    CHECK(libraries == 1);
+    std::uniform_real_distribution<double> input(-2.0, 2.0);
+    const std::size_t O = built.num_outputs();
+    std::vector<double> a(O), b(O);
+    std::size_t compared = 0, non_finite = 0;
+    for (const auto [pv, qv] : {std::pair{0.5, -1.5}, std::pair{1.0, 0.25}, std::pair{4.0, 2.0}, std::pair{1.0, 1.0}}) {
+        for (int point = 0; point < 100; ++point) {
+            double x[5] = {input(gen), input(gen), input(gen), pv, qv};
+            if (point == 1) x[0] = -0.0, x[1] = 0.0;  // signed zeros
+            if (point == 2) x[2] = 1e120;             // overflowing monomials, times coefficients that vanish
+            interpreted.eval(x, a.data());
+            maps[point % 2].eval(x, b.data());
+            for (std::size_t o = 0; o < O; ++o) {
+                CAPTURE(pv);
+                CAPTURE(point);
+                CAPTURE(o);
+                CHECK(bits(a[o]) == bits(b[o]));
+                non_finite += !std::isfinite(a[o]);
+                ++compared;
+            }
+        }
+    }
+    CHECK(maps[0].native());
+    CHECK(non_finite > 0);
+    CHECK(compared > 3000);
+    fs::remove_all(options.cache_dir);
+}
+
 TEST_CASE("native: a copy shares the loaded code; a kept library is loaded, not compiled again") {
     const auto r = make_ring({"x", "y"});
     const Poly f = pow(Poly::gen(r, 0), 3) - Poly::constant(r, Rational(1, 3)) * Poly::gen(r, 1);
