@@ -7,10 +7,37 @@
 #include <cmath>
 #include <functional>
 #include <optional>
+#include <set>
 
 namespace pgi {
 
 namespace {
+
+// The coordinates before those that end the list and stay put through dt^s (a scheme's parameters), which the
+// predictor's map reads through its coefficients (Predictor::build).
+std::size_t moving_coordinates(const std::vector<Series>& v, std::size_t s) {
+    std::size_t moving = v.size();
+    const auto still = [&](const Series& vl) {
+        for (std::size_t m = 1; m <= s; ++m)
+            if (!vl[m].is_zero()) return false;
+        return true;
+    };
+    while (moving > 0 && still(v[moving - 1])) --moving;
+    return moving;
+}
+
+// The terms the predictor's map evaluates for f, a polynomial in n coordinates (coordinate i is ring variable i): its
+// monomials in the first `moving` coordinates, the others' powers being read through the coefficients.
+double evaluated_terms(const Poly& f, std::size_t moving, std::size_t n) {
+    if (moving == n) return static_cast<double>(f.length());
+    std::set<std::vector<unsigned long>> monomials;
+    for (std::size_t i = 0; i < f.length(); ++i) {
+        std::vector<unsigned long> e = f.term_exponents(i);
+        e.resize(moving);
+        monomials.insert(std::move(e));
+    }
+    return static_cast<double>(monomials.size());
+}
 
 // The predictor order P minimising (terms of the predictor) + Newton's expected cost (NewtonCost::from) from a
 // start off by the first neglected term dt^(P+1) u_(P+1) at the typical state. Fed the base point's series order
@@ -27,11 +54,13 @@ public:
         : opt_(opt), cost_(cost), point_(std::move(point)), scale_(scale), limit_(limit), cap_stops_(cap_stops) {}
     bool operator()(const std::vector<Series>& v) {
         const std::size_t s = v.front().order() - 1;  // exact through dt^s: scores the order P = s - 1
-        double e = 0, terms = 0, top = 0;
+        const std::size_t moving = moving_coordinates(v, s);
+        double e = 0, terms = 0, top = 0, top_exact = 0;
         for (const auto& vl : v) {
             e = std::max(e, std::abs(std::pow(opt_.dt, double(s)) * evaluate(vl[s], point_)) / scale_);
-            for (std::size_t m = 1; m < s; ++m) terms += static_cast<double>(vl[m].length());
-            top += static_cast<double>(vl[s].length());
+            for (std::size_t m = 1; m < s; ++m) terms += evaluated_terms(vl[m], moving, v.size());
+            top += evaluated_terms(vl[s], moving, v.size());
+            top_exact += static_cast<double>(vl[s].length());
         }
         const double cost = terms + cost_.from(e, opt_.newton_tol);
         if (!best_ || cost < best_cost_) best_ = s - 1, best_cost_ = cost;
@@ -43,7 +72,7 @@ public:
         // A first neglected term that does not shrink means the series diverges at this dt.
         const bool hopeless = terms + top >= best_cost_ - cost_.full;
         const bool diverging = e_ > 0 && e >= e_;
-        const bool capped = top > cheap_order_terms;
+        const bool capped = top_exact > cheap_order_terms;
         capped_ = capped_ || capped;
         const bool decided = e <= opt_.newton_tol || hopeless || (capped && cap_stops_) || diverging;
         at_limit_ = !decided && s >= limit_ + 1;
