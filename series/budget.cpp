@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <utility>
 
 namespace pgi {
@@ -37,10 +38,6 @@ std::string seconds_text(double s) {
     return buf;
 }
 
-}  // namespace
-
-namespace {
-
 // /proc/self/statm's first two fields in bytes: the address space in use and the resident set; zeros where unreadable.
 std::pair<std::size_t, std::size_t> address_space_and_resident() {
     std::ifstream in("/proc/self/statm");
@@ -50,9 +47,16 @@ std::pair<std::size_t, std::size_t> address_space_and_resident() {
     return {size * page, resident * page};
 }
 
-bool address_space_capped() {
+// Three quarters of the address-space limit, or none.
+std::optional<double> address_space_budget() {
     rlimit as{};
-    return ::getrlimit(RLIMIT_AS, &as) == 0 && as.rlim_cur != RLIM_INFINITY;
+    if (::getrlimit(RLIMIT_AS, &as) != 0 || as.rlim_cur == RLIM_INFINITY) return std::nullopt;
+    return 0.75 * static_cast<double>(as.rlim_cur);
+}
+
+double physical_memory_budget() {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+    return pages > 0 && page > 0 ? 0.5 * static_cast<double>(pages) * static_cast<double>(page) : 4.0 * 1024 * mib;
 }
 
 }  // namespace
@@ -61,19 +65,18 @@ std::size_t resident_memory() {
     return address_space_and_resident().second;
 }
 
-std::size_t memory_in_use() {
-    const auto [address_space, resident] = address_space_and_resident();
-    return address_space_capped() ? std::max(address_space, resident) : resident;
+std::size_t memory_in_use(bool address_space) {
+    const auto [space, resident] = address_space_and_resident();
+    return address_space ? std::max(space, resident) : resident;
 }
 
 std::size_t default_memory_budget() {
-    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
-    double budget =
-        pages > 0 && page > 0 ? 0.5 * static_cast<double>(pages) * static_cast<double>(page) : 4.0 * 1024 * mib;
-    rlimit as{};
-    if (::getrlimit(RLIMIT_AS, &as) == 0 && as.rlim_cur != RLIM_INFINITY)
-        budget = std::min(budget, 0.75 * static_cast<double>(as.rlim_cur));
-    return static_cast<std::size_t>(budget);
+    return static_cast<std::size_t>(std::min(physical_memory_budget(), address_space_budget().value_or(HUGE_VAL)));
+}
+
+bool default_memory_budget_is_address_space() {
+    const std::optional<double> cap = address_space_budget();
+    return cap && *cap <= physical_memory_budget();
 }
 
 double bytes_per_term(std::size_t nvars, double max_degree, double coefficient_bits) {
@@ -176,7 +179,7 @@ void Budget::poll(Clock::time_point now) const {
         refuse(BudgetExceeded::Resource::time, "the exact phase has run " + seconds_text(elapsed) +
                                                    ", above the time budget of " + seconds_text(limits_.max_seconds) +
                                                    " (raise it with --max-seconds)");
-    resident_ = memory_in_use();
+    resident_ = memory_in_use(limits_.address_space);
     if (resident_ > limits_.max_bytes)
         refuse(BudgetExceeded::Resource::memory,
                "the process uses " + megabytes(static_cast<double>(resident_)) + ", above the memory budget of " +

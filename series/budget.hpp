@@ -34,13 +34,15 @@ private:
 
 /// The resident memory of this process in bytes (from /proc/self/statm; 0 where it cannot be read).
 std::size_t resident_memory();
-/// The memory the budget counts, in bytes: the resident memory, or under an address-space limit (RLIMIT_AS, ulimit -v)
-/// the address space in use if larger, since that is what the limit caps (libraries, stacks and malloc's reserves
-/// put it 40-50 MB above the resident memory of a pgi run).
-std::size_t memory_in_use();
+/// The memory a budget counts, in bytes: the resident memory, or (address_space) the larger of it and the address
+/// space in use, which libraries, stacks and malloc's reserves put 40-50 MB above the resident memory of a pgi run.
+std::size_t memory_in_use(bool address_space);
 /// The memory an exact phase may use by default: half the physical memory, and at most three quarters
-/// of the address-space limit (RLIMIT_AS) when one is set.
+/// of the address-space limit (RLIMIT_AS, ulimit -v) when one is set.
 std::size_t default_memory_budget();
+/// Whether the default budget is three quarters of an address-space limit: it then counts the address space in use,
+/// which is what that limit caps (counting the resident memory, FLINT ran out of address space first).
+bool default_memory_budget_is_address_space();
 
 struct BudgetLimits {
     /// About a gigabyte of coefficients and exponents in one polynomial.
@@ -49,8 +51,11 @@ struct BudgetLimits {
     /// would add up their time); the pgi program sets one (60 s, --max-seconds).
     static constexpr double default_max_seconds = std::numeric_limits<double>::infinity();
     std::size_t max_terms = default_max_terms;        // terms of any one result (products: predicted)
-    std::size_t max_bytes = default_memory_budget();  // of memory_in_use()
-    double max_seconds = default_max_seconds;         // busy time of the algebra (see Budget::seconds)
+    std::size_t max_bytes = default_memory_budget();  // of memory_in_use(address_space)
+    /// What max_bytes bounds: the resident memory, or also the address space in use. A budget set explicitly (pgi's
+    /// --max-memory-mb) bounds the resident memory; the default one, that of its limit (default_memory_budget).
+    bool address_space = default_memory_budget_is_address_space();
+    double max_seconds = default_max_seconds;  // busy time of the algebra (see Budget::seconds)
 };
 
 class Budget {
@@ -77,7 +82,7 @@ public:
         if (begin_and_exceeds(terms, bytes_per_term)) refuse_reserve(describe(), terms, bytes_per_term);
     }
     /// After an operation whose result has `terms` terms: checks the term bound, and every 32nd time the
-    /// clock and (at most every 20 ms) memory_in_use(); may emit a progress line.
+    /// clock and (at most every 20 ms) the memory in use; may emit a progress line.
     void account(std::string_view operation, std::size_t terms) const;
     /// The busy time of the algebra since the budget was created or restarted: the time between
     /// operations less than a second apart, and the whole duration of an estimated operation (a product,
@@ -100,7 +105,7 @@ private:
     // an exact phase runs on one thread.
     mutable Stage stage_;
     mutable std::size_t largest_ = 0;
-    mutable std::size_t resident_ = 0;  // memory_in_use() at the last poll
+    mutable std::size_t resident_ = 0;  // memory_in_use(limits_.address_space) at the last poll
     mutable Clock::time_point next_poll_, next_progress_;
     mutable Clock::time_point last_;   // the previous account() or restart()
     mutable Clock::time_point begun_;  // the start of the estimated operation under way

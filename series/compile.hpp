@@ -85,8 +85,8 @@ public:
     /// of each group of outputs evaluated together (four at a time).
     std::size_t num_terms() const { return term_coeff_.size() + group_monomial_.size(); }
 
-    /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch), unless
-    /// native.
+    /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch; with slow
+    /// inputs, the bound coefficients), unless native without slow inputs.
     void eval(const double* in, double* out) const;
 
     /// The operations summing groups four lanes at once saves over pairs: one per group term whose coefficients are

@@ -122,6 +122,15 @@ TEST_CASE("under a memory cap pgi ends with exit 4 or 5 and a message, never an 
     CHECK(phase.out.find("above the memory budget of 220 MB (raise it with --max-memory-mb)") != std::string::npos);
 }
 
+TEST_CASE("an explicit memory budget bounds the resident memory, whatever the address-space limit") {
+    if (address_sanitizer) return;
+    // under a loose limit, a run whose address space (40-50 MB above its resident memory) is above the budget but
+    // whose resident memory is not runs
+    Shell loose = shell("ulimit -v 8000000; exec " + pgi() + " integrate '" + PGI_SCENES_DIR + "/henon_heiles.toml'" +
+                        " --t-end 1 --max-memory-mb 40");
+    CHECK_MESSAGE(loose.exit_code == 0, loose.out);
+}
+
 // issue 11.3
 TEST_CASE("a long exact phase shows progress on a terminal, --quiet silences it, --max-seconds stops it") {
     TempScene lattice("volterra30", volterra(30, 6));
