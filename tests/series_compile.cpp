@@ -291,6 +291,37 @@ TEST_CASE("compile: a map read through its slow inputs' coefficients equals the 
         map.eval_batch(in.data(), again.data(), m, scratch, &kept);
         for (std::size_t e = 0; e < out.size(); ++e) CHECK(bits(again[e]) == bits(2 * out[e]));  // doubling is exact
     }
+    SUBCASE("a coefficient that vanishes at a lane's parameters, times an overflowing monomial: eval's bits") {
+        // p x^4 + 2 x^3 + ... shares its monomials with B and 2B (a group); at p = 0 and x = 1e100, eval's group masks
+        // p's 0 (not 0 inf = NaN), and so must each lane, beside lanes where it does not vanish
+        const auto s = make_ring({"x", "p"});
+        const Poly x = Poly::gen(s, 0), p = Poly::gen(s, 1);
+        Poly B(s);
+        for (unsigned long k = 0; k <= 4; ++k) B += pow(x, k);
+        const auto c = [&s](long v) { return Poly::constant(s, Rational(v)); };
+        const Poly first_output = p * pow(x, 4) + c(2) * pow(x, 3) + c(3) * pow(x, 2) + c(4) * x + c(5);
+        const CompiledMap map = CompiledMap::build({first_output, B, c(2) * B, p * B}, {0, 1}, 1);
+        REQUIRE(map.tape().groups > 0);
+        constexpr std::size_t m = 11;
+        std::vector<double> in(2 * m), out(4 * m), single(4), scratch;
+        for (std::size_t j = 0; j < m; ++j) {
+            in[j] = j % 3 == 0 ? 1e100 : j % 3 == 1 ? -1e90 : 0.5 + double(j);
+            in[m + j] = j % 2 ? 0.0 : 1.5;
+        }
+        map.eval_batch(in.data(), out.data(), m, scratch);
+        std::size_t finite_from_masking = 0;
+        for (std::size_t j = 0; j < m; ++j) {
+            const double point[2] = {in[j], in[m + j]};
+            map.eval(point, single.data());
+            for (std::size_t o = 0; o < 4; ++o) {
+                CAPTURE(j);
+                CAPTURE(o);
+                CHECK(bits(out[o * m + j]) == bits(single[o]));
+            }
+            finite_from_masking += std::abs(in[j]) > 1e80 && in[m + j] == 0 && std::isfinite(single[0]);
+        }
+        CHECK(finite_from_masking > 0);
+    }
     SUBCASE("points in lanes, each with its own parameters: each lane gives eval's bits") {
         LaneCoefficients kept;
         std::vector<double> scratch;
