@@ -52,8 +52,9 @@ struct BudgetLimits {
     static constexpr double default_max_seconds = std::numeric_limits<double>::infinity();
     std::size_t max_terms = default_max_terms;        // terms of any one result (products: predicted)
     std::size_t max_bytes = default_memory_budget();  // of memory_in_use(address_space)
-    /// What max_bytes bounds: the resident memory, or also the address space in use. A budget set explicitly (pgi's
-    /// --max-memory-mb) bounds the resident memory; the default one, that of its limit (default_memory_budget).
+    /// What max_bytes bounds: the resident memory, or also the address space in use. By default, the address space
+    /// when max_bytes' default is that of an address-space limit (default_memory_budget_is_address_space); a caller
+    /// that sets max_bytes sets this too (pgi's --max-memory-mb: the resident memory).
     bool address_space = default_memory_budget_is_address_space();
     double max_seconds = default_max_seconds;  // busy time of the algebra (see Budget::seconds)
 };
