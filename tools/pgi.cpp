@@ -292,6 +292,21 @@ int run_and_map_exceptions(const std::string& name, Options& o) {
     }
 }
 
+// A subcommand: its name, what it does, and its options. Only the invoked one's options are set up (all of them
+// took 0.7 ms, an eighth of a short run: tools/bench/bench_startup.py); the help lists every subcommand by name.
+struct Subcommand {
+    const char* name;
+    const char* what;
+    std::function<void(CLI::App*)> options;
+};
+
+// The subcommand argv names: its first word that is not an option (pgi takes no option with a value before it).
+std::string_view invoked(int argc, char** argv) {
+    for (int i = 1; i < argc; ++i)
+        if (argv[i][0] != '-') return argv[i];
+    return {};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -305,69 +320,11 @@ int main(int argc, char** argv) {
                          "pgi " + std::string(pgi::version()) + " (allocator: " + pgi::program_allocator() + ")");
     Options o;
     o.overrides.max_seconds = 60;  // the program's time budget of the exact phase (the library sets none)
-    auto* check = app.add_subcommand("check", "class, Jacobi, Casimirs and realisation identities of a scene");
-    auto* terms = app.add_subcommand("terms", "the Hamilton-Jacobi terms S_1..S_k");
-    auto* realisation = app.add_subcommand("realisation", "alpha and beta truncated at a p-degree");
-    auto* step = app.add_subcommand("step", "one step from x0");
-    auto* integrate = app.add_subcommand("integrate", "integrate from x0 to t_end");
-    auto* run =
-        app.add_subcommand("run", "the main job: checks, S_1..S_k, and the integration when the scene has [run]");
-    auto* magnus = app.add_subcommand("magnus", "the Magnus series of the scene's [magnus] h");
-    auto* modified = app.add_subcommand("modified", "the modified Hamiltonian of the order-k scheme");
-    auto* report =
-        app.add_subcommand("report", "one document: structure, checks, S_1..S_k, modified Hamiltonian, a run");
-    auto* ensemble =
-        app.add_subcommand("ensemble", "many initial states (a file or a sampler) integrated on every core");
-    scene_options(check, o, use::trust | use::json | use::order | use::realisation);
-    scene_options(terms, o, use::trust | use::json | use::order | use::realisation);
-    scene_options(realisation, o, use::trust | use::json | use::realisation);
-    scene_options(step, o, use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::jit);
-    scene_options(integrate, o,
-                  use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);
-    scene_options(run, o,
-                  use::trust | use::order | use::dt | use::realisation | use::x0 | use::t_end |
-                      use::jit);  // text only: its parts have --json
-    scene_options(magnus, o, use::trust | use::json);
-    scene_options(modified, o, use::trust | use::json | use::order | use::realisation);
-    scene_options(report, o, use::order | use::dt | use::realisation | use::x0 | use::t_end);  // --format json
-    auto* lyapunov = app.add_subcommand("lyapunov", "the Lyapunov exponents along the run (Benettin's method)");
-    scene_options(lyapunov, o,
-                  use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);
-    lyapunov->add_option("--every", o.every, "record the estimates every M steps (default 1)");
-    lyapunov->add_option("--max-steps", o.max_steps,
-                         "refuse a run of more steps than this, before any work (default 1e8)");
-    auto* section =
-        app.add_subcommand("section", "the crossings of an event polynomial along the run (a Poincare section)");
-    scene_options(section, o,
-                  use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit);
-    section->add_option("--event", o.section.event, "the polynomial g whose zeros are reported")->required();
-    section->add_option("--direction", o.section.direction, "1: g rising through 0, -1: falling, 0: both (default)")
-        ->check(CLI::IsMember({-1, 0, 1}));
-    section->add_option("--max-crossings", o.section.max_crossings, "stop after this many crossings")
-        ->check(CLI::PositiveNumber);
-    section->add_option("--samples", o.section.samples, "sign tests per step on the dense output (default 1: the ends)")
-        ->check(CLI::PositiveNumber);
-    section->add_option("--csv", o.csv, "write the crossings (t, coordinates) to this CSV file");
-    scene_options(ensemble, o,
-                  use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);  // x0: --sample casimir
-    pgi::add_ensemble_options(ensemble, o.ensemble);
-    report->add_option("--format", o.format, "markdown | latex | json")
-        ->check(CLI::IsMember({"markdown", "latex", "json"}));
-    report->add_option("--out", o.out, "write to this file (atomically) instead of stdout");
-    report->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian, 0..64 (default 4)");
-    magnus->add_option("--upto", o.upto, "last power of eps, 0..64 (default 4)");
-    modified->add_option("--upto", o.upto, "last power of dt, 0..64 (default 4)");
-    modified
-        ->add_option("--splitting", o.splitting,
-                     "lie-trotter | strang | yoshida: the splitting method's for [splitting] H = A + B")
-        ->check(CLI::IsMember({"lie-trotter", "strang", "yoshida"}));
-    ensemble->add_option("--max-output-mb", o.max_output_mb,
-                         "refuse an ensemble whose results (or --states file) would take more than this, before any "
-                         "work (default 1024)");
-    for (auto* cmd : {integrate, run, section, report, ensemble})
+    const auto max_steps = [&o](CLI::App* cmd) {
         cmd->add_option("--max-steps", o.max_steps,
                         "refuse a run of more steps than this, before any work (default 1e8)");
-    for (auto* cmd : {integrate, run}) {
+    };
+    const auto trajectory_outputs = [&o](CLI::App* cmd) {  // integrate's and run's
         auto* csv =
             cmd->add_option("--csv", o.csv, "write the trajectory (t, coordinates, H, Casimirs) to this CSV file");
         auto* every = cmd->add_option("--every", o.every, "one CSV row every M steps");
@@ -385,8 +342,95 @@ int main(int argc, char** argv) {
                         "(default: the first three)")
             ->needs(plot);
         cmd->add_option("--max-csv-mb", o.max_csv_mb, "refuse a CSV larger than this (default 1024)");
+    };
+    constexpr unsigned run_uses =
+        use::trust | use::order | use::dt | use::realisation | use::x0 | use::t_end | use::jit;
+    const std::vector<Subcommand> subcommands{
+        {"check", "class, Jacobi, Casimirs and realisation identities of a scene",
+         [&](CLI::App* cmd) { scene_options(cmd, o, use::trust | use::json | use::order | use::realisation); }},
+        {"terms", "the Hamilton-Jacobi terms S_1..S_k",
+         [&](CLI::App* cmd) { scene_options(cmd, o, use::trust | use::json | use::order | use::realisation); }},
+        {"realisation", "alpha and beta truncated at a p-degree",
+         [&](CLI::App* cmd) {
+             scene_options(cmd, o, use::trust | use::json | use::realisation);
+             cmd->add_option("--degree", o.degree, "total degree D in the momenta, 0..100")->required();
+         }},
+        {"step", "one step from x0",
+         [&](CLI::App* cmd) {
+             scene_options(cmd, o,
+                           use::trust | use::json | use::order | use::dt | use::realisation | use::x0 | use::jit);
+         }},
+        {"integrate", "integrate from x0 to t_end",
+         [&](CLI::App* cmd) {
+             scene_options(cmd, o, run_uses | use::json);
+             max_steps(cmd);
+             trajectory_outputs(cmd);
+         }},
+        {"run", "the main job: checks, S_1..S_k, and the integration when the scene has [run]",
+         [&](CLI::App* cmd) {
+             scene_options(cmd, o, run_uses);  // text only: its parts have --json
+             max_steps(cmd);
+             trajectory_outputs(cmd);
+         }},
+        {"magnus", "the Magnus series of the scene's [magnus] h",
+         [&](CLI::App* cmd) {
+             scene_options(cmd, o, use::trust | use::json);
+             cmd->add_option("--upto", o.upto, "last power of eps, 0..64 (default 4)");
+         }},
+        {"modified", "the modified Hamiltonian of the order-k scheme",
+         [&](CLI::App* cmd) {
+             scene_options(cmd, o, use::trust | use::json | use::order | use::realisation);
+             cmd->add_option("--upto", o.upto, "last power of dt, 0..64 (default 4)");
+             cmd->add_option("--splitting", o.splitting,
+                             "lie-trotter | strang | yoshida: the splitting method's for [splitting] H = A + B")
+                 ->check(CLI::IsMember({"lie-trotter", "strang", "yoshida"}));
+         }},
+        {"report", "one document: structure, checks, S_1..S_k, modified Hamiltonian, a run",
+         [&](CLI::App* cmd) {
+             scene_options(cmd, o, use::order | use::dt | use::realisation | use::x0 | use::t_end);  // --format json
+             cmd->add_option("--format", o.format, "markdown | latex | json")
+                 ->check(CLI::IsMember({"markdown", "latex", "json"}));
+             cmd->add_option("--out", o.out, "write to this file (atomically) instead of stdout");
+             cmd->add_option("--upto", o.upto, "last power of dt of the modified Hamiltonian, 0..64 (default 4)");
+             max_steps(cmd);
+         }},
+        {"ensemble", "many initial states (a file or a sampler) integrated on every core",
+         [&](CLI::App* cmd) {
+             scene_options(cmd, o,
+                           use::json | use::order | use::dt | use::realisation | use::x0 | use::t_end);  // x0: --sample
+             pgi::add_ensemble_options(cmd, o.ensemble);
+             cmd->add_option("--max-output-mb", o.max_output_mb,
+                             "refuse an ensemble whose results (or --states file) would take more than this, before "
+                             "any work (default 1024)");
+             max_steps(cmd);
+         }},
+        {"lyapunov", "the Lyapunov exponents along the run (Benettin's method)",
+         [&](CLI::App* cmd) {
+             scene_options(cmd, o, run_uses | use::json);
+             cmd->add_option("--every", o.every, "record the estimates every M steps (default 1)");
+             max_steps(cmd);
+         }},
+        {"section", "the crossings of an event polynomial along the run (a Poincare section)",
+         [&](CLI::App* cmd) {
+             scene_options(cmd, o, run_uses | use::json);
+             cmd->add_option("--event", o.section.event, "the polynomial g whose zeros are reported")->required();
+             cmd->add_option("--direction", o.section.direction,
+                             "1: g rising through 0, -1: falling, 0: both (default)")
+                 ->check(CLI::IsMember({-1, 0, 1}));
+             cmd->add_option("--max-crossings", o.section.max_crossings, "stop after this many crossings")
+                 ->check(CLI::PositiveNumber);
+             cmd->add_option("--samples", o.section.samples,
+                             "sign tests per step on the dense output (default 1: the ends)")
+                 ->check(CLI::PositiveNumber);
+             cmd->add_option("--csv", o.csv, "write the crossings (t, coordinates) to this CSV file");
+             max_steps(cmd);
+         }},
+    };
+    const std::string_view chosen = invoked(argc, argv);
+    for (const Subcommand& sub : subcommands) {
+        CLI::App* cmd = app.add_subcommand(sub.name, sub.what);
+        if (chosen == sub.name) sub.options(cmd);
     }
-    realisation->add_option("--degree", o.degree, "total degree D in the momenta, 0..100")->required();
     try {
         app.parse(argc, argv);
         for (const char* name : {"--csv", "--out"})  // given but empty is not "not given"
