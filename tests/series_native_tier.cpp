@@ -45,9 +45,9 @@ struct TestCache {
     fs::path dir;
 };
 
-// The rigid body's stepper at its scene's k and dt under policy.
-NewtonStepper rigid_body_stepper(NativePolicy policy) {
-    const Scene s = test::bundled("rigid_body");
+// A bundled scene's stepper (the rigid body's by default) at its k and dt under policy.
+NewtonStepper rigid_body_stepper(NativePolicy policy, const std::string& scene = "rigid_body") {
+    const Scene s = test::bundled(scene);
     StepOptions opt;
     opt.k = s.scheme->order();
     opt.dt = s.dt;
@@ -56,8 +56,8 @@ NewtonStepper rigid_body_stepper(NativePolicy policy) {
     return s.scheme->stepper(opt, Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size())));
 }
 
-Eigen::VectorXd rigid_body_x0() {
-    const Scene s = test::bundled("rigid_body");
+Eigen::VectorXd rigid_body_x0(const std::string& scene = "rigid_body") {
+    const Scene s = test::bundled(scene);
     return Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
 }
 
@@ -192,12 +192,16 @@ TEST_CASE(
     CHECK_FALSE(other.native());
 }
 
-TEST_CASE("native tier: a long run switches to native code mid-run and keeps the interpreter's bits" *
-          doctest::skip(test::sanitized)) {
+namespace {
+
+// One scene's long run under automatic against the interpreter, until the tier's native code is attached.
+void check_switch(const std::string& scene) {
+    CAPTURE(scene);
     const TestCache cache("switch");
-    NewtonStepper tiered = rigid_body_stepper(NativePolicy::automatic), never = rigid_body_stepper(NativePolicy::never);
+    NewtonStepper tiered = rigid_body_stepper(NativePolicy::automatic, scene),
+                  never = rigid_body_stepper(NativePolicy::never, scene);
     REQUIRE(tiered.native_tier() != nullptr);
-    const Eigen::VectorXd x0 = rigid_body_x0();
+    const Eigen::VectorXd x0 = rigid_body_x0(scene);
     Eigen::VectorXd x = x0, y = x0, dx(x0.size()), dy(x0.size());
     // the tier starts the build after about start_share of its estimate (a second or so) and the compiler takes about
     // the estimate: a minute is far beyond both, even on a loaded machine
@@ -214,5 +218,18 @@ TEST_CASE("native tier: a long run switches to native code mid-run and keeps the
     CHECK(tiered.native_tier() == nullptr);
     require_same_steps(tiered, never, x, 1000);
     CHECK(cache.files() > 0);  // kept: the next stepper of these maps attaches it at its build
-    CHECK(rigid_body_stepper(NativePolicy::automatic).native_maps() == tiered.native_maps());
+    CHECK(rigid_body_stepper(NativePolicy::automatic, scene).native_maps() == tiered.native_maps());
+}
+
+}  // namespace
+
+TEST_CASE("native tier: a long run switches to native code mid-run and keeps the interpreter's bits" *
+          doctest::skip(test::sanitized)) {
+    check_switch("rigid_body");
+}
+
+// Maps that read a scheme's parameters get native code built for their structure, whatever the values.
+TEST_CASE("native tier: with parameters too, the switch keeps the interpreter's bits" *
+          doctest::skip(test::sanitized)) {
+    check_switch("rigid_body_parameters");
 }
