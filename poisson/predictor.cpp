@@ -13,17 +13,22 @@ namespace pgi {
 
 namespace {
 
-// The coordinates before those that end the list and stay put through dt^s (a scheme's parameters), which the
-// predictor's map reads through its coefficients (Predictor::build).
+// How many of n coordinates end the list and stay put (moves(v) false for each): a scheme's parameters, which the
+// predictor's map reads through its coefficients. The one rule of Predictor::build and of the choice's cost.
+template <class Moves>
+std::size_t still_at_end(std::size_t n, Moves moves) {
+    std::size_t still = 0;
+    while (still < n && !moves(n - 1 - still)) ++still;
+    return still;
+}
+
+// The coordinates before those still_at_end through dt^s.
 std::size_t moving_coordinates(const std::vector<Series>& v, std::size_t s) {
-    std::size_t moving = v.size();
-    const auto still = [&](const Series& vl) {
-        for (std::size_t m = 1; m <= s; ++m)
-            if (!vl[m].is_zero()) return false;
-        return true;
-    };
-    while (moving > 0 && still(v[moving - 1])) --moving;
-    return moving;
+    return v.size() - still_at_end(v.size(), [&](std::size_t i) {
+               for (std::size_t m = 1; m <= s; ++m)
+                   if (!v[i][m].is_zero()) return true;
+               return false;
+           });
 }
 
 // The terms the predictor's map evaluates for f, a polynomial in n coordinates (coordinate i is ring variable i): its
@@ -149,8 +154,7 @@ Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Po
     const auto moves = [&](std::size_t v) {
         return std::any_of(u.begin(), u.end(), [v](const std::vector<Poly>& uj) { return !uj[v].is_zero(); });
     };
-    std::size_t slow = 0;
-    while (slow < M.dim() && !u.empty() && !moves(M.dim() - 1 - slow)) ++slow;
+    const std::size_t slow = u.empty() ? 0 : still_at_end(M.dim(), moves);
     p.map_ = DtSeriesMap::build(u, M.coordinate_vars(), planned_dt, slow);
     return p;
 }
