@@ -84,6 +84,9 @@ private:
     std::vector<T> gh_, scratch_;      // grad and Hess S_dt on its pattern; grad S_dt or its sizes (every coordinate's)
     std::vector<T> passive_, inputs_;  // the coordinates past N; the maps' inputs, when there are such coordinates
     LaneMapScratch<T> maps_;
+    // the coordinates sizes are measured over, the first moving_ (NewtonStepper's: a scheme's parameters excluded)
+    std::size_t moving_;
+    T state_norm(const T* v) const;
     BatchScratch dt_maps_;
     // each lane's Newton: its statistics, its control (NewtonStepper::newton's locals) and whether it runs
     T iterations_{}, residual_{}, tolerance_{}, ratio_{}, truncation_{}, correction_{};

@@ -7,6 +7,7 @@
 #include "poisson/detail/newton_rules.hpp"
 #include "series/compile_lanes.ipp"
 
+#include <cassert>
 #include <cmath>
 #include <limits>
 
@@ -54,12 +55,13 @@ void predict(const Predictor& p, const lanes::PackOf<P>* x, double dt, lanes::Pa
     for (std::size_t i = 0; i < p.series().width(); ++i) xb[i] = xb[i] + x[i];
 }
 
-// |v|_inf, a NaN of v propagated.
+// |v|_inf over v's first m <= N coordinates (m >= 1), a NaN of them propagated.
 template <int N, class T>
-PGI_LANE_INLINE T inf_norm(const T* v) {
-    T m = lanes::abs(v[0]);
-    for (int i = 1; i < N; ++i) m = lanes::max_nan(m, lanes::abs(v[i]));
-    return m;
+PGI_LANE_INLINE T inf_norm(const T* v, std::size_t m = N) {
+    T r = lanes::abs(v[0]);
+    for (int i = 1; i < N; ++i)
+        if (std::size_t(i) < m) r = lanes::max_nan(r, lanes::abs(v[i]));
+    return r;
 }
 template <int N, class T>
 PGI_LANE_INLINE lanes::mask_t<T> all_finite(const T* v) {
@@ -141,7 +143,8 @@ PGI_LANE_INLINE void small_inverse(const T* J, T* inverse) {
 template <int N, class T>
 LaneStep<N, T>::LaneStep(const NewtonStepper& s)
     : gh_(s.with_hessian().width(), T{}), scratch_(s.dim(), T{}), passive_(s.dim() - N, T{}), inputs_(s.dim(), T{}),
-      maps_(s.in_->realisation_.lane_scratch<T>()) {
+      maps_(s.in_->realisation_.lane_scratch<T>()), moving_(s.moving_) {
+    assert(moving_ >= 1 && moving_ <= std::size_t(N));  // (the passive coordinates have no bracket)
     if constexpr (lanes != 1) s.size_lane_maps(dt_maps_);
     for (auto& e : H_) e = T{};
     for (auto& e : lu_) e = T{};
@@ -158,6 +161,11 @@ LaneStep<N, T>::LaneStep(const NewtonStepper& s)
                 hessian_to_[hessian_count_] = int(row + N * col);
                 hessian_from_[hessian_count_++] = int(P.cols + s.in_->gradient_.hessian_value[std::size_t(k)]);
             }
+}
+
+template <int N, class T>
+PGI_LANE_INLINE T LaneStep<N, T>::state_norm(const T* v) const {
+    return inf_norm<N>(v, moving_);
 }
 
 // The maps' inputs at point (N values): point itself, or when the stepper has coordinates past N, point then their
@@ -306,9 +314,9 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
     commit<N>(C, r, r_);
     residual_ = select(C, inf_norm<N>(r), residual_);
     ratio_ = select(C, ratio, ratio_);
-    tolerance_ = select(C, inf_norm<N>(tol), tolerance_);
+    tolerance_ = select(C, state_norm(tol), tolerance_);
     const T size =
-        lanes::max(lanes::max(x_norm_, inf_norm<N>(xb_)), lanes::splat<T>(std::numeric_limits<double>::min()));
+        lanes::max(lanes::max(x_norm_, state_norm(xb_)), lanes::splat<T>(std::numeric_limits<double>::min()));
     truncation_ = select(C, check_.neglected / size, truncation_);
     return lanes::both(C, ratio <= 1.0);
 }
@@ -317,7 +325,7 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
 // round from the accepted r_ (the kept factors, p updated by the kept Hessian).
 template <int N, class T>
 void LaneStep<N, T>::polish(Mask E) {
-    const Mask P = lanes::both(E, newton_rules::polishes(correction_, lanes::max(x_norm_, inf_norm<N>(xb_))));
+    const Mask P = lanes::both(E, newton_rules::polishes(correction_, lanes::max(x_norm_, state_norm(xb_))));
     if (!lanes::any(P)) return;
     T d[N], p[N];
     solve_kept(r_, d);
@@ -338,7 +346,7 @@ void LaneStep<N, T>::polish(Mask E) {
 template <int N, class T>
 void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
     const Mask ill =
-        lanes::both(E, newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm_, inf_norm<N>(xb_))));
+        lanes::both(E, newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm_, state_norm(xb_))));
     end(ill, StepStatus::ill_conditioned);
     const Mask solved = lanes::both(E, lanes::negate(ill));
     if (!lanes::any(solved)) return;  // (a failed test: no delta to take)
@@ -408,7 +416,7 @@ void LaneStep<N, T>::round(const NewtonStepper& s, T* increment) {
     commit<N>(F, r, r_);
     residual_ = select(F, residual, residual_);
     // backtracking along the last correction while the residual grows above the noise (newton_rules)
-    const T noise = newton_rules::noise(x_norm_, inf_norm<N>(xb_));
+    const T noise = newton_rules::noise(x_norm_, state_norm(xb_));
     const Mask back = lanes::both(F, newton_rules::backtracks(residual, good_residual_, noise, lambda_));
     lambda_ = select(back, lambda_ / 2, lambda_);
     for (int i = 0; i < N; ++i) xb_[i] = select(back, good_[i] - lambda_ * dx_[i], xb_[i]);
@@ -431,7 +439,7 @@ void LaneStep<N, T>::round(const NewtonStepper& s, T* increment) {
     correction_ = select(go, c, correction_);
     end(lanes::both(go, lanes::negate(lanes::is_finite(c))), StepStatus::non_finite);
     const Mask on = lanes::both(go, lanes::is_finite(c));
-    const T scale = lanes::max(x_norm_, inf_norm<N>(xb_));
+    const T scale = lanes::max(x_norm_, state_norm(xb_));
     const Mask small = newton_rules::small(c, s.opt_.newton_tol, scale);
     const Mask settled = newton_rules::settled(small, c, previous_, residual, previous_residual_);
     previous_ = select(on, c, previous_);
@@ -484,11 +492,8 @@ void LaneStep<N, T>::step(const NewtonStepper& s, const T* x, double dt, T* incr
     dt_ = dt;
     for (int i = 0; i < N; ++i) x_[i] = x[i];
     Mask finite = all_finite<N>(x_);
-    x_norm_ = inf_norm<N>(x_);
-    for (const T& w : passive_) {  // (NewtonStepper's norms and checks read every coordinate)
-        finite = lanes::both(finite, lanes::is_finite(w));
-        x_norm_ = lanes::max_nan(x_norm_, lanes::abs(w));
-    }
+    x_norm_ = state_norm(x_);
+    for (const T& w : passive_) finite = lanes::both(finite, lanes::is_finite(w));
     if (!lanes::any(finite)) return;
     if (passive_.empty()) {
         predict(s.predictor(), x_, dt, xb_, dt_maps_);

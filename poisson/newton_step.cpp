@@ -119,13 +119,16 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     s.k_ = opt.k;
     s.dt_ = s.step_dt_ = opt.dt;
     s.opt_ = opt;
+    s.moving_ = pi.moving_dimension();
+    // the typical state's size, as the steps measure sizes: the predictor's error and the truncation are relative to it
+    const double scale = std::max(s.state_norm(x_typical), std::numeric_limits<double>::min());
     s.in_->gradient_ = compile_gradient(M, S, opt.dt, newton_matrix_truncation(pi, opt, x_typical), zero_rows(pi));
 
     // the truncation degree (and evaluator), sized at p0 = grad S_dt(x_typical): docs/math.md 4 and 6
     Eigen::VectorXd p0(static_cast<Eigen::Index>(n));
     s.in_->gradient_.gradient.eval(x_typical.data(), opt.dt, p0.data());
     RealisationPtr probe = realisation(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, n));
-    StepRealisation r = step_realisation(pi, opt, probe, realisation, x_typical, p0);
+    StepRealisation r = step_realisation(pi, opt, probe, realisation, x_typical, scale, p0);
     s.in_->realisation_ = std::move(r.evaluator);
     s.in_->simplified_newton_ = r.simplified_newton;
     s.info_ = {std::move(r.method), r.degree, r.exact, r.truncation_estimate, 0};
@@ -145,7 +148,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     // recursion is not: its cost is the point of its probe)
     const bool closed = realisation_form(pi.structure_class(), opt.realisation) != RealisationForm::radial;
     s.in_->predictor_ =
-        Predictor::choose(M, *probe, S, opt, cost, x_typical, closed ? realisation : RealisationSource{});
+        Predictor::choose(M, *probe, S, opt, cost, x_typical, scale, closed ? realisation : RealisationSource{});
     s.info_.predictor_order = s.in_->predictor_.order();
     s.info_.hessian_terms = s.in_->gradient_.hessian_terms;
     s.attach_native(opt.native);
@@ -299,9 +302,8 @@ bool NewtonStepper::accept_check(const Eigen::VectorXd& x, bool small_correction
         r_ = (xb_ - x) + in_->check_.shift;
         within_tolerance();
     }
-    tolerance_ = tol_.lpNorm<Eigen::Infinity>();
-    const double size =
-        std::max({x.lpNorm<Eigen::Infinity>(), xb_.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min()});
+    tolerance_ = state_norm(tol_);  // (a parameter's residual is 0: alpha leaves it alone)
+    const double size = std::max({state_norm(x), state_norm(xb_), std::numeric_limits<double>::min()});
     truncation_ = in_->check_.neglected / size;
     return ratio_ <= 1;
 }
@@ -334,7 +336,7 @@ bool NewtonStepper::within_tolerance() {
 // The accepted step's status: ill-conditioned when the tolerance itself exceeds sqrt(u) |x|, else the
 // increment (delta at the accepted base point, polished: evaluated here, once a step) and the truncation's verdict.
 StepStatus NewtonStepper::finish(double x_norm, Eigen::VectorXd& increment) {
-    if (newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm, xb_.lpNorm<Eigen::Infinity>())))
+    if (newton_rules::ill_conditioned(tolerance_, newton_rules::noise(x_norm, state_norm(xb_))))
         return StepStatus::ill_conditioned;
     polish(x_norm);
     in_->realisation_.delta(xb_, p_, in_->check_.delta);
@@ -348,7 +350,7 @@ StepStatus NewtonStepper::finish(double x_norm, Eigen::VectorXd& increment) {
 // takes delta there, the increment. Not an iteration, and not tested again: the accepted residual is what the step
 // reports.
 void NewtonStepper::polish(double x_norm) {
-    if (!newton_rules::polishes(correction_, std::max(x_norm, xb_.lpNorm<Eigen::Infinity>()))) return;
+    if (!newton_rules::polishes(correction_, std::max(x_norm, state_norm(xb_)))) return;
     if (!solve(true) || !dx_.allFinite()) return;
     xb_ -= dx_;
     if (sparse_)
@@ -378,7 +380,7 @@ bool NewtonStepper::solve(bool again) {
 StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& increment, bool evaluated) {
     double previous = std::numeric_limits<double>::infinity(), previous_residual = previous, good_residual = previous,
            lambda = 1;
-    const double x_norm = x.lpNorm<Eigen::Infinity>();
+    const double x_norm = state_norm(x);
     bool simplified = false;
     for (int it = 1; it <= opt_.newton_max_iter; ++it) {
         if (simplified) {
@@ -405,7 +407,7 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
         r_ = evaluated_alpha() - x;
         residual_ = r_.lpNorm<Eigen::Infinity>();
         // far from the solution (large steps) a full correction may overshoot: back along it (newton_rules)
-        const double noise = newton_rules::noise(x_norm, xb_.lpNorm<Eigen::Infinity>());
+        const double noise = newton_rules::noise(x_norm, state_norm(xb_));
         if (newton_rules::backtracks(residual_, good_residual, noise, lambda)) {
             lambda /= 2;
             xb_ = xb_good_ - lambda * dx_;
@@ -419,7 +421,7 @@ StepStatus NewtonStepper::newton(const Eigen::VectorXd& x, Eigen::VectorXd& incr
         iterations_ = it;
         correction_ = dx_.lpNorm<Eigen::Infinity>();
         if (!std::isfinite(correction_)) return StepStatus::non_finite;
-        const double scale = std::max(x_norm, xb_.lpNorm<Eigen::Infinity>());
+        const double scale = std::max(x_norm, state_norm(xb_));
         const bool small = newton_rules::small(correction_, opt_.newton_tol, scale);
         const bool settled = newton_rules::settled(small, correction_, previous, residual_, previous_residual);
         previous = correction_, previous_residual = residual_;

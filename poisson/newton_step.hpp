@@ -177,6 +177,11 @@ private:
     struct Internals;
     ValuePtr<Internals> in_;
     bool sparse_ = false;
+    // the coordinates sizes are measured over (PoissonStructure::moving_dimension: a scheme's parameters excluded)
+    std::size_t moving_ = 0;
+    double state_norm(const Eigen::VectorXd& v) const {
+        return v.head(Eigen::Index(moving_)).lpNorm<Eigen::Infinity>();
+    }
     Eigen::VectorXd gsize_, tol_;
     Eigen::VectorXd xb_, xb_good_, p_, r_, dx_, gh_;  // gh_: with_hessian's outputs (the Hessian's upper triangle)
     Eigen::VectorXd hessian_;                         // Hess S_dt on its whole pattern (expand_hessian)

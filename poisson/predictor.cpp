@@ -161,10 +161,9 @@ Predictor Predictor::build(const PhaseSpace& M, const std::vector<std::vector<Po
 
 Predictor Predictor::choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S,
                             const StepOptions& opt, const NewtonCost& cost, const Eigen::VectorXd& x_typical,
-                            const RealisationSource& deeper) {
+                            double scale, const RealisationSource& deeper) {
     if (opt.predictor_order)
         return build(M, base_point_series(M, probe, S, std::min(predictor_limit(opt), probe.degree)), opt.dt);
-    const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
     const std::vector<double> point =
         M.point(std::span<const double>(x_typical.data(), std::size_t(x_typical.size())));  // (the series read no p)
     // The series is computed to the limit's order before the choice sees it, and at large n (the lattices) every

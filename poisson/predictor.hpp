@@ -40,12 +40,13 @@ public:
     static Predictor build(const PhaseSpace& M, const std::vector<std::vector<Poly>>& u, double planned_dt = 0);
     /// The series of the base point of the truncated realisation probe and S_1..S_k, to the order asked
     /// (opt.predictor_order) or else to the order P <= min(predictor_limit - 1, probe.degree - 1) minimising
-    /// the predictor's terms plus the Newton iterations it leaves at (x_typical, opt.dt) at their cost.
+    /// the predictor's terms plus the Newton iterations it leaves at (x_typical, opt.dt) at their cost, its error
+    /// relative to scale (the size of x_typical's moving coordinates, NewtonStepper's).
     /// deeper (closed forms): the realisation through a degree beyond probe's, asked only if the choice goes past
     /// predictor_first_pass; without it the orders stop at probe.degree - 1.
     static Predictor choose(const PhaseSpace& M, const Realisation& probe, const std::vector<Poly>& S,
                             const StepOptions& opt, const NewtonCost& cost, const Eigen::VectorXd& x_typical,
-                            const RealisationSource& deeper = {});
+                            double scale, const RealisationSource& deeper = {});
 
     std::size_t order() const { return order_; }
     /// sum_m dt^m u_m (eval adds x to it).

@@ -238,6 +238,7 @@ RealisationEvaluator RealisationEvaluator::lie_poisson(const PoissonStructure& p
     const auto n = static_cast<Eigen::Index>(pi.dim());
     RealisationEvaluator e;
     e.n_ = e.lead_ = pi.dim();
+    e.moving_ = pi.moving_dimension();
     e.form_ = Form::lie_poisson;
     e.C_ = structure_matrices(pi);
     for (std::size_t m = 0; m <= D; ++m) e.b_.push_back((bernoulli(m) * inverse_factorial(m)).to_double());
@@ -610,7 +611,7 @@ void RealisationEvaluator::check(const Eigen::VectorXd& x, const Eigen::VectorXd
                     size += std::abs(b_[m]) * power;
                 }
                 c.alpha = x + c.shift;
-                c.size.setConstant(size * x.lpNorm<Eigen::Infinity>());
+                c.size.setConstant(size * x.head(Eigen::Index(moving_)).lpNorm<Eigen::Infinity>());
             } else {
                 coth_form(false);
                 G_ = Q_;

@@ -190,6 +190,9 @@ private:
     // log-canonical and polynomial: the leading coordinates the lane forms act on (leading_dimension), and when they
     // are fewer than n_, the polynomial form's patterns and maps on them alone
     std::size_t lead_ = 0;
+    // Lie-Poisson: the coordinates before those with no bracket (PoissonStructure::moving_dimension), which L(p)'s
+    // columns read: |L^m x| <= |L|^m |x| over them
+    std::size_t moving_ = 0;
     struct LeadMaps {
         SparsePattern pattern_x, pattern_p;
         CompiledMap map, values, size, delta;

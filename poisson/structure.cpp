@@ -124,6 +124,12 @@ const std::vector<std::size_t>& PoissonStructure::entry_vars(std::size_t i, std:
     return it != rows_[i].end() && it->j == j ? it->vars : none;
 }
 
+std::size_t PoissonStructure::moving_dimension() const {
+    std::size_t n = dim();
+    while (n > 0 && rows_[n - 1].empty()) --n;
+    return n > 0 ? n : dim();
+}
+
 std::vector<std::size_t> PoissonStructure::row_support(std::size_t i) const {
     std::vector<std::size_t> js;
     for (const auto& e : rows_[i]) js.push_back(e.j);

@@ -47,6 +47,10 @@ public:
 
     /// The j with pi_ij != 0, increasing (pi_ji != 0 too, by skew-symmetry): the structure's pattern.
     std::vector<std::size_t> row_support(std::size_t i) const;
+    /// n less the trailing coordinates with no bracket at all (a scheme's parameters), or n when no coordinate has
+    /// one: those stay put under every flow, so a step measures sizes (its tolerances, its predictor's error, its
+    /// realisation's truncation) over the coordinates before them.
+    std::size_t moving_dimension() const;
 
     /// {f, g} = grad f^T pi grad g.
     Poly bracket(const Poly& f, const Poly& g) const;

@@ -22,7 +22,7 @@ namespace detail {  // (named, not anonymous: Scheme::Cache holds them)
 // A compiled step and what it serves: its own dt, typical states up to twice its own.
 struct StepperEntry {
     StepOptions options;
-    double scale;  // |x_typical|_inf of the build
+    double scale;  // |x_typical|_inf of the build, over its moving coordinates
     NewtonStepper stepper;
     std::uint64_t used;
     bool serves(const StepOptions& o, double x_scale) const {
@@ -318,7 +318,9 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
         throw InputError("realisation", "the step's realisation choice is not the scheme's");
     if (!(opt.dt > 0) || !std::isfinite(opt.dt))
         throw std::invalid_argument("Scheme::stepper: dt must be positive and finite");
-    const double scale = x_typical.size() ? x_typical.lpNorm<Eigen::Infinity>() : 0.0;
+    // the size the stepper measures x_typical by (its moving coordinates: the parameters' values are not a size)
+    const auto moving = std::min(x_typical.size(), Eigen::Index(pi_.moving_dimension()));
+    const double scale = moving ? x_typical.head(moving).lpNorm<Eigen::Infinity>() : 0.0;
     std::lock_guard lock(cache_->mutex);
     auto& cache = cache_->steppers;
     auto best = std::find_if(cache.begin(), cache.end(), [&](const StepperEntry& e) { return e.serves(opt, scale); });

@@ -7,7 +7,9 @@
 
 #include <doctest/doctest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <random>
 #include <string>
@@ -125,6 +127,60 @@ TEST_CASE("parameters: the predictor is chosen as with the values written in, it
             iterations_a += pa.last_iterations(), iterations_b += pb.last_iterations();
         }
         CHECK(iterations_a <= iterations_b + 10);
+    }
+}
+
+// A step measures sizes (Newton's scale, its tolerance, the predictor's error, the Lie-Poisson series' term sizes)
+// over the coordinates that move: a parameter's value is not the state's size. Parameters (a, e) entering H as their
+// product a e, at (1, 1/2) and rescaled by powers of two, bind the same coefficients exactly, so the runs must agree
+// bit for bit. Sized by every coordinate, a = 2^30 made the predictor's error look 2^-30 as large (order 0 was
+// chosen) and Newton's "small" correction 2^30 times too lax: 2-3 iterations a step, and on sl(2)* an energy error
+// of 1e-6 where the unscaled run keeps 1e-13.
+TEST_CASE("parameters: a step sizes the state by its coordinates, so rescaled parameters change no bit of a run") {
+    struct Case {
+        std::string name, brackets[3], hamiltonian, casimir;
+        long k;
+        double dt;
+    };
+    const Case cases[] = {
+        {"rigid body (so(3) closed form)",
+         {"-x3", "-x1", "-x2"},
+         "a*e*x1^2/2 + x2^2/2 + 3/4*x3^2",
+         "x1^2 + x2^2 + x3^2",
+         10,
+         0.3},
+        {"sl(2)* (Lie-Poisson series)",
+         {"-x3", "x1", "x2"},
+         "a*e*x1^2/2 + x2^2 + x3^2/2",
+         "x1^2 + x2^2 - x3^2",
+         4,
+         0.1},
+    };
+    for (const Case& c : cases) {
+        CAPTURE(c.name);
+        SchemeValues v;
+        v.coordinates = {"x1", "x2", "x3"};
+        v.brackets = {{"x1,x2", c.brackets[0]}, {"x2,x3", c.brackets[1]}, {"x3,x1", c.brackets[2]}};
+        v.hamiltonian = c.hamiltonian;
+        v.casimirs = {c.casimir};
+        v.order = c.k;
+        v.parameters = {{"a", "1"}, {"e", "1/2"}};
+        const Scheme s(v);
+        const Trajectory unscaled = integrate(s, x0, c.dt, 300 * c.dt, 1, std::nullopt, {}, {}, {});
+        REQUIRE(unscaled.status == StepStatus::ok);
+        CHECK(unscaled.newton_iterations_max == 1);
+        for (const int power : {30, -30}) {
+            CAPTURE(power);
+            const ParameterValues w{{"a", {std::ldexp(1.0, power)}}, {"e", {std::ldexp(0.5, -power)}}};
+            const Trajectory scaled = integrate(s, x0, c.dt, 300 * c.dt, 1, std::nullopt, {}, {}, w);
+            REQUIRE(scaled.status == StepStatus::ok);
+            CHECK(scaled.newton_iterations_max == 1);
+            REQUIRE(scaled.x.size() == unscaled.x.size());
+            std::size_t differ = 0;
+            for (std::size_t i = 0; i < scaled.x.size(); ++i)
+                differ += std::bit_cast<std::uint64_t>(scaled.x[i]) != std::bit_cast<std::uint64_t>(unscaled.x[i]);
+            CHECK(differ == 0);
+        }
     }
 }
 

@@ -36,6 +36,18 @@ TEST_CASE("structure: the class of each bundled structure") {
           Rational(3, 2));
 }
 
+TEST_CASE("structure: the moving coordinates end before the trailing ones without a bracket") {
+    CHECK(structure({"x", "y", "w"}, {{0, 1, "x*y"}}).moving_dimension() == 2);
+    CHECK(structure({"x", "y", "v", "w"}, {{0, 1, "1"}}).moving_dimension() == 2);
+    // a coordinate without a bracket before one with a bracket still counts: only the trailing ones are left out
+    CHECK(structure({"w", "x", "y"}, {{1, 2, "1"}}).moving_dimension() == 3);
+    CHECK(structure({"x", "w", "y"}, {{0, 2, "x"}}).moving_dimension() == 3);
+    // no bracket at all: every coordinate (none moves, and none is singled out)
+    CHECK(structure({"x", "y"}, {}).moving_dimension() == 2);
+    CHECK(test::bundled("rigid_body_parameters").pi.moving_dimension() == 3);
+    CHECK(test::bundled("rigid_body_parameters").pi.dim() == 6);
+}
+
 TEST_CASE("structure: Jacobi fails for a non-Poisson bivector and names the triple") {
     // {x,y} = z, {y,z} = x, {z,x} = y*z: the jacobiator of (x, y, z) is non-zero
     auto pi = structure({"x", "y", "z"}, {{0, 1, "z"}, {1, 2, "x"}, {2, 0, "y*z"}});

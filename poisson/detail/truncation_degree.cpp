@@ -116,7 +116,7 @@ std::size_t probe_degree(RealisationForm form, const StepOptions& opt, std::size
 }
 
 StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, RealisationPtr& probe,
-                                 const RealisationSource& source, const Eigen::VectorXd& x_typical,
+                                 const RealisationSource& source, const Eigen::VectorXd& x_typical, double scale,
                                  const Eigen::VectorXd& p0) {
     const RealisationForm form = realisation_form(pi.structure_class(), opt.realisation);
     const std::size_t D_min = step_degree_min(opt.k);
@@ -137,7 +137,6 @@ StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& 
                 false};
     }
     StepRealisation r;
-    const double scale = std::max(x_typical.lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
     r.degree = choose_degree(opt, D_min, probe, source, phase_point(x_typical, p0), scale, r.truncation_estimate);
     r.method = probe->method;
     r.exact = form == RealisationForm::constant;

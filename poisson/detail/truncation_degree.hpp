@@ -37,9 +37,10 @@ struct StepRealisation {
 /// series to the degree whose tail is below round-off at p0, scaling and squaring beyond), otherwise the
 /// compiled series truncated at the smallest D whose neglected terms at (x_typical, p0) are below round-off
 /// (capped at opt.max_degree). probe: the realisation at probe_degree, deepened in place from source when D
-/// needs it. p0 = grad S_dt(x_typical) at the build's dt.
+/// needs it, "below round-off" relative to scale (the size of x_typical's moving coordinates). p0 = grad
+/// S_dt(x_typical) at the build's dt.
 StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, RealisationPtr& probe,
-                                 const RealisationSource& source, const Eigen::VectorXd& x_typical,
+                                 const RealisationSource& source, const Eigen::VectorXd& x_typical, double scale,
                                  const Eigen::VectorXd& p0);
 
 }  // namespace pgi
