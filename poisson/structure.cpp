@@ -125,8 +125,12 @@ const std::vector<std::size_t>& PoissonStructure::entry_vars(std::size_t i, std:
 }
 
 std::size_t PoissonStructure::moving_dimension() const {
+    std::vector<bool> read(dim(), false);
+    for (const auto& row : rows_)
+        for (const Entry& e : row)
+            for (std::size_t v : e.vars) read[v] = true;
     std::size_t n = dim();
-    while (n > 0 && rows_[n - 1].empty()) --n;
+    while (n > 0 && rows_[n - 1].empty() && !read[n - 1]) --n;
     return n > 0 ? n : dim();
 }
 

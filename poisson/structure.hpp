@@ -47,9 +47,10 @@ public:
 
     /// The j with pi_ij != 0, increasing (pi_ji != 0 too, by skew-symmetry): the structure's pattern.
     std::vector<std::size_t> row_support(std::size_t i) const;
-    /// n less the trailing coordinates with no bracket at all (a scheme's parameters), or n when no coordinate has
-    /// one: those stay put under every flow, so a step measures sizes (its tolerances, its predictor's error, its
-    /// realisation's truncation) over the coordinates before them.
+    /// n less the trailing coordinates that have no bracket and that no bracket holds (a scheme's parameters), or n
+    /// when no coordinate has one: those stay put under every flow and scale none of the brackets, so a step measures
+    /// sizes (its tolerances, its predictor's error, its realisation's truncation) over the coordinates before them.
+    /// (A Casimir coordinate that a bracket holds, z in {x, y} = z, scales the flow: it counts.)
     std::size_t moving_dimension() const;
 
     /// {f, g} = grad f^T pi grad g.

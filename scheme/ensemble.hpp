@@ -4,8 +4,10 @@
 // pgi::integrate (scheme/run_loop: Kahan-summed, the invariants watched at every step), with one compiled
 // step built for the whole ensemble and copied into each worker (with its own scratch). So a trajectory's
 // numbers are those of its single run pgi::integrate(scheme, x0, dt, t_end, every, x_typical), bit for bit,
-// whatever the thread count and the chunking. A row that is not finite, or a step that fails, ends that
-// trajectory with its status; the others finish.
+// whatever the thread count and the chunking. (With parameters the step is built at the typical row with its
+// parameter values; a single run at other values shares that step, and its bits, where the Scheme's kept step serves
+// it: each value at most twice the one the step was built at, Scheme::stepper.) A row that is not finite, or a step
+// that fails, ends that trajectory with its status; the others finish.
 //
 // Within a chunk, trajectories are stepped in batches (poisson/batch_step: the predictor and grad, Hess S_dt
 // of all lanes evaluated at once in structure of arrays, then Newton lane by lane); a lane whose trajectory

@@ -19,14 +19,35 @@ bool SchemeChecks::ok() const {
 
 namespace detail {  // (named, not anonymous: Scheme::Cache holds them)
 
+// The size of a typical state as a step's build reads it: |x|_inf over the moving coordinates
+// (PoissonStructure::moving_dimension), and the magnitude of each coordinate past them (a parameter's value, which
+// the build's choices read through S_j but which is not a size).
+struct TypicalSize {
+    double scale = 0;
+    std::vector<double> still;
+    TypicalSize(const Eigen::VectorXd& x, std::size_t moving) {
+        const auto m = std::min(x.size(), Eigen::Index(moving));
+        if (m) scale = x.head(m).lpNorm<Eigen::Infinity>();
+        for (Eigen::Index i = m; i < x.size(); ++i) still.push_back(std::abs(x[i]));
+    }
+    /// Whether a step built at this size serves states of size s: at most twice it, coordinate by coordinate past
+    /// the moving ones (what a build chose for larger terms holds for smaller ones).
+    bool covers(const TypicalSize& s) const {
+        if (!(s.scale <= 2 * scale) || s.still.size() != still.size()) return false;
+        for (std::size_t i = 0; i < still.size(); ++i)
+            if (!(s.still[i] <= 2 * still[i])) return false;
+        return true;
+    }
+};
+
 // A compiled step and what it serves: its own dt, typical states up to twice its own.
 struct StepperEntry {
     StepOptions options;
-    double scale;  // |x_typical|_inf of the build, over its moving coordinates
+    TypicalSize size;  // of the build's x_typical
     NewtonStepper stepper;
     std::uint64_t used;
-    bool serves(const StepOptions& o, double x_scale) const {
-        return o.dt == options.dt && x_scale <= 2 * scale && o.predictor_order == options.predictor_order &&
+    bool serves(const StepOptions& o, const TypicalSize& x_size) const {
+        return o.dt == options.dt && size.covers(x_size) && o.predictor_order == options.predictor_order &&
                o.solver == options.solver && o.native == options.native && o.max_degree == options.max_degree &&
                o.newton_max_iter == options.newton_max_iter && o.newton_tol == options.newton_tol &&
                o.truncation_bound == options.truncation_bound;
@@ -318,12 +339,10 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
         throw InputError("realisation", "the step's realisation choice is not the scheme's");
     if (!(opt.dt > 0) || !std::isfinite(opt.dt))
         throw std::invalid_argument("Scheme::stepper: dt must be positive and finite");
-    // the size the stepper measures x_typical by (its moving coordinates: the parameters' values are not a size)
-    const auto moving = std::min(x_typical.size(), Eigen::Index(pi_.moving_dimension()));
-    const double scale = moving ? x_typical.head(moving).lpNorm<Eigen::Infinity>() : 0.0;
+    const detail::TypicalSize size(x_typical, pi_.moving_dimension());
     std::lock_guard lock(cache_->mutex);
     auto& cache = cache_->steppers;
-    auto best = std::find_if(cache.begin(), cache.end(), [&](const StepperEntry& e) { return e.serves(opt, scale); });
+    auto best = std::find_if(cache.begin(), cache.end(), [&](const StepperEntry& e) { return e.serves(opt, size); });
     if (best == cache.end()) {
         NewtonStepper built = NewtonStepper::build(
             pi_, terms_locked(), [this](std::size_t D) { return realisation_locked(D); }, opt, x_typical);
@@ -331,7 +350,7 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
         if (cache.size() >= stepper_cache_size)
             cache.erase(std::min_element(cache.begin(), cache.end(),
                                          [](const auto& a, const auto& b) { return a.used < b.used; }));
-        cache.push_back({opt, scale, std::move(built), 0});
+        cache.push_back({opt, size, std::move(built), 0});
         best = cache.end() - 1;
     }
     best->used = ++cache_->clock;

@@ -165,14 +165,15 @@ TEST_CASE("parameters: a step sizes the state by its coordinates, so rescaled pa
         v.casimirs = {c.casimir};
         v.order = c.k;
         v.parameters = {{"a", "1"}, {"e", "1/2"}};
-        const Scheme s(v);
-        const Trajectory unscaled = integrate(s, x0, c.dt, 300 * c.dt, 1, std::nullopt, {}, {}, {});
+        const Trajectory unscaled = integrate(Scheme(v), x0, c.dt, 300 * c.dt, 1, std::nullopt, {}, {}, {});
         REQUIRE(unscaled.status == StepStatus::ok);
         CHECK(unscaled.newton_iterations_max == 1);
         for (const int power : {30, -30}) {
             CAPTURE(power);
+            // a scheme of its own: its step is built at these values (the predictor, the truncation and the Newton
+            // matrix's Hessian terms chosen there), as well as run at them
             const ParameterValues w{{"a", {std::ldexp(1.0, power)}}, {"e", {std::ldexp(0.5, -power)}}};
-            const Trajectory scaled = integrate(s, x0, c.dt, 300 * c.dt, 1, std::nullopt, {}, {}, w);
+            const Trajectory scaled = integrate(Scheme(v), x0, c.dt, 300 * c.dt, 1, std::nullopt, {}, {}, w);
             REQUIRE(scaled.status == StepStatus::ok);
             CHECK(scaled.newton_iterations_max == 1);
             REQUIRE(scaled.x.size() == unscaled.x.size());
@@ -182,6 +183,32 @@ TEST_CASE("parameters: a step sizes the state by its coordinates, so rescaled pa
             CHECK(differ == 0);
         }
     }
+}
+
+// A Scheme keeps the steps it built, each serving typical states up to twice its own size; the parameters' values are
+// not a size, but the build's choices read them (through S_j): a step built at e = 1/2 does not serve e = 5, where
+// its realisation's truncation was chosen for terms ten times smaller (the run failed, truncation above its bound).
+TEST_CASE("parameters: a kept step serves parameter values up to twice those it was built at, not beyond") {
+    SchemeValues v;
+    v.coordinates = {"x", "y"};
+    v.brackets = {{"x,y", "x^2 + y^2"}};
+    v.hamiltonian = "e*x^2/2 + y^2";
+    v.order = 4;
+    v.realisation = "radial";
+    v.parameters = {{"e", "1/2"}};
+    const Eigen::Vector2d start(0.8, 0.3);
+    const auto run = [&](const Scheme& s, double e) {
+        return integrate(s, start, 0.05, 1.0, 20, std::nullopt, {}, {}, {{"e", {e}}});
+    };
+    const Scheme kept(v);
+    REQUIRE(run(kept, 0.5).status == StepStatus::ok);
+    REQUIRE(run(kept, 0.75).status == StepStatus::ok);
+    CHECK(kept.stats().stepper_builds == 1);  // within twice e: served by the step built at 1/2
+    const Trajectory again = run(kept, 5.0), fresh = run(Scheme(v), 5.0);
+    CHECK(kept.stats().stepper_builds == 2);
+    REQUIRE(fresh.status == StepStatus::ok);
+    REQUIRE(again.status == StepStatus::ok);
+    CHECK(again.x == fresh.x);
 }
 
 TEST_CASE("parameters: an ensemble sweeps one value per trajectory, equal to the schemes with the values written in") {

@@ -42,6 +42,9 @@ TEST_CASE("structure: the moving coordinates end before the trailing ones withou
     // a coordinate without a bracket before one with a bracket still counts: only the trailing ones are left out
     CHECK(structure({"w", "x", "y"}, {{1, 2, "1"}}).moving_dimension() == 3);
     CHECK(structure({"x", "w", "y"}, {{0, 2, "x"}}).moving_dimension() == 3);
+    // a trailing Casimir coordinate that a bracket holds scales the flow ({x, y} = z): it counts
+    CHECK(structure({"x", "y", "z"}, {{0, 1, "z"}}).moving_dimension() == 3);
+    CHECK(structure({"x", "y", "z", "w"}, {{0, 1, "z"}}).moving_dimension() == 3);
     // no bracket at all: every coordinate (none moves, and none is singled out)
     CHECK(structure({"x", "y"}, {}).moving_dimension() == 2);
     CHECK(test::bundled("rigid_body_parameters").pi.moving_dimension() == 3);

@@ -11,10 +11,11 @@ namespace pgi {
 namespace {
 
 // The fewest m whose Hessian terms past S_m are negligible at the typical state (compile_gradient); hessians[j] holds
-// Hess S_{j+1}'s entries r <= c, numbered as g.hessian_value numbers the pattern's.
+// Hess S_{j+1}'s entries r <= c, numbered as g.hessian_value numbers the pattern's, kept[e] whether the Newton matrix
+// reads entry e (the others, in a passive row or column, move nothing it solves for: a parameter's, say).
 std::size_t hessian_terms_needed(const PhaseSpace& M, const CompiledGradient& g,
-                                 const std::vector<std::vector<Poly>>& hessians, double dt,
-                                 const HessianTruncation& t) {
+                                 const std::vector<std::vector<Poly>>& hessians, const std::vector<bool>& kept,
+                                 double dt, const HessianTruncation& t) {
     const std::vector<double> x = M.point(t.x_typical);
     // what S_j's Hessian terms move J by: alpha_p_size times their inf norm (a column sum: the matrix is symmetric)
     const SparsePattern& P = g.hessian;
@@ -24,7 +25,8 @@ std::size_t hessian_terms_needed(const PhaseSpace& M, const CompiledGradient& g,
         for (const Poly& h : hessians[j]) value.push_back(std::abs(evaluate(h, x)));
         for (std::size_t c = 0; c < P.cols; ++c) {
             double column = 0;
-            for (int k = P.outer[c]; k < P.outer[c + 1]; ++k) column += value[g.hessian_value[std::size_t(k)]];
+            for (int k = P.outer[c]; k < P.outer[c + 1]; ++k)
+                if (const std::uint32_t e = g.hessian_value[std::size_t(k)]; kept[e]) column += value[e];
             size[j] = std::max(size[j], column);
         }
         size[j] *= t.alpha_p_size * std::pow(dt, double(j + 1));
@@ -80,7 +82,7 @@ CompiledGradient compile_gradient(const PhaseSpace& M, const std::vector<Poly>& 
                     hessians[j].push_back(derivative(grad[j][c], M.x(r)));
     g.hessian_terms = S.size();
     if (!truncation.x_typical.empty() && n <= hessian_truncation_dim && planned_dt > 0 && truncation.bound > 0)
-        g.hessian_terms = hessian_terms_needed(M, g, hessians, planned_dt, truncation);
+        g.hessian_terms = hessian_terms_needed(M, g, hessians, kept, planned_dt, truncation);
     const auto inputs = M.coordinate_vars();
     const Poly zero(M.ring());
     std::vector<std::vector<Poly>> newton_grad(S.size());  // grad S_j without the passive components
