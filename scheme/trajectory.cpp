@@ -14,8 +14,8 @@ double term_size(const Poly& f, std::span<const double> x) {
     for (std::size_t t = 0; t < f.length(); ++t) {
         double c = std::abs(f.term_coeff(t).to_double());
         const auto e = f.term_exponents(t);
-        for (std::size_t v = 0; v < x.size() && v < e.size(); ++v)
-            if (e[v] != 0) c *= std::pow(std::abs(x[v]), double(e[v]));
+        for (std::size_t v = 0; v < x.size() && v < e.size() && c != 0; ++v)
+            if (e[v] != 0) c = x[v] == 0 ? 0.0 : c * std::pow(std::abs(x[v]), double(e[v]));  // (0, not 0 inf)
         s += c;
     }
     return s;

@@ -677,6 +677,8 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
         }
         for (; t < end; ++t) s0 += T(c[t]) * mono[tm[t]];
         out[o] = (s0 + s1) + (s2 + s3);
+        if (slow_ && !std::isfinite(out[o])) [[unlikely]]
+            out[o] = masked_row(o, mono);
     }
     // the groups (series/compile_groups.ipp): in double one AVX2 vector or two pairs of SSE2 lanes (GCC does not
     // find those itself), the same bits
@@ -688,6 +690,19 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
     } else {
         eval_groups<ScalarSums<T>>(tape(), mono, out);
     }
+}
+
+// Row o summed again as eval_with sums it (the same partial sums), a term whose coefficient vanishes at the slow
+// inputs' values adding +0 (a sum begun at +0 is never -0: as if the term were absent) where its product would be
+// 0 inf = NaN: the row of the map with those values written in, as the groups are (compile_groups.ipp). Only a
+// non-finite row is summed again: a finite one read only finite monomials, which masking leaves as they are.
+template <class T>
+T CompiledMap::masked_row(std::size_t o, const T* mono) const {
+    T s[4] = {0, 0, 0, 0};
+    const std::uint32_t start = row_start_[o], end = row_start_[o + 1], quads = start + (end - start) / 4 * 4;
+    for (std::uint32_t t = start; t < end; ++t)
+        if (term_coeff_[t] != 0) s[t < quads ? (t - start) % 4 : 0] += T(term_coeff_[t]) * mono[term_monomial_[t]];
+    return (s[0] + s[1]) + (s[2] + s[3]);
 }
 
 // native code reads group_coeff_'s pairs as aligned SSE2 vectors (series/native.cpp, preamble)

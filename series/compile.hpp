@@ -219,6 +219,8 @@ private:
     void bind(const double* slow) const;
     template <class T>
     void eval_with(const T* in, T* out, T* mono) const;
+    template <class T>
+    T masked_row(std::size_t o, const T* mono) const;
 };
 
 }  // namespace pgi

@@ -93,30 +93,38 @@ void sum_tape_lanes(const CompiledMap::Tape& tape, const double* __restrict mono
     }
 }
 
-// A map with slow inputs, after sum_tape_lanes: where a grouped output came out infinite or NaN in a lane, eval()'s
-// groups sum it again with the coefficients that vanish at that lane's slow inputs masked (an infinite monomial times
-// one adds nothing: GroupSums), and so does this, in the same partial sums (a masked term adds +0 to a sum begun at +0,
-// which is never -0: as if left out). A finite output read only finite monomials, which masking leaves as they are.
+// A map with slow inputs, after sum_tape_lanes: where an output came out infinite or NaN in a lane, eval() sums it
+// again with the coefficients that vanish at that lane's slow inputs masked (an infinite monomial times one adds
+// nothing: CompiledMap::masked_row, GroupSums), and so does this, in the same partial sums (a masked term adds +0 to a
+// sum begun at +0, which is never -0: as if left out). A finite output read only finite monomials, which masking
+// leaves as they are.
 template <std::size_t W>
 void mask_vanishing_lanes(const CompiledMap::Tape& tape, const double* __restrict mono, double* __restrict out,
                           std::size_t out_stride, const double* __restrict c) {
     for (std::size_t o = 0; o < tape.outputs; ++o) {
-        const CompiledMap::LaneRow& row = tape.lane_row[o];
-        if (row.start == UINT32_MAX) continue;
         double* y = out + o * out_stride;
         bool finite = true;
         for (std::size_t w = 0; w < W; ++w) finite = finite && __builtin_isfinite(y[w]);
         if (finite) continue;
         double s[4][W] = {};
-        const auto add = [&](std::uint32_t t, double* acc) {
-            const double *a = mono + std::size_t(tape.lane_monomial[t]) * W,
-                         *k = c + std::size_t(tape.lane_slot[t]) * W;
+        const auto add = [&](const std::uint32_t* monomial, const std::uint32_t* slot, std::uint32_t t, double* acc) {
+            const double *a = mono + std::size_t(monomial[t]) * W, *k = c + std::size_t(slot[t]) * W;
             for (std::size_t w = 0; w < W; ++w) acc[w] += k[w] == 0 ? 0.0 : k[w] * a[w];
         };
-        std::uint32_t t = row.start;
-        for (const std::uint32_t quads = t + 4 * row.quads; t < quads; ++t) add(t, s[(t - row.start) % 4]);
-        for (std::size_t sum = 0; sum < 4; ++sum)
-            for (std::uint32_t i = 0; i < row.tail[sum]; ++i, ++t) add(t, s[sum]);
+        const CompiledMap::LaneRow& row = tape.lane_row[o];
+        if (row.start == UINT32_MAX) {  // a row: its quads round the four sums, its tail into the first (eval_with)
+            const std::uint32_t start = tape.row_start[o], end = tape.row_start[o + 1];
+            const std::uint32_t quads = start + (end - start) / 4 * 4;
+            for (std::uint32_t t = start; t < end; ++t)
+                add(tape.term_monomial, tape.term_slot, t, s[t < quads ? (t - start) % 4 : 0]);
+        } else {  // a grouped output's lane row: its quads, then each sum's tail
+            std::uint32_t t = row.start;
+            for (const std::uint32_t quads = t + 4 * row.quads; t < quads; ++t)
+                add(tape.lane_monomial, tape.lane_slot, t, s[(t - row.start) % 4]);
+            for (std::size_t sum = 0; sum < 4; ++sum)
+                for (std::uint32_t i = 0; i < row.tail[sum]; ++i, ++t)
+                    add(tape.lane_monomial, tape.lane_slot, t, s[sum]);
+        }
         for (std::size_t w = 0; w < W; ++w)
             if (!__builtin_isfinite(y[w])) y[w] = (s[0][w] + s[1][w]) + (s[2][w] + s[3][w]);
     }

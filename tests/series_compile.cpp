@@ -322,6 +322,32 @@ TEST_CASE("compile: a map read through its slow inputs' coefficients equals the 
         }
         CHECK(finite_from_masking > 0);
     }
+    SUBCASE("a row whose coefficient vanishes at the parameters masks its overflowing monomial, as written in") {
+        // p x^4 + 3 x + 1/2 alone (a row, no group): at p = 0 it is 3 x + 1/2 even where x^4 overflows, in eval and
+        // in every lane of eval_batch; at p != 0 it is infinite there
+        const auto s = make_ring({"x", "p"});
+        const Poly x = Poly::gen(s, 0), p = Poly::gen(s, 1);
+        const Poly f = p * pow(x, 4) + Poly::constant(s, Rational(3)) * x + Poly::constant(s, Rational(1, 2));
+        const CompiledMap map = CompiledMap::build({f, p * pow(x, 5)}, {0, 1}, 1);
+        REQUIRE(map.tape().groups == 0);
+        constexpr std::size_t m = 9;
+        std::vector<double> in(2 * m), out(2 * m), single(2), scratch;
+        for (std::size_t j = 0; j < m; ++j)
+            in[j] = j % 3 == 0 ? 1e100 : j % 3 == 1 ? -1e90 : 0.25, in[m + j] = j % 2 ? 0.0 : 1.5;
+        map.eval_batch(in.data(), out.data(), m, scratch);
+        for (std::size_t j = 0; j < m; ++j) {
+            CAPTURE(j);
+            const double point[2] = {in[j], in[m + j]};
+            map.eval(point, single.data());
+            for (std::size_t o = 0; o < 2; ++o) CHECK(bits(out[o * m + j]) == bits(single[o]));
+            if (in[m + j] == 0) {
+                CHECK(single[0] == 3 * in[j] + 0.5);
+                CHECK(bits(single[1]) == bits(0.0));
+            } else if (std::abs(in[j]) > 1e80) {
+                CHECK_FALSE(std::isfinite(single[0]));
+            }
+        }
+    }
     SUBCASE("points in lanes, each with its own parameters: each lane gives eval's bits") {
         LaneCoefficients kept;
         std::vector<double> scratch;
