@@ -92,6 +92,12 @@ IntegrationSummary integrate_steps(NewtonStepper& stepper, Eigen::VectorXd& x, s
     TrajectoryState state(x.size());
     Eigen::VectorXd increment = Eigen::VectorXd::Zero(x.size());
     state.begin(x);
+    // (the run's length lets a long run start native code's build at its first timed step)
+    struct Expecting {
+        NewtonStepper& s;
+        ~Expecting() { s.expect_steps(0); }
+    } expecting{stepper};
+    stepper.expect_steps(N);
     if (!observe(std::size_t{0}, 0.0, state.x()))
         for (std::size_t n = 1; n <= N; ++n) {
             const StepStatus s = stepper.step(state.x(), increment);

@@ -443,7 +443,10 @@ StepStatus NewtonStepper::sampled_step(const Eigen::VectorXd& x, double dt, Eige
     if (!native_tier_) return step_now(x, dt, increment);
     const auto start = std::chrono::steady_clock::now();
     const StepStatus status = step_now(x, dt, increment);
-    if (native_tier_->spend(native_sample_period * (std::chrono::steady_clock::now() - start)))
+    const auto spent = std::chrono::steady_clock::now() - start;
+    const std::uint64_t left = expected_steps_;
+    expected_steps_ -= std::min<std::uint64_t>(expected_steps_, native_sample_period);
+    if (native_tier_->spend(native_sample_period * spent) || (left && native_tier_->repays(spent, left)))
         native_tier_->start(compiled_maps());
     return status;
 }

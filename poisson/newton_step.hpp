@@ -104,6 +104,10 @@ public:
     /// Switches to native code if the tier's build is done (what the steps do every native_sample_period steps):
     /// attaches it, or keeps its failure (native_failure()), and lets the tier go.
     void adopt_native();
+    /// The caller will take about `steps` more steps (integrate_steps says so, and 0 when its run ends): under
+    /// NativePolicy::automatic, the first timed step starts native code's build at once where that many repay it
+    /// (NativeTier::repays), rather than once the steps' time reaches the tier's share.
+    void expect_steps(std::uint64_t steps) { expected_steps_ = steps; }
     /// Why native code could not be built under NativePolicy::automatic ("" if it was, or was not tried).
     const std::string& native_failure() const { return native_failure_; }
 
@@ -190,6 +194,7 @@ private:
     ValuePtr<LaneSteps> lane_;
     std::shared_ptr<NativeTier> native_tier_;  // shared with the copies; null once settled or not wanted
     std::uint32_t native_countdown_ = 0;  // steps to the next timed one (wraps: never, in practice, without a tier)
+    std::uint64_t expected_steps_ = 0;    // expect_steps, less native_sample_period at each timed step
     std::size_t native_maps_ = 0;
     std::string native_failure_;
     int iterations_ = 0;

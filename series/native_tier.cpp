@@ -22,11 +22,20 @@ double NativeTier::estimated_build_seconds(const std::vector<CompiledMap*>& maps
 }
 
 NativeTier::NativeTier(const std::vector<CompiledMap*>& maps, NativeOptions options)
-    : options_(std::move(options)), threshold_ns_(start_share * estimated_build_seconds(maps, options_) * 1e9) {}
+    : options_(std::move(options)), build_ns_(estimated_build_seconds(maps, options_) * 1e9) {
+    threshold_ns_ = start_share * build_ns_;
+}
 
 bool NativeTier::spend(std::chrono::nanoseconds spent) {
     const long long total = spent_ns_.fetch_add(spent.count()) + spent.count();
     return double(total) >= threshold_ns_ && !starting_.load(std::memory_order_relaxed);
+}
+
+// The run's interpreted time left, R = steps per_step; native code arrives after about the build's estimate B and
+// saves (1 - native_share) of every interpreted second after it: (R - B)(1 - native_share) >= B.
+bool NativeTier::repays(std::chrono::nanoseconds per_step, std::uint64_t steps) const {
+    const double left_ns = double(per_step.count()) * double(steps);
+    return (left_ns - build_ns_) * (1 - native_share) >= build_ns_ && !starting_.load(std::memory_order_relaxed);
 }
 
 void NativeTier::start(const std::vector<CompiledMap*>& maps) {

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -30,6 +31,13 @@ public:
     /// Adds time spent in the maps' steps (from any thread); true when the total has passed the share and no build
     /// was started: the caller then start()s it. Allocates nothing.
     bool spend(std::chrono::nanoseconds spent);
+    /// A step with native code takes at most this share of the interpreted step's time (measured 1/1.8 to 1/1.4 on
+    /// the bundled scenes at k = 10: docs/math.md 6).
+    static constexpr double native_share = 0.75;
+    /// Whether a run that will take `steps` more steps of `per_step` each (interpreted) repays a build started now: the
+    /// time native code saves once the build is done (after about its estimate) is at least the build's estimate. No
+    /// build was started yet. The caller then start()s it, before spend() would.
+    bool repays(std::chrono::nanoseconds per_step, std::uint64_t steps) const;
     /// Starts the build from maps (the maps this tier was made for, or a copy of them in the same order), once: later
     /// calls do nothing. Never throws: a build that cannot start is a failure().
     void start(const std::vector<CompiledMap*>& maps);
@@ -49,7 +57,7 @@ public:
 private:
     std::shared_ptr<NativeBuild> current() const;
     NativeOptions options_;
-    double threshold_ns_;
+    double threshold_ns_, build_ns_;
     std::atomic<long long> spent_ns_{0};
     std::atomic<bool> starting_{false};
     mutable std::mutex mutex_;  // guards build_

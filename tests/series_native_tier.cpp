@@ -1,6 +1,7 @@
 // Native code by default (NativePolicy::automatic, series/native_tier.hpp): a kept library is attached at the
 // build without a compiler; a step that has run long enough builds its native code in the background and switches to it
 // without changing a bit of the trajectory; no compiler means an interpreted run and a failure that names it.
+#include "poisson/integrate.hpp"
 #include "series/native_tier.hpp"
 #include "test_util.hpp"
 
@@ -143,6 +144,46 @@ TEST_CASE("native tier: past its share of the estimate it builds once, in the ba
     map.eval(in, a);
     copy.eval(in, b);
     for (int i = 0; i < 3; ++i) CHECK(bits(a[i]) == bits(b[i]));
+}
+
+TEST_CASE("native tier: a run's expected length starts the build when the steps left repay it, and only then") {
+    CompiledMap map = some_map();
+    const NativeTier tier({&map});
+    const double build_ns = NativeTier::estimated_build_seconds({&map}) * 1e9;
+    REQUIRE(build_ns > 0);
+    // repaid once (R - B)(1 - native_share) >= B: R >= B (1 + 1 / (1 - native_share))
+    const double enough_ns = build_ns * (1 + 1 / (1 - NativeTier::native_share));
+    const std::chrono::nanoseconds per_step(1000);
+    CHECK(tier.repays(per_step, std::uint64_t(1.01 * enough_ns / 1000)));
+    CHECK_FALSE(tier.repays(per_step, std::uint64_t(0.99 * enough_ns / 1000)));
+    CHECK_FALSE(tier.repays(per_step, 0));
+}
+
+TEST_CASE("native tier: a long run integrate_steps drives starts the build at its first timed step; a short one not") {
+    const TestCache cache("expected");
+    const Eigen::VectorXd x0 = rigid_body_x0();
+    const auto timed_steps = [&x0](NewtonStepper& s) {
+        Eigen::VectorXd x = x0, dx(x0.size());
+        for (std::uint32_t i = 0; i < NewtonStepper::native_sample_period; ++i) {
+            REQUIRE(s.step(x, dx) == StepStatus::ok);
+            x += dx;
+        }
+    };
+    NewtonStepper told = rigid_body_stepper(NativePolicy::automatic);
+    REQUIRE(told.native_tier() != nullptr);
+    told.expect_steps(std::uint64_t(1) << 40);  // years of steps
+    timed_steps(told);
+    CHECK(told.native_tier()->started());
+    // integrate_steps says how long its run is, and takes it back when the run ends (here at its first step)
+    NewtonStepper stopped = rigid_body_stepper(NativePolicy::automatic);
+    Eigen::VectorXd x = x0;
+    integrate_steps(stopped, x, std::size_t(1) << 40,
+                    [](std::size_t n, double, const Eigen::VectorXd&) { return n == 1; });
+    timed_steps(stopped);
+    CHECK_FALSE(stopped.native_tier()->started());
+    stopped.expect_steps(1000);  // a thousand steps repay no compiler
+    timed_steps(stopped);
+    CHECK_FALSE(stopped.native_tier()->started());
 }
 
 TEST_CASE("native tier: a compiler that cannot be run leaves the maps interpreted, and the failure says why") {
