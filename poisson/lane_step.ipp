@@ -165,7 +165,7 @@ LaneStep<N, T>::LaneStep(const NewtonStepper& s)
 
 template <int N, class T>
 PGI_LANE_INLINE T LaneStep<N, T>::state_norm(const T* v) const {
-    return inf_norm<N>(v, moving_);
+    return moving_ == std::size_t(N) ? inf_norm<N>(v) : inf_norm<N>(v, moving_);
 }
 
 // The maps' inputs at point (N values): point itself, or when the stepper has coordinates past N, point then their

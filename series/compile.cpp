@@ -422,6 +422,7 @@ void CompiledMap::bind(const double* slow) const {
         for (std::size_t t = 0; t < slots.size(); ++t) coeff[t] = slots[t] == no_output ? 0.0 : slot_values_[slots[t]];
     };
     set(term_slot_, term_coeff_);
+    row_vanishes_ = std::find(term_coeff_.begin(), term_coeff_.end(), 0.0) != term_coeff_.end();
     set(group_slot_, group_coeff_);
     set(lane_slot_, lane_coeff_);
     std::copy(slow, slow + slow_, bound_.begin());
@@ -677,9 +678,10 @@ void CompiledMap::eval_with(const T* in, T* out, T* mono) const {
         }
         for (; t < end; ++t) s0 += T(c[t]) * mono[tm[t]];
         out[o] = (s0 + s1) + (s2 + s3);
-        if (slow_ && !std::isfinite(out[o])) [[unlikely]]
-            out[o] = masked_row(o, mono);
     }
+    if (row_vanishes_) [[unlikely]]  // (bind: a row's coefficient is 0 at these slow inputs)
+        for (std::size_t o = 0; o < O; ++o)
+            if (!std::isfinite(out[o])) out[o] = masked_row(o, mono);
     // the groups (series/compile_groups.ipp): in double one AVX2 vector or two pairs of SSE2 lanes (GCC does not
     // find those itself), the same bits
     if constexpr (std::is_same_v<T, double>) {

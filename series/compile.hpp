@@ -194,6 +194,7 @@ private:
     std::vector<std::uint32_t> term_slot_, group_slot_, lane_slot_;
     mutable std::vector<double> bound_, slot_values_;
     mutable bool bound_any_ = false;
+    mutable bool row_vanishes_ = false;  // a row's coefficient is 0 at the bound values (eval_with masks it then)
     std::vector<std::uint32_t> left_, right_;  // monomial 1 + k + m = monomial[left_[m]] * monomial[right_[m]]
     std::vector<std::uint32_t> row_start_, term_monomial_;
     mutable std::vector<double> term_coeff_;  // (mutable: a map with slow inputs binds its coefficients in eval)

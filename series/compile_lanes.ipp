@@ -22,9 +22,10 @@ inline double lane_value(const double* c, std::size_t w) {
 }
 
 // The coefficients of a map with slow inputs (Tape::slow) in W lanes, from cache as CompiledMap::lane_cache_size lays
-// it out: a row whose first value is 1 once the rest holds values, the slow inputs' values they were evaluated at,
-// the coefficients (slot-major, W each), the coefficient map's monomials. Evaluated again when the cache holds none
-// or a lane's slow inputs differ from those it holds, bit for bit.
+// it out: a row whose first value is 1 once the rest holds values (2 when one of them is 0: mask_vanishing_lanes has
+// work then), the slow inputs' values they were evaluated at, the coefficients (slot-major, W each), the coefficient
+// map's monomials. Evaluated again when the cache holds none or a lane's slow inputs differ from those it holds, bit
+// for bit.
 template <std::size_t W>
 const double* lane_coefficients(const CompiledMap::Tape& tape, const double* __restrict in, std::size_t in_stride,
                                 double* __restrict cache) {
@@ -33,7 +34,7 @@ const double* lane_coefficients(const CompiledMap::Tape& tape, const double* __r
     double* values = held + tape.slow * W;
     double* mono = values + k.outputs * W;
     const double* slow_in = in + (tape.inputs - tape.slow) * in_stride;
-    bool same = cache[0] == 1.0;
+    bool same = cache[0] == 1.0 || cache[0] == 2.0;
     for (std::size_t v = 0; v < tape.slow && same; ++v)
         for (std::size_t w = 0; w < W; ++w)
             same = same && __builtin_bit_cast(unsigned long long, slow_in[v * in_stride + w]) ==
@@ -42,7 +43,9 @@ const double* lane_coefficients(const CompiledMap::Tape& tape, const double* __r
     for (std::size_t v = 0; v < tape.slow; ++v)
         for (std::size_t w = 0; w < W; ++w) held[v * W + w] = slow_in[v * in_stride + w];
     eval_tape_lanes<W>(k, held, W, values, W, mono);
-    cache[0] = 1.0;
+    bool vanishes = false;
+    for (std::size_t e = 0; e < k.outputs * W; ++e) vanishes = vanishes || values[e] == 0;
+    cache[0] = vanishes ? 2.0 : 1.0;
     return values;
 }
 
@@ -135,7 +138,7 @@ void mask_vanishing_lanes(const CompiledMap::Tape& tape, const double* __restric
 // and their final pairing included), so each lane gets exactly eval()'s bits; the loops over the lanes are
 // the inner ones, of a fixed length, which the compiler vectorises. mono holds num_monomials() W doubles. A map with
 // slow inputs reads its coefficients lane by lane from cache (lane_cache_size(W) doubles, kept by the caller for
-// this map alone, or holding none: its first value not 1).
+// this map alone, or holding none: its first value neither 1 nor 2).
 template <std::size_t W>
 [[maybe_unused]] void eval_tape_lanes(const CompiledMap::Tape& tape, const double* __restrict in, std::size_t in_stride,
                                       double* __restrict out, std::size_t out_stride, double* __restrict mono,
@@ -161,7 +164,7 @@ template <std::size_t W>
     sum_tape_lanes<W>(
         tape, mono, out, out_stride, [&tape, c](std::uint32_t t) { return c + std::size_t(tape.term_slot[t]) * W; },
         [&tape, c](std::uint32_t t) { return c + std::size_t(tape.lane_slot[t]) * W; });
-    mask_vanishing_lanes<W>(tape, mono, out, out_stride, c);
+    if (cache[0] == 2.0) mask_vanishing_lanes<W>(tape, mono, out, out_stride, c);
 }
 
 }  // namespace
