@@ -461,10 +461,17 @@ EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const R
                                           std::to_string(options.x_typical->size()));
     const RowMatrix P = scheme.parameter_rows(options.parameters, std::size_t(X0.rows()));
     EnsembleOptions extended = options;
-    if (options.x_typical) {
-        Eigen::Index largest = 0;
-        P.rowwise().norm().maxCoeff(&largest);
-        extended.x_typical = scheme.extended_states(options.x_typical->transpose(), P.row(largest)).row(0).transpose();
+    // the step is built at the typical coordinates with each parameter at its value of largest magnitude over the rows:
+    // a build's choices made for the largest terms hold for the smaller ones (Scheme::stepper), so it serves every row,
+    // and each row's single run after it (the Scheme keeps the step) shares its bits
+    if (const auto typical = options.x_typical ? options.x_typical : typical_state(X0)) {
+        Eigen::RowVectorXd largest(P.cols());
+        for (Eigen::Index c = 0; c < P.cols(); ++c) {
+            Eigen::Index row = 0;
+            P.col(c).cwiseAbs().maxCoeff(&row);
+            largest[c] = P(row, c);
+        }
+        extended.x_typical = scheme.extended_states(typical->transpose(), largest).row(0).transpose();
     }
     EnsembleResult r = integrate_extended(scheme, scheme.extended_states(X0, P), dt, t_end, extended);
     r.x = r.x.leftCols(n).eval();

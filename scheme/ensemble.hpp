@@ -4,10 +4,10 @@
 // pgi::integrate (scheme/run_loop: Kahan-summed, the invariants watched at every step), with one compiled
 // step built for the whole ensemble and copied into each worker (with its own scratch). So a trajectory's
 // numbers are those of its single run pgi::integrate(scheme, x0, dt, t_end, every, x_typical), bit for bit,
-// whatever the thread count and the chunking. (With parameters the step is built at the typical row with its
-// parameter values; a single run at other values shares that step, and its bits, where the Scheme's kept step serves
-// it: each value at most twice the one the step was built at, Scheme::stepper.) A row that is not finite, or a step
-// that fails, ends that trajectory with its status; the others finish.
+// whatever the thread count and the chunking. (With parameters the step is built at the typical coordinates with
+// each parameter at its largest magnitude over the rows, which the Scheme's kept step serves every row's values from:
+// a single run after the ensemble, with its row's values and x_typical, shares that step and its bits.) A row that is
+// not finite, or a step that fails, ends that trajectory with its status; the others finish.
 //
 // Within a chunk, trajectories are stepped in batches (poisson/batch_step: the predictor and grad, Hess S_dt
 // of all lanes evaluated at once in structure of arrays, then Newton lane by lane); a lane whose trajectory
@@ -117,8 +117,8 @@ std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& 
 /// finite; RunBudgetError above options.control.limits), InputError on X0 without n columns, a non-finite x_typical or
 /// one of the wrong length, threads or batch above their limits. Rows that are not finite are not an error:
 /// they end with status non_finite_start. X0 and options.x_typical hold the coordinates only (Scheme::dim()); each row
-/// runs on its extended state (x, w) with its parameter values w (options.parameters), and x_typical is extended with
-/// the row of parameter values of largest norm.
+/// runs on its extended state (x, w) with its parameter values w (options.parameters), and x_typical (given, or the
+/// finite row of X0 of largest norm) is extended with each parameter's value of largest magnitude over the rows.
 EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
                                   const EnsembleOptions& options = {});
 

@@ -278,6 +278,42 @@ TEST_CASE("parameters: on an ensemble's lanes a coefficient that vanishes masks 
     CHECK(masked == m / 4);  // the lanes at 1e60 with c = 0 stepped, finite
 }
 
+// Two parameters swept against each other: no row holds both at their largest. The ensemble's step is built at each
+// one's largest magnitude (the typical row with the largest norm had a = 4, b = 1/4: a step for it does not serve
+// b = 4), so it serves every row, and each row's single run after it reuses it: no second build, the same bits.
+TEST_CASE("parameters: an ensemble's step serves every row's values, and its single runs share it bit for bit") {
+    SchemeValues v;
+    v.coordinates = {"x", "y"};
+    v.brackets = {{"x,y", "x^2 + y^2"}};
+    v.hamiltonian = "a*x^2/2 + b*y^2";
+    v.order = 4;
+    v.realisation = "radial";
+    v.parameters = {{"a", "1"}, {"b", "1"}};
+    const Scheme s(v);
+    constexpr std::size_t m = 9;
+    RowMatrix X0(Eigen::Index(m), 2);
+    std::vector<double> a(m), b(m);
+    for (std::size_t j = 0; j < m; ++j) {
+        X0.row(Eigen::Index(j)) << 0.8, 0.3;
+        a[j] = std::ldexp(1.0, int(j) / 2 - 2), b[j] = 1 / a[j];  // 1/4 .. 4 against 4 .. 1/4
+    }
+    EnsembleOptions o;
+    o.parameters = {{"a", a}, {"b", b}};
+    const EnsembleResult r = integrate_ensemble(s, X0, 0.05, 1.0, o);
+    REQUIRE(s.stats().stepper_builds == 1);
+    for (std::size_t j = 0; j < m; ++j) {
+        CAPTURE(j);
+        REQUIRE(r.members[j].status == TrajectoryStatus::ok);
+        const Eigen::VectorXd start = X0.row(Eigen::Index(j)).transpose();
+        const Trajectory one = integrate(s, start, 0.05, 1.0, 20, r.x_typical, {}, {}, {{"a", {a[j]}}, {"b", {b[j]}}});
+        REQUIRE(one.status == StepStatus::ok);
+        for (Eigen::Index i = 0; i < 2; ++i)
+            CHECK(std::bit_cast<std::uint64_t>(r.x(Eigen::Index(j), i)) ==
+                  std::bit_cast<std::uint64_t>(one.x[one.x.size() - 2 + std::size_t(i)]));
+    }
+    CHECK(s.stats().stepper_builds == 1);
+}
+
 TEST_CASE("parameters: a parameterised Casimir stays at round-off along a run") {
     SchemeValues v = rigid_body(true);
     v.casimirs = {"w1*(x1^2 + x2^2 + x3^2) + w2*w3"};
