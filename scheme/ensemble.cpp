@@ -461,9 +461,9 @@ EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const R
                                           std::to_string(options.x_typical->size()));
     const RowMatrix P = scheme.parameter_rows(options.parameters, std::size_t(X0.rows()));
     EnsembleOptions extended = options;
-    // the step is built at the typical coordinates with each parameter at its value of largest magnitude over the rows:
-    // a build's choices made for the largest terms hold for the smaller ones (Scheme::stepper), so it serves every row,
-    // and each row's single run after it (the Scheme keeps the step) shares its bits
+    // the step is built at the typical coordinates with each parameter at its value of largest magnitude over the rows
+    // (the build's choices are made for the largest terms; at the largest row's values, a row whose coordinates were
+    // larger and another whose parameter was larger could not both be served: one ended truncation_above_bound)
     if (const auto typical = options.x_typical ? options.x_typical : typical_state(X0)) {
         Eigen::RowVectorXd largest(P.cols());
         for (Eigen::Index c = 0; c < P.cols(); ++c) {

@@ -4,10 +4,10 @@
 // pgi::integrate (scheme/run_loop: Kahan-summed, the invariants watched at every step), with one compiled
 // step built for the whole ensemble and copied into each worker (with its own scratch). So a trajectory's
 // numbers are those of its single run pgi::integrate(scheme, x0, dt, t_end, every, x_typical), bit for bit,
-// whatever the thread count and the chunking. (With parameters the step is built at the typical coordinates with
-// each parameter at its largest magnitude over the rows, which the Scheme's kept step serves every row's values from:
-// a single run after the ensemble, with its row's values and x_typical, shares that step and its bits.) A row that is
-// not finite, or a step that fails, ends that trajectory with its status; the others finish.
+// whatever the thread count and the chunking. (With parameters the step is built once, at the typical coordinates
+// with each parameter at its value of largest magnitude over the rows; a single run builds its step at its own values,
+// so it agrees with its row to round-off, not to the bit.) A row that is not finite, or a step that fails, ends that
+// trajectory with its status; the others finish.
 //
 // Within a chunk, trajectories are stepped in batches (poisson/batch_step: the predictor and grad, Hess S_dt
 // of all lanes evaluated at once in structure of arrays, then Newton lane by lane); a lane whose trajectory

@@ -5,6 +5,7 @@
 #include "poisson/detail/truncation_degree.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -19,23 +20,24 @@ bool SchemeChecks::ok() const {
 
 namespace detail {  // (named, not anonymous: Scheme::Cache holds them)
 
-// The size of a typical state as a step's build reads it: |x|_inf over the moving coordinates
-// (PoissonStructure::moving_dimension), and the magnitude of each coordinate past them (a parameter's value, which
-// the build's choices read through S_j but which is not a size).
+// A typical state as a step's build reads it: its size, |x|_inf over the moving coordinates
+// (PoissonStructure::moving_dimension), and the values of the coordinates past them (a scheme's parameters, which
+// are not a size: the build's choices read them through S_j, where they may cancel or change sign).
 struct TypicalSize {
     double scale = 0;
     std::vector<double> still;
     TypicalSize(const Eigen::VectorXd& x, std::size_t moving) {
         const auto m = std::min(x.size(), Eigen::Index(moving));
         if (m) scale = x.head(m).lpNorm<Eigen::Infinity>();
-        for (Eigen::Index i = m; i < x.size(); ++i) still.push_back(std::abs(x[i]));
+        still.assign(x.data() + m, x.data() + x.size());
     }
-    /// Whether a step built at this size serves states of size s: at most twice it, coordinate by coordinate past
-    /// the moving ones (what a build chose for larger terms holds for smaller ones).
+    /// Whether a step built at this typical state serves s: a size at most twice its own (what a build chose for
+    /// larger terms holds for smaller ones), at the same parameter values (bit for bit: e x^2 + 5 x^2 built at e = -5
+    /// does not serve e = 5, whatever the magnitudes).
     bool covers(const TypicalSize& s) const {
         if (!(s.scale <= 2 * scale) || s.still.size() != still.size()) return false;
         for (std::size_t i = 0; i < still.size(); ++i)
-            if (!(s.still[i] <= 2 * still[i])) return false;
+            if (std::bit_cast<std::uint64_t>(s.still[i]) != std::bit_cast<std::uint64_t>(still[i])) return false;
         return true;
     }
 };

@@ -136,6 +136,35 @@ TEST_CASE("BatchStepper: the rigid body with parameters steps on lanes (N = 3, s
     }
 }
 
+// c q^6 + (q^2 + P^2) / 2 at c = 0 is an oscillator, which steps at amplitude 1e60; its grad and Hess S_dt still hold
+// c^j q^(4 j + 2)-like monomials, infinite there, whose coefficients vanish at c = 0. The single step's maps mask such
+// a coefficient (0 inf is NaN); each lane must too, on either instruction set, beside lanes whose c does not vanish.
+TEST_CASE(
+    "BatchStepper: a coefficient that vanishes at a lane's parameter masks an overflowing monomial, as one step") {
+    SchemeValues v;
+    v.coordinates = {"q", "P"};
+    v.brackets = {{"q,P", "1"}};
+    v.hamiltonian = "c*q^6 + q^2/2 + P^2/2";
+    v.order = 4;
+    v.parameters = {{"c", "1"}};
+    const Scheme scheme(v);
+    const NewtonStepper stepper = scheme.stepper(0.1, Eigen::Vector3d(0.6e60, 0.8e60, 0.25));
+    REQUIRE(stepper.lane_dimension() == 2);
+    std::vector<Eigen::VectorXd> states;
+    for (std::size_t j = 0; j < 16; ++j) {
+        const double amplitude = j % 2 ? 1e60 : 0.7;
+        states.push_back(Eigen::Vector3d(0.6 * amplitude, 0.8 * amplitude, j % 4 < 2 ? 0.0 : 0.25));
+    }
+    for (const LaneInstructions instructions : instruction_sets())
+        require_lanes_equal_single(stepper, 16, states, 0.1, instructions);
+    // the states at 1e60 with c = 0 step (finite), those with c = 0.25 do not
+    NewtonStepper single = stepper;
+    Eigen::VectorXd increment(3);
+    CHECK(single.step(states[1], 0.1, increment) == StepStatus::ok);
+    CHECK(increment.head(2).allFinite());
+    CHECK(single.step(states[3], 0.1, increment) != StepStatus::ok);
+}
+
 TEST_CASE("BatchStepper: a failing and a non-finite state fail alone, with the single step's status") {
     const Scene s = test::bundled("rigid_body");
     const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), 3);
