@@ -142,8 +142,8 @@ public:
     /// typical state x_typical (NewtonStepper::build, from this scheme's realisation and S_1..S_k), returned
     /// as a copy of its own (a stepper holds scratch, so each caller steps its own) whose dt() is dt. A build
     /// serves its own dt and every typical state up to twice its own in norm (over the coordinates that move,
-    /// PoissonStructure::moving_dimension) at the parameter values it was built at; another dt, a larger state or
-    /// other values build again. The exact phase (the realisation, S_1..S_k) is the scheme's, computed once: a build at another dt only
+    /// PoissonStructure::moving_dimension), with each parameter of the same sign and up to twice its magnitude;
+    /// another dt, a larger state or value, or another sign builds again. The exact phase (the realisation, S_1..S_k) is the scheme's, computed once: a build at another dt only
     /// sums and compiles S_dt's maps at that dt and chooses the predictor and the truncations for it, a few
     /// milliseconds for the bundled scenes (each dt's step then costs what it costs at its own dt: a build's
     /// run-time dt below its own runs the stacked S_j and Horner, up to twice the time). At most

@@ -186,11 +186,11 @@ TEST_CASE("parameters: a step sizes the state by its coordinates, so rescaled pa
 }
 
 // A Scheme keeps the steps it built, each serving typical states up to twice its own size; the parameters' values are
-// not a size, but the build's choices read them (through S_j, where they may cancel): a step built at one value does
-// not serve another. (Built at e = 1/2, a kept step served e = 5, where its truncation had been chosen for terms ten
-// times smaller: the run failed, truncation above its bound; served by magnitude, e x^2 + 5 x^2 built at e = -5, where
-// x^2 cancels, failed at e = 5.)
-TEST_CASE("parameters: a kept step serves the parameter values it was built at, and other values build again") {
+// not a size, but the build's choices read them (through S_j): a step serves each parameter up to twice the magnitude
+// it was built at, at the same sign. (Built at e = 1/2, a kept step served e = 5, where its truncation had been chosen
+// for terms ten times smaller: the run failed, truncation above its bound; across a sign, e x^2 + 5 x^2 built at
+// e = -5, where x^2 cancels, failed at e = 5.)
+TEST_CASE("parameters: a kept step serves values up to twice its own at the same sign, others build again") {
     const auto scheme = [](const std::string& hamiltonian, const std::string& e) {
         SchemeValues v;
         v.coordinates = {"x", "y"};
@@ -208,8 +208,9 @@ TEST_CASE("parameters: a kept step serves the parameter values it was built at, 
     const SchemeValues v = scheme("e*x^2/2 + y^2", "1/2");
     const Scheme kept(v);
     REQUIRE(run(kept, 0.5).status == StepStatus::ok);
-    REQUIRE(run(kept, 0.5).status == StepStatus::ok);
-    CHECK(kept.stats().stepper_builds == 1);
+    REQUIRE(run(kept, 0.75).status == StepStatus::ok);
+    REQUIRE(run(kept, 0.25).status == StepStatus::ok);
+    CHECK(kept.stats().stepper_builds == 1);  // a sweep of single runs near the value shares one build
     const Trajectory again = run(kept, 5.0), fresh = run(Scheme(v), 5.0);
     CHECK(kept.stats().stepper_builds == 2);
     REQUIRE(fresh.status == StepStatus::ok);
