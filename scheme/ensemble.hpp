@@ -5,9 +5,9 @@
 // step built for the whole ensemble and copied into each worker (with its own scratch). So a trajectory's
 // numbers are those of its single run pgi::integrate(scheme, x0, dt, t_end, every, x_typical), bit for bit,
 // whatever the thread count and the chunking. (With parameters the step is built once, at the typical coordinates
-// with each parameter at its value of largest magnitude over the rows; a single run builds its step at its own values,
-// so it agrees with its row to round-off, not to the bit.) A row that is not finite, or a step that fails, ends that
-// trajectory with its status; the others finish.
+// with each parameter at its value of largest magnitude over the rows; the Scheme keeps it, and it serves the single
+// run of a row whose values have those signs, Scheme::stepper: that run shares its bits.) A row that is not finite, or
+// a step that fails, ends that trajectory with its status; the others finish.
 //
 // Within a chunk, trajectories are stepped in batches (poisson/batch_step: the predictor and grad, Hess S_dt
 // of all lanes evaluated at once in structure of arrays, then Newton lane by lane); a lane whose trajectory
