@@ -124,11 +124,13 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     const double scale = std::max(s.state_norm(x_typical), std::numeric_limits<double>::min());
     s.in_->gradient_ = compile_gradient(M, S, opt.dt, newton_matrix_truncation(pi, opt, x_typical), zero_rows(pi));
 
-    // the truncation degree (and evaluator), sized at p0 = grad S_dt(x_typical): docs/math.md 4 and 6
+    // the truncation degree (and evaluator), sized at every state the step serves: docs/math.md 4 and 6
     Eigen::VectorXd p0(static_cast<Eigen::Index>(n));
     s.in_->gradient_.gradient.eval(x_typical.data(), opt.dt, p0.data());
+    SizePoint sizes{x_typical.cwiseAbs(), Eigen::VectorXd(static_cast<Eigen::Index>(n))};
+    s.in_->gradient_.gradient_size.eval(sizes.x.data(), opt.dt, sizes.p.data());
     RealisationPtr probe = realisation(probe_degree(realisation_form(pi.structure_class(), opt.realisation), opt, n));
-    StepRealisation r = step_realisation(pi, opt, probe, realisation, x_typical, scale, p0);
+    StepRealisation r = step_realisation(pi, opt, probe, realisation, scale, p0, sizes);
     s.in_->realisation_ = std::move(r.evaluator);
     s.in_->simplified_newton_ = r.simplified_newton;
     s.info_ = {std::move(r.method), r.degree, r.exact, r.truncation_estimate, 0};

@@ -19,24 +19,27 @@ bool SchemeChecks::ok() const {
 
 namespace detail {  // (named, not anonymous: Scheme::Cache holds them)
 
-// A typical state as a step's build reads it: its size, |x|_inf over the moving coordinates
-// (PoissonStructure::moving_dimension), and the values of the coordinates past them (a scheme's parameters, which
-// are not a size: the build's choices read them through S_j).
+// A typical state as a step's build reads it: the magnitudes of its moving coordinates
+// (PoissonStructure::moving_dimension), and the values of the coordinates past them (a scheme's parameters).
 struct TypicalSize {
-    double scale = 0;
-    std::vector<double> still;
-    TypicalSize(const Eigen::VectorXd& x, std::size_t moving) {
-        const auto m = std::min(x.size(), Eigen::Index(moving));
-        if (m) scale = x.head(m).lpNorm<Eigen::Infinity>();
+    std::vector<double> moving, still;
+    TypicalSize(const Eigen::VectorXd& x, std::size_t moving_dimension) {
+        const auto m = std::min(x.size(), Eigen::Index(moving_dimension));
+        for (Eigen::Index i = 0; i < m; ++i) moving.push_back(std::abs(x[i]));
         still.assign(x.data() + m, x.data() + x.size());
     }
-    /// Whether a step built at this typical state serves s: a size at most twice its own, and each parameter of the
-    /// same sign and at most twice the magnitude (what a build chose for larger terms holds for smaller ones; a build
-    /// costs 10-80 ms for the rigid body at k = 4-10, so a sweep of single runs must not make one per value). Not
-    /// across a sign: e x^2 + 5 x^2 built at e = -5, where x^2 cancels, failed at e = 5 (truncation above its bound).
-    /// Parameters that cancel one another at the same signs can still mislead it: the step then fails, as checked.
+    /// Whether a step built at this typical state serves s: each moving coordinate at most twice its magnitude, and
+    /// each parameter of the same sign and at most twice the magnitude (a build costs 10-80 ms for the rigid body at
+    /// k = 4-10, so a sweep of single runs must not make one per value). The build sizes its realisation's
+    /// truncation by the sizes of the terms at these magnitudes (poisson/detail/truncation_degree), a bound for
+    /// every state it serves, up to the factor 2 that the step's own truncation check covers with room to spare.
+    /// Per coordinate, not by |x|_inf: a build at x = (0, 1), where a bracket x^2 + x y vanishes, served
+    /// (0.5, 0.5) and failed there (truncation above its bound). Not across a parameter's sign: the predictor's
+    /// order is chosen from values, where e x^2 + 5 x^2 at e = -5 cancels.
     bool covers(const TypicalSize& s) const {
-        if (!(s.scale <= 2 * scale) || s.still.size() != still.size()) return false;
+        if (s.moving.size() != moving.size() || s.still.size() != still.size()) return false;
+        for (std::size_t i = 0; i < moving.size(); ++i)
+            if (!(s.moving[i] <= 2 * moving[i])) return false;
         for (std::size_t i = 0; i < still.size(); ++i)
             if (std::signbit(s.still[i]) != std::signbit(still[i]) || !(std::abs(s.still[i]) <= 2 * std::abs(still[i])))
                 return false;

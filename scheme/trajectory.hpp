@@ -13,10 +13,6 @@
 
 namespace pgi {
 
-/// sum_m |c_m x^m| over the terms of f (a polynomial in the coordinates): the size of what is summed to
-/// evaluate f at x, the scale its round-off and its drift are measured against. A term with a coordinate at 0 (a
-/// parameter's value, say) is 0, even where another of its factors overflows.
-double term_size(const Poly& f, std::span<const double> x);
 /// term_size at x of H, the Casimirs, then extra: the scales of the outputs of scheme.invariants(extra).
 std::vector<double> invariant_scales(const Scheme& scheme, std::span<const double> x,
                                      const std::vector<Poly>& extra = {});

@@ -505,6 +505,18 @@ double evaluate(const Poly& f, std::span<const double> point) {
     return sum;
 }
 
+double term_size(const Poly& f, std::span<const double> x) {
+    double s = 0;
+    for (std::size_t t = 0; t < f.length(); ++t) {
+        double c = std::abs(f.term_coeff(t).to_double());
+        const auto e = f.term_exponents(t);
+        for (std::size_t v = 0; v < x.size() && v < e.size() && c != 0; ++v)
+            if (e[v] != 0) c = x[v] == 0 ? 0.0 : c * std::pow(std::abs(x[v]), double(e[v]));  // (0, not 0 inf)
+        s += c;
+    }
+    return s;
+}
+
 std::vector<std::size_t> used_variables(const Poly& f) {
     const auto vars = f.variables();
     std::vector<int> used(static_cast<std::size_t>(f.ctx()->zctx->minfo->nvars),

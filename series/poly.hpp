@@ -179,6 +179,10 @@ Poly substitute(const Poly& f, const std::vector<Poly>& images);
 Poly sum_powers(const std::vector<Poly>& c, const Rational& t, unsigned long first = 0);
 /// The double value of f at a point (one coordinate per ring variable), for checks, not for speed.
 double evaluate(const Poly& f, std::span<const double> point);
+/// sum_m |c_m x^m| over the terms of f (x: one value per ring variable, or the first ones, a term's factors in the
+/// variables past x.size() read as 1): the size of what is summed to evaluate f at x, and a bound of |f(y)| at every
+/// y with |y_v| <= |x_v|, whatever their signs. A term with a variable at 0 is 0, even where another factor overflows.
+double term_size(const Poly& f, std::span<const double> x);
 
 /// The ring variables f holds (increasing).
 std::vector<std::size_t> used_variables(const Poly& f);

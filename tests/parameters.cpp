@@ -247,10 +247,10 @@ TEST_CASE("parameters: an ensemble sweeps one value per trajectory, equal to the
     CHECK(s.stats().terms_builds == 1);
 }
 
-// An ensemble builds one step for all its rows: at the typical coordinates (the largest row's) with each parameter at
-// its largest magnitude over the rows. Built at the row of largest norm, coordinates and parameters together, a row
-// with three times the others' coordinates beside one whose parameter a is 1000 got a step sized for the small
-// coordinates, and ended truncation_above_bound (a e = 1/2 in both: the same flow).
+// An ensemble builds one step for all its rows: at the typical coordinates (each one.s largest magnitude) with each
+// parameter at its largest magnitude over the rows. Built at the row of largest norm, coordinates and parameters
+// together, a row with three times the others' coordinates beside one whose parameter a is 1000 got a step sized for
+// the small coordinates, and ended truncation_above_bound (a e = 1/2 in both: the same flow).
 TEST_CASE("parameters: an ensemble's step is sized for its largest coordinates and its largest parameters at once") {
     SchemeValues v;
     v.coordinates = {"x1", "x2", "x3"};
@@ -457,4 +457,29 @@ TEST_CASE("parameters: a scheme whose coordinates have no lane step of their own
     const Eigen::Map<const Eigen::VectorXd> a(with.x.data() + with.x.size() - 5, 5),
         b(written.x.data() + written.x.size() - 5, 5);
     CHECK(relative_difference(a, b) < 1e-13);
+}
+
+// Terms that cancel at the build's parameter values (a x^2 y^2 - b x^2 y^2 at a = b) are sized as terms, not as their
+// sum: the step kept from a = b = 3 serves a = 6 (the same signs, twice the magnitude); it failed there (truncation
+// above its bound) where a fresh scheme succeeds.
+TEST_CASE("parameters: a step built where parameters cancel serves the values it is kept for") {
+    SchemeValues v;
+    v.coordinates = {"x", "y"};
+    v.brackets = {{"x,y", "x^2 + 1"}};
+    v.hamiltonian = "a*x^2*y^2 - b*x^2*y^2 + (x^2 + y^2)/2";
+    v.order = 4;
+    v.realisation = "radial";
+    v.parameters = {{"a", "1"}, {"b", "1"}};
+    const Scheme kept(v), fresh(v);
+    const Eigen::Vector2d start(0.8, 0.6);
+    REQUIRE(integrate(kept, start, 0.1, 1.0, 1, std::nullopt, {}, {}, {{"a", {3.0}}, {"b", {3.0}}}).status ==
+            StepStatus::ok);
+    const ParameterValues apart{{"a", {6.0}}, {"b", {3.0}}};
+    const Trajectory again = integrate(kept, start, 0.1, 1.0, 1, std::nullopt, {}, {}, apart);
+    const Trajectory alone = integrate(fresh, start, 0.1, 1.0, 1, std::nullopt, {}, {}, apart);
+    CHECK(kept.stats().stepper_builds == 1);  // served by the kept step
+    REQUIRE(alone.status == StepStatus::ok);
+    CHECK(again.status == StepStatus::ok);
+    REQUIRE(again.x.size() == alone.x.size());
+    for (std::size_t i = 0; i < again.x.size(); ++i) CHECK(std::abs(again.x[i] - alone.x[i]) < 1e-13);
 }

@@ -18,11 +18,12 @@ std::vector<double> phase_point(const Eigen::VectorXd& x, const Eigen::VectorXd&
     return point;
 }
 
-// |A_m(x, p)|_inf / |x|_inf for m = 0..D (slow, exact-coefficient evaluation: build time only).
+// The sizes of A_m's terms at point, max over the components, / scale, for m = 0..D (exact coefficients: build
+// time only).
 std::vector<double> component_sizes(const Realisation& r, const std::vector<double>& point, double scale) {
     std::vector<double> a(r.degree + 1, 0.0);
     for (std::size_t m = 0; m <= r.degree; ++m)
-        for (const auto& s : r.alpha) a[m] = std::max(a[m], std::abs(evaluate(s[m], point)) / scale);
+        for (const auto& s : r.alpha) a[m] = std::max(a[m], term_size(s[m], point) / scale);
     return a;
 }
 
@@ -116,8 +117,8 @@ std::size_t probe_degree(RealisationForm form, const StepOptions& opt, std::size
 }
 
 StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, RealisationPtr& probe,
-                                 const RealisationSource& source, const Eigen::VectorXd& x_typical, double scale,
-                                 const Eigen::VectorXd& p0) {
+                                 const RealisationSource& source, double scale, const Eigen::VectorXd& p0,
+                                 const SizePoint& sizes) {
     const RealisationForm form = realisation_form(pi.structure_class(), opt.realisation);
     const std::size_t D_min = step_degree_min(opt.k);
     if (form == RealisationForm::log_canonical)
@@ -137,7 +138,7 @@ StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& 
                 false};
     }
     StepRealisation r;
-    r.degree = choose_degree(opt, D_min, probe, source, phase_point(x_typical, p0), scale, r.truncation_estimate);
+    r.degree = choose_degree(opt, D_min, probe, source, phase_point(sizes.x, sizes.p), scale, r.truncation_estimate);
     r.method = probe->method;
     r.exact = form == RealisationForm::constant;
     r.evaluator = RealisationEvaluator::polynomial(pi, truncated(*probe, r.degree), neglected_parts(*probe, r.degree));

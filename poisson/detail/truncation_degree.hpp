@@ -33,14 +33,23 @@ struct StepRealisation {
     bool simplified_newton = true;
 };
 
+/// Where the build sizes a truncated realisation: every state the step serves (Scheme's stepper cache: moving
+/// coordinates up to its scale, each parameter up to its magnitude), and the momenta there.
+struct SizePoint {
+    Eigen::VectorXd x;  // the moving coordinates at the typical state's scale, the others at their magnitudes
+    Eigen::VectorXd p;  // the sizes of grad S_dt's terms at x (its gradient_size map at the build's dt)
+};
+
 /// A closed form where there is one (log-canonical; so(3)*-type; any other Lie-Poisson structure by its
-/// series to the degree whose tail is below round-off at p0, scaling and squaring beyond), otherwise the
-/// compiled series truncated at the smallest D whose neglected terms at (x_typical, p0) are below round-off
-/// (capped at opt.max_degree). probe: the realisation at probe_degree, deepened in place from source when D
-/// needs it, "below round-off" relative to scale (the size of x_typical's moving coordinates). p0 = grad
-/// S_dt(x_typical) at the build's dt.
+/// series to the degree whose tail is below round-off at p0 = grad S_dt(x_typical), scaling and squaring beyond),
+/// otherwise the compiled series truncated at the smallest D whose neglected terms are below round-off (capped at
+/// opt.max_degree), measured as the sizes of their terms at `sizes` (term_size): a bound at every state it
+/// covers, whatever their signs, where values at the typical state cancel (a coordinate at 0, a x^2 - b x^2 at
+/// a = b) and a build reused at another state failed on its truncation. probe: the realisation at probe_degree,
+/// deepened in place from source when D needs it, "below round-off" relative to scale (the size of x_typical's
+/// moving coordinates).
 StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, RealisationPtr& probe,
-                                 const RealisationSource& source, const Eigen::VectorXd& x_typical, double scale,
-                                 const Eigen::VectorXd& p0);
+                                 const RealisationSource& source, double scale, const Eigen::VectorXd& p0,
+                                 const SizePoint& sizes);
 
 }  // namespace pgi
