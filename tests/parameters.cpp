@@ -463,12 +463,7 @@ TEST_CASE("parameters: a scheme whose coordinates have no lane step of their own
 // sum: the step kept from a = b = 3 serves a = 6 (the same signs, twice the magnitude); it failed there (truncation
 // above its bound) where a fresh scheme succeeds.
 TEST_CASE("parameters: a step built where parameters cancel serves the values it is kept for") {
-    SchemeValues v;
-    v.coordinates = {"x", "y"};
-    v.brackets = {{"x,y", "x^2 + 1"}};
-    v.hamiltonian = "a*x^2*y^2 - b*x^2*y^2 + (x^2 + y^2)/2";
-    v.order = 4;
-    v.realisation = "radial";
+    SchemeValues v = test::radial_plane("x^2 + 1", "a*x^2*y^2 - b*x^2*y^2 + (x^2 + y^2)/2");
     v.parameters = {{"a", "1"}, {"b", "1"}};
     const Scheme kept(v), fresh(v);
     const Eigen::Vector2d start(0.8, 0.6);

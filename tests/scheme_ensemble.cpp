@@ -393,13 +393,7 @@ TEST_CASE("Run: casimir_drift_per_step is the least-squares slope of each Casimi
 // where the bracket x^2 + x y vanishes, the step chose its lowest degree and the two other rows ended
 // truncation_above_bound.
 TEST_CASE("Ensemble: a row where the bracket vanishes does not size the step for the others") {
-    SchemeValues v;
-    v.coordinates = {"x", "y"};
-    v.brackets = {{"x,y", "x^2 + x*y"}};
-    v.hamiltonian = "x^2/2 + y^2/2";
-    v.order = 4;
-    v.realisation = "radial";
-    const Scheme s(v);
+    const Scheme s(test::radial_plane("x^2 + x*y"));
     RowMatrix X0(3, 2);
     X0 << 0.0, 1.0, 0.5, 0.5, 0.9, 0.2;
     const EnsembleResult r = integrate_ensemble(s, X0, 0.1, 1.0);

@@ -240,21 +240,6 @@ TEST_CASE("Scheme: a report computes the realisation, S, Htilde and the step onc
     }
 }
 
-namespace {
-
-SchemeValues plane(const std::string& bracket) {
-    SchemeValues v;
-    v.coordinates = {"x", "y"};
-    v.brackets = {{"x,y", bracket}};
-    v.hamiltonian = "x^2/2 + y^2/2";
-    v.order = 4;
-    v.realisation = "radial";
-    v.jit = NativePolicy::never;
-    return v;
-}
-
-}  // namespace
-
 // The build sizes its truncated realisation by the sizes of the terms at the magnitudes it serves, and serves each
 // coordinate up to twice its own magnitude: built where the bracket vanishes (x = 0 in x^2 + x y) or its terms
 // cancel ((x + y)^2, x^2 - y^2 at (1, -1)), the kept step chose its lowest degree there and failed the next run
@@ -267,7 +252,7 @@ TEST_CASE("Scheme: a step built where the bracket's terms vanish or cancel still
     for (const Case& c : {Case{"x^2 + x*y", {0.0, 1.0}, {0.5, 0.5}}, Case{"x^2 + 2*x*y + y^2", {1.0, -1.0}, {1.0, 1.0}},
                           Case{"x^2 - y^2", {1.0, -1.0}, {1.0, 0.5}}}) {
         CAPTURE(c.bracket);
-        const Scheme kept(plane(c.bracket)), fresh(plane(c.bracket));
+        const Scheme kept(test::radial_plane(c.bracket)), fresh(test::radial_plane(c.bracket));
         REQUIRE(integrate(kept, c.first, 0.1, 1.0).status == StepStatus::ok);
         const Trajectory again = integrate(kept, c.then, 0.1, 1.0), alone = integrate(fresh, c.then, 0.1, 1.0);
         REQUIRE(alone.status == StepStatus::ok);

@@ -59,4 +59,15 @@ inline const std::vector<std::string>& bundled_names() {
     return names;
 }
 
+/// A plane scheme {x, y} = bracket, H (default the oscillator's), k = 4, stepped through the radial realisation.
+inline SchemeValues radial_plane(const std::string& bracket, const std::string& H = "x^2/2 + y^2/2") {
+    SchemeValues v;
+    v.coordinates = {"x", "y"};
+    v.brackets = {{"x,y", bracket}};
+    v.hamiltonian = H;
+    v.order = 4;
+    v.realisation = "radial";
+    return v;
+}
+
 }  // namespace pgi::test
