@@ -38,7 +38,7 @@ struct StepInfo {
     std::size_t degree = 0;  // D (0 for the log-canonical closed form, which has no truncation)
     bool exact_realisation = false;
     double truncation_estimate =
-        0;  // max_{m > D} |A_m(x, grad S_dt(x))|_inf / |x|_inf at the typical state (probed degrees)
+        0;  // max_{m > D} of the sizes of A_m's terms at the typical state's magnitudes / |x|_inf (probed degrees)
     std::size_t predictor_order = 0;  // the base point is predicted by its exact series in dt to this order
     NewtonSolver solver =
         NewtonSolver::dense;      // sparse: J, Hess S_dt and the realisation's derivatives on their patterns

@@ -60,13 +60,15 @@ RunPlan plan_ensemble(const Scheme& scheme, std::size_t m, double dt, double t_e
 }
 
 std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& X0) {
-    std::optional<Eigen::VectorXd> largest;
+    std::optional<Eigen::Index> best;
+    double best_norm = -1;
     for (Eigen::Index i = 0; i < X0.rows(); ++i) {
         if (!X0.row(i).allFinite()) continue;
-        if (!largest) largest = Eigen::VectorXd::Zero(X0.cols());
-        *largest = largest->cwiseMax(X0.row(i).transpose().cwiseAbs());
+        const double norm = X0.row(i).squaredNorm();
+        if (norm > best_norm) best = i, best_norm = norm;
     }
-    return largest;
+    if (!best) return std::nullopt;
+    return Eigen::VectorXd(X0.row(*best).transpose());
 }
 
 namespace {
@@ -460,9 +462,8 @@ EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const R
     const RowMatrix P = scheme.parameter_rows(options.parameters, std::size_t(X0.rows()));
     EnsembleOptions extended = options;
     // the step is built at the typical coordinates with each parameter at its value of largest magnitude over the rows
-    // (the build sizes its truncation by its terms at those magnitudes; at the largest row's values, a row whose
-    // coordinates were larger and another whose parameter was larger could not both be served: one ended
-    // truncation_above_bound)
+    // (the build's choices are made for the largest terms; at the largest row's values, a row whose coordinates were
+    // larger and another whose parameter was larger could not both be served: one ended truncation_above_bound)
     if (const auto typical = options.x_typical ? options.x_typical : typical_state(X0)) {
         Eigen::RowVectorXd largest(P.cols());
         for (Eigen::Index c = 0; c < P.cols(); ++c) {

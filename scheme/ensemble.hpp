@@ -47,7 +47,7 @@ struct EnsembleOptions {
     std::size_t batch =
         0;  // trajectories stepped together (lanes, at most 1024); 1: one at a time; 0: 16 below 40 coordinates, else 1
     /// The state the compiled step is built for (its realisation degree and predictor are chosen there).
-    /// Default: typical_state(X0), each coordinate's largest magnitude over the finite rows.
+    /// Default: typical_state(X0), the finite row of largest norm.
     std::optional<Eigen::VectorXd> x_typical;
     RunControl control;  // the budgets, checked before any work, and the flag that stops the run (RunInterrupted)
     /// The scheme's parameter values by name: 1 value (every trajectory) or one per row of X0 (a sweep); the defaults
@@ -107,10 +107,9 @@ struct EnsembleResult {
 RunPlan plan_ensemble(const Scheme& scheme, std::size_t m, double dt, double t_end, const RunLimits& limits = {},
                       const TrajectoryOptions& record = final_state_only());
 
-/// Each coordinate's largest magnitude over the finite rows of X0: the default x_typical. The build sizes its
-/// realisation's truncation by the sizes of its terms there, a bound for every row whatever its signs (the finite row
-/// of largest norm was the default: a row (0, 1) there served (0.5, 0.5), where x^2 + x y no longer vanishes, and that
-/// row ended truncation_above_bound). None when no row is finite.
+/// The finite row of X0 of largest Euclidean norm (the first of equals): the default x_typical, chosen so
+/// the realisation degree that keeps the truncation below round-off there suffices for the smaller rows.
+/// None when no row is finite.
 std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& X0);
 
 /// Integrates every row of X0 (m x n) over steps_to_reach(t_end, dt) steps of the step built once at
@@ -118,8 +117,8 @@ std::optional<Eigen::VectorXd> typical_state(const Eigen::Ref<const RowMatrix>& 
 /// finite; RunBudgetError above options.control.limits), InputError on X0 without n columns, a non-finite x_typical or
 /// one of the wrong length, threads or batch above their limits. Rows that are not finite are not an error:
 /// they end with status non_finite_start. X0 and options.x_typical hold the coordinates only (Scheme::dim()); each row
-/// runs on its extended state (x, w) with its parameter values w (options.parameters), and x_typical (given, or
-/// typical_state(X0)) is extended with each parameter's value of largest magnitude over the rows.
+/// runs on its extended state (x, w) with its parameter values w (options.parameters), and x_typical (given, or the
+/// finite row of X0 of largest norm) is extended with each parameter's value of largest magnitude over the rows.
 EnsembleResult integrate_ensemble(const Scheme& scheme, const Eigen::Ref<const RowMatrix>& X0, double dt, double t_end,
                                   const EnsembleOptions& options = {});
 

@@ -32,7 +32,7 @@ struct TypicalSize {
     /// each parameter of the same sign and at most twice the magnitude (a build costs 10-80 ms for the rigid body at
     /// k = 4-10, so a sweep of single runs must not make one per value). The build sizes its realisation's
     /// truncation by the sizes of the terms at these magnitudes (poisson/detail/truncation_degree), a bound for
-    /// every state it serves, up to the factor 2 that the step's own truncation check covers with room to spare.
+    /// every state of at most these magnitudes; the factor 2 is left to the step's own truncation check.
     /// Per coordinate, not by |x|_inf: a build at x = (0, 1), where a bracket x^2 + x y vanishes, served
     /// (0.5, 0.5) and failed there (truncation above its bound). Not across a parameter's sign: the predictor's
     /// order is chosen from values, where e x^2 + 5 x^2 at e = -5 cancels.
@@ -47,7 +47,7 @@ struct TypicalSize {
     }
 };
 
-// A compiled step and what it serves: its own dt, typical states up to twice its own.
+// A compiled step and what it serves: its own dt, the typical states its TypicalSize covers.
 struct StepperEntry {
     StepOptions options;
     TypicalSize size;  // of the build's x_typical

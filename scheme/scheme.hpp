@@ -141,15 +141,15 @@ public:
     /// The compiled step for steps of dt, its realisation degree and predictor chosen at dt and the
     /// typical state x_typical (NewtonStepper::build, from this scheme's realisation and S_1..S_k), returned
     /// as a copy of its own (a stepper holds scratch, so each caller steps its own) whose dt() is dt. A build
-    /// serves its own dt and every typical state up to twice its own in norm (over the coordinates that move,
-    /// PoissonStructure::moving_dimension), with each parameter of the same sign and up to twice its magnitude;
-    /// another dt, a larger state or value, or another sign builds again. The exact phase (the realisation, S_1..S_k) is the scheme's, computed once: a build at another dt only
-    /// sums and compiles S_dt's maps at that dt and chooses the predictor and the truncations for it, a few
-    /// milliseconds for the bundled scenes (each dt's step then costs what it costs at its own dt: a build's
-    /// run-time dt below its own runs the stacked S_j and Horner, up to twice the time). At most
-    /// stepper_cache_size builds are kept (the least recently used is dropped). Throws what require_valid
-    /// throws first: S_1..S_k (terms(), modified_hamiltonian(), every stepper) exist only for a valid scheme.
-    /// Native code as the scheme's jit policy says (always: NativeCodeError if it cannot be built).
+    /// serves its own dt and every typical state whose every moving coordinate (PoissonStructure::moving_dimension)
+    /// is at most twice its own in magnitude, with each parameter of the same sign and up to twice its magnitude;
+    /// another dt, a larger state or value, or another sign builds again. The exact phase (the realisation, S_1..S_k)
+    /// is the scheme's, computed once: a build at another dt only sums and compiles S_dt's maps at that dt and chooses
+    /// the predictor and the truncations for it, a few milliseconds for the bundled scenes (each dt's step then costs
+    /// what it costs at its own dt: a build's run-time dt below its own runs the stacked S_j and Horner, up to twice
+    /// the time). At most stepper_cache_size builds are kept (the least recently used is dropped). Throws what
+    /// require_valid throws first: S_1..S_k (terms(), modified_hamiltonian(), every stepper) exist only for a valid
+    /// scheme. Native code as the scheme's jit policy says (always: NativeCodeError if it cannot be built).
     NewtonStepper stepper(double dt, const Eigen::VectorXd& x_typical) const;
     /// The same with the step's tuning (predictor_order, max_degree, Newton's and the truncation's bounds)
     /// from opt; opt.k and opt.realisation are the scheme's (InputError if they differ), opt.dt is dt.

@@ -247,10 +247,10 @@ TEST_CASE("parameters: an ensemble sweeps one value per trajectory, equal to the
     CHECK(s.stats().terms_builds == 1);
 }
 
-// An ensemble builds one step for all its rows: at the typical coordinates (each one.s largest magnitude) with each
-// parameter at its largest magnitude over the rows. Built at the row of largest norm, coordinates and parameters
-// together, a row with three times the others' coordinates beside one whose parameter a is 1000 got a step sized for
-// the small coordinates, and ended truncation_above_bound (a e = 1/2 in both: the same flow).
+// An ensemble builds one step for all its rows: at the typical coordinates (the largest row's) with each parameter at
+// its largest magnitude over the rows. Built at the row of largest norm, coordinates and parameters together, a row
+// with three times the others' coordinates beside one whose parameter a is 1000 got a step sized for the small
+// coordinates, and ended truncation_above_bound (a e = 1/2 in both: the same flow).
 TEST_CASE("parameters: an ensemble's step is sized for its largest coordinates and its largest parameters at once") {
     SchemeValues v;
     v.coordinates = {"x1", "x2", "x3"};

@@ -262,3 +262,18 @@ TEST_CASE("Scheme: a step built where the bracket's terms vanish or cancel still
         for (std::size_t i = 0; i < again.x.size(); ++i) CHECK(std::abs(again.x[i] - alone.x[i]) < 1e-13);
     }
 }
+
+// {x, y} = x^2 + y^2 with H = |x|^2/2 from (2, 1): p = grad S_dt is nearly parallel to x at every state, where the
+// values of the neglected parts cancel; sized by them the build chose D = 5, and the run ended "ok" off by 1.1e-4.
+TEST_CASE("Scheme: a truncated realisation is sized by its terms where their values cancel along the run") {
+    const Eigen::Vector2d start(2.0, 1.0);
+    const Trajectory own = integrate(Scheme(test::radial_plane("x^2 + y^2")), start, 0.1, 1.0);
+    // the same run, its step built for three times the state's magnitudes: a degree well past what either needs
+    const Trajectory wide =
+        integrate(Scheme(test::radial_plane("x^2 + y^2")), start, 0.1, 1.0, 1, Eigen::Vector2d(3.0, 3.0));
+    REQUIRE(own.status == StepStatus::ok);
+    REQUIRE(wide.status == StepStatus::ok);
+    REQUIRE(own.x.size() == wide.x.size());
+    // ten steps of two methods that each solve to round-off: |x| ~ 2, a few ulps a step
+    for (std::size_t i = 0; i < own.x.size(); ++i) CHECK(std::abs(own.x[i] - wide.x[i]) < 1e-13);
+}

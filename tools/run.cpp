@@ -36,7 +36,7 @@ NewtonStepper build_stepper(const Scene& scene) {
     if (s.info().truncation_estimate > 1e-15)
         std::cerr << fmt::format(
             "pgi: {}: warning: the {} realisation truncated at p-degree {} leaves terms of relative size "
-            "{:.1e} at x0: the step is Poisson only to that accuracy (reduce dt)\n",
+            "{:.1e} at x0's magnitudes: the step is Poisson only to that accuracy (reduce dt)\n",
             scene.file.string(), s.info().method, s.info().degree, s.info().truncation_estimate);
     return s;
 }

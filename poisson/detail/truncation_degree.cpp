@@ -27,7 +27,7 @@ std::vector<double> component_sizes(const Realisation& r, const std::vector<doub
     return a;
 }
 
-// The geometric decay of the sizes a[m] = |A_m|/|x| measured through the probe's degree, fitted on the last
+// The geometric decay of the sizes a[m] (component_sizes) measured through the probe's degree, fitted on the last
 // four non-zero ones, extrapolated past it: a[last] rho^(m - last); infinite while no decay is seen, zero
 // once the series has ended (two measured degrees past the last non-zero one).
 class Decay {

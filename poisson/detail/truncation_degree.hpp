@@ -33,10 +33,9 @@ struct StepRealisation {
     bool simplified_newton = true;
 };
 
-/// Where the build sizes a truncated realisation: every state the step serves (Scheme's stepper cache: moving
-/// coordinates up to its scale, each parameter up to its magnitude), and the momenta there.
+/// Where the build sizes a truncated realisation: the typical state's magnitudes, and the momenta's there.
 struct SizePoint {
-    Eigen::VectorXd x;  // the moving coordinates at the typical state's scale, the others at their magnitudes
+    Eigen::VectorXd x;  // |x_typical|, each coordinate (a scheme's parameters too)
     Eigen::VectorXd p;  // the sizes of grad S_dt's terms at x (its gradient_size map at the build's dt)
 };
 

@@ -589,8 +589,8 @@ class Scheme:
         steps, on `threads` cores (default: all), the GIL released; returns an EnsembleResult. Each row's
         numbers equal integrate(row, dt, t_end, x_typical=result.x_typical) bit for bit, whatever threads and
         chunk (trajectories per task) and batch (trajectories stepped together, structure of arrays; 1: one
-        at a time; default 16 below 40 coordinates, else 1). The step is built once, at x_typical (default: each coordinate's largest
-        magnitude over the finite rows). A row that is not finite or a step that fails ends that trajectory with its status (the one its
+        at a time; default 16 below 40 coordinates, else 1). The step is built once, at x_typical (default: the finite row of largest
+        norm). A row that is not finite or a step that fails ends that trajectory with its status (the one its
         single run ends with); nothing is raised for it. Raises ValueError (before any work) for X0 of the
         wrong shape or dtype, ResourceLimitError above max_steps (default 1e8) steps per trajectory or
         max_output_mb (default 1024) MB of results. Ctrl-C stops it (KeyboardInterrupt) within a step.
@@ -627,8 +627,7 @@ class Scheme:
                                    recording=_recording(every, t_eval, events, event_samples, tangent))
 
     def typical_state(self, X0):
-        """The state integrate_ensemble builds its step at by default: each coordinate's largest magnitude over the
-        finite rows of X0 (None if none is finite)."""
+        """The row integrate_ensemble builds its step at by default: the finite row of largest norm (None if none)."""
         return self._core._typical_state(_states(X0))
 
     def stats(self):
