@@ -305,6 +305,7 @@ RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) 
     e.C_ = structure_matrices(pi);
     // the even Bernoulli coefficients b_2j = B_2j/(2j)!, j = 1..20, for h(s) near s = 0
     for (std::size_t j = 1; j <= 20; ++j) e.b_.push_back((bernoulli(2 * j) * inverse_factorial(2 * j)).to_double());
+    for (std::size_t j = 1; j < 20; ++j) e.b_.push_back(-double(j) * e.b_[j]);  // h's derivative (rotation_coefficient)
     const int a = (*block)[0], b = (*block)[1], c = (*block)[2];
     for (std::size_t j = 0; j < 3; ++j) {  // once here, not at every evaluation
         const Eigen::MatrixXd& C = e.C_[std::size_t((*block)[j])];
@@ -313,6 +314,11 @@ RealisationEvaluator RealisationEvaluator::rotation(const PoissonStructure& pi) 
         e.axial_[j][1] = C(a, c);
         e.axial_[j][2] = C(b, a);
     }
+    const double s = e.axial_[0][0];
+    bool axes = s == 1 || s == -1;
+    for (std::size_t j = 0; j < 3; ++j)
+        for (std::size_t i = 0; i < 3; ++i) axes = axes && e.axial_[j][i] == (i == j ? s : 0.0);
+    e.axial_sign_ = axes ? s : 0;
     e.pattern_x_ = e.pattern_p_ = SparsePattern::dense(e.n_, e.n_);
     e.dense_ = RealisationValues(e.n_);
     return e;

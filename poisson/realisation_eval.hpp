@@ -178,8 +178,11 @@ private:
     SparsePattern pattern_x_, pattern_p_;
     mutable RealisationValues dense_;  // Lie-Poisson forms: evaluated dense, then gathered on the (full) patterns
     std::vector<Eigen::MatrixXd> C_;   // Lie-Poisson: C_[j](i, k) = c_ij^k = dL(p)/dp_j
-    std::vector<double> b_;            // Lie-Poisson: B_m / m!, m = 0..D; rotation: B_2j / (2j)!, j = 1..20
+    // Lie-Poisson: B_m / m!, m = 0..D; rotation: b_2j = B_2j / (2j)!, j = 1..20, then -j b_2(j+1), j = 1..19 (the
+    // derivative's coefficients of h(s) = sum_j b_2j (-s)^(j-1))
+    std::vector<double> b_;
     double axial_[3][3] = {};   // rotation: the axial vector c_j of each C_j (C_j v = c_j x v), read at every step
+    double axial_sign_ = 0;     // rotation: s where every c_j = s e_j (s = +-1: so(3) itself), else 0
     int block_[3] = {0, 1, 2};  // rotation: the coordinates of its three non-zero rows, in order
     std::vector<double> q_;     // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
     double radius_ = 0;         // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off

@@ -61,34 +61,36 @@ PGI_LANE_INLINE T estrin(const double* c, const T& u) {
     return estrin_levels<(J + 1) / 2>(q, u * u);
 }
 
-// sum_{j<J} b[j] (-s)^j and (with_derivative) its derivative in s.
+// sum_{j<J} b[j] (-s)^j and (with_derivative) its derivative in s, sum_{j<J-1} d[j] (-s)^j with d[j - 1] = -j b[j]
+// (RealisationEvaluator::rotation keeps them after b).
 template <bool with_derivative, std::size_t J, class T>
-PGI_LANE_INLINE void bernoulli_sum(const std::vector<double>& b, const T& s, T& h, T& dh) {
+PGI_LANE_INLINE void bernoulli_sum(const double* b, const double* d, const T& s, T& h, T& dh) {
     const T minus_s = -s;
-    h = estrin<J>(b.data(), minus_s);
-    if constexpr (with_derivative) {
-        double d[J - 1];  // d/ds b[j] (-s)^j = -j b[j] (-s)^(j-1)
-        for (std::size_t j = 1; j < J; ++j) d[j - 1] = -double(j) * b[j];
-        dh = estrin<J - 1>(d, minus_s);
-    }
+    h = estrin<J>(b, minus_s);
+    if constexpr (with_derivative) dh = estrin<J - 1>(d, minus_s);
 }
 
-// h(s) = sum_{j>=1} b_2j (-s)^(j-1) and dh/ds (b = b_2, b_4, ..., b_40): its terms fall like (s / 4 pi^2)^j, so
-// for s <= 1/4 ten terms leave tails below 2^-58 of h and of dh, and for s <= 4 twenty do; in closed form beyond.
-// A polynomial of fixed degree on each interval, chosen by each lane's own s (each evaluated only when some lane
-// needs it). dh only with_derivative (the acceptance test reads h alone).
+// h(s) = sum_{j>=1} b_2j (-s)^(j-1) and dh/ds (b = b_2, b_4, ..., b_40, then dh's coefficients): its terms fall like
+// (s / 4 pi^2)^j, so for s <= 1/4 ten terms leave tails below 2^-58 of h and of dh (6e-23 and 2e-19 of b_2 and b_4),
+// for s <= 1 thirteen (1e-21, 9e-19) and for s <= 4 twenty (8e-21, 2e-18); in closed form beyond. A polynomial of
+// fixed degree on each interval, chosen by each lane's own s (each evaluated only when some lane needs it). dh only
+// with_derivative (the acceptance test reads h alone).
 template <bool with_derivative, class T>
 void rotation_coefficient(T s, const std::vector<double>& b, T& h, T& dh) {
-    constexpr std::size_t short_terms = 10, long_terms = 20;  // b holds long_terms (RealisationEvaluator::rotation)
-    const auto longer = lanes::both(s > 0.25, s <= 4.0);
+    constexpr std::size_t short_terms = 10, middle_terms = 13, long_terms = 20;  // b holds long_terms, then dh's
+    const double* d = b.data() + long_terms;
+    const auto middle = lanes::both(s > 0.25, s <= 1.0), longer = lanes::both(s > 1.0, s <= 4.0);
     h = dh = T{};
-    if (!lanes::all(longer)) bernoulli_sum<with_derivative, short_terms>(b, s, h, dh);
-    if (lanes::any(longer)) {
-        T hl, dhl;
-        bernoulli_sum<with_derivative, long_terms>(b, s, hl, dhl);
-        h = lanes::select(longer, hl, h);
-        if constexpr (with_derivative) dh = lanes::select(longer, dhl, dh);
-    }
+    if (!lanes::all(lanes::either(middle, longer))) bernoulli_sum<with_derivative, short_terms>(b.data(), d, s, h, dh);
+    const auto interval = [&](const auto& in, auto terms) {
+        if (!lanes::any(in)) return;
+        T hi, dhi;
+        bernoulli_sum<with_derivative, decltype(terms)::value>(b.data(), d, s, hi, dhi);
+        h = lanes::select(in, hi, h);
+        if constexpr (with_derivative) dh = lanes::select(in, dhi, dh);
+    };
+    interval(middle, std::integral_constant<std::size_t, middle_terms>{});
+    interval(longer, std::integral_constant<std::size_t, long_terms>{});
     const auto closed = lanes::negate(s <= 4.0);
     if (!lanes::any(closed)) return;
     for (std::size_t w = 0; w < lanes::lanes_of<T>; ++w) {
@@ -121,19 +123,40 @@ template <class T>
 PGI_LANE_INLINE Vec3<T> cross(const double* c, const Vec3<T>& a) {  // c x a, c constant
     return {{c[1] * a.v[2] - c[2] * a.v[1], c[2] * a.v[0] - c[0] * a.v[2], c[0] * a.v[1] - c[1] * a.v[0]}};
 }
+// sign e_j x a (so(3) itself: c_j = sign e_j), the generic cross's values without its products by zero
+template <class T>
+PGI_LANE_INLINE Vec3<T> axis_cross(int j, double sign, const Vec3<T>& a) {
+    const T zero{};
+    switch (j) {
+        case 0:
+            return {{zero, sign * -a.v[2], sign * a.v[1]}};
+        case 1:
+            return {{sign * a.v[2], zero, sign * -a.v[0]}};
+        default:
+            return {{sign * -a.v[1], sign * a.v[0], zero}};
+    }
+}
 template <class T>
 PGI_LANE_INLINE Vec3<T> cross(const Vec3<T>& b, const Vec3<T>& a) {  // b x a
     return {{b.v[1] * a.v[2] - b.v[2] * a.v[1], b.v[2] * a.v[0] - b.v[0] * a.v[2], b.v[0] * a.v[1] - b.v[1] * a.v[0]}};
 }
 
-// The so(3) form's common part at (x, p): L(p) v = w x v with w = sum_j p_j c_j (c_j the axial vector of C_j),
-// s = |w|^2 = |L|_F^2 / 2, and L x, L^2 x.
+// L(p)'s axial vector w = sum_j p_j c_j (c_j the axial vector of C_j): sign p where every c_j = sign e_j.
+template <class T>
+PGI_LANE_INLINE Vec3<T> axial_vector(const double (&c)[3][3], double sign, const T* p) {
+    Vec3<T> w;
+    for (int i = 0; i < 3; ++i) w.v[i] = sign != 0 ? sign * p[i] : (p[0] * c[0][i] + p[1] * c[1][i]) + p[2] * c[2][i];
+    return w;
+}
+
+// The so(3) form's common part at (x, p): L(p) v = w x v with w = axial_vector, s = |w|^2 = |L|_F^2 / 2, and L x,
+// L^2 x.
 template <class T>
 struct RotationAt {
     Vec3<T> w, X, Lx, L2x;
     T s;
-    [[gnu::always_inline]] RotationAt(const double (&c)[3][3], const T* x, const T* p) {
-        for (int i = 0; i < 3; ++i) w.v[i] = (p[0] * c[0][i] + p[1] * c[1][i]) + p[2] * c[2][i];
+    [[gnu::always_inline]] RotationAt(const double (&c)[3][3], double sign, const T* x, const T* p) {
+        w = axial_vector(c, sign, p);
         s = (w.v[0] * w.v[0] + w.v[1] * w.v[1]) + w.v[2] * w.v[2];
         X = {{x[0], x[1], x[2]}};
         Lx = cross(w, X);
@@ -148,7 +171,7 @@ struct RotationAt {
 // 2 w . c_j), delta = L x.
 template <class T>
 void RealisationEvaluator::rotation_eval(const T* x3, const T* p3, T* alpha, T* delta, T* alpha_x, T* alpha_p) const {
-    const RotationAt<T> r(axial_, x3, p3);
+    const RotationAt<T> r(axial_, axial_sign_, x3, p3);
     T h, dh;
     rotation_coefficient<true>(r.s, b_, h, dh);
     const T diagonal = 1.0 - h * r.s;
@@ -161,10 +184,13 @@ void RealisationEvaluator::rotation_eval(const T* x3, const T* p3, T* alpha, T* 
             alpha_x[i + 3 * k] = ((i == k ? diagonal : T{}) - 0.5 * L_ik) + h * (r.w.v[i] * r.w.v[k]);
         }
     }
+    const double sign = axial_sign_;
     for (int j = 0; j < 3; ++j) {
         const double* c = axial_[j];
-        const Vec3<T> Cx = cross(c, r.X), a = cross(c, r.Lx), b = cross(r.w, Cx);
-        const T slope = dh * (2.0 * ((r.w.v[0] * c[0] + r.w.v[1] * c[1]) + r.w.v[2] * c[2]));
+        const Vec3<T> Cx = sign != 0 ? axis_cross(j, sign, r.X) : cross(c, r.X),
+                      a = sign != 0 ? axis_cross(j, sign, r.Lx) : cross(c, r.Lx), b = cross(r.w, Cx);
+        const T w_c = sign != 0 ? sign * r.w.v[j] : (r.w.v[0] * c[0] + r.w.v[1] * c[1]) + r.w.v[2] * c[2];
+        const T slope = dh * (2.0 * w_c);
         for (int i = 0; i < 3; ++i) alpha_p[i + 3 * j] = (-0.5 * Cx.v[i] + h * (a.v[i] + b.v[i])) + slope * r.L2x.v[i];
     }
 }
@@ -172,7 +198,7 @@ void RealisationEvaluator::rotation_eval(const T* x3, const T* p3, T* alpha, T* 
 // so(3) on its three coordinates: alpha and delta as rotation_eval, the sizes of alpha's three terms.
 template <class T>
 void RealisationEvaluator::rotation_check(const T* x3, const T* p3, T* alpha, T* delta, T* size, T* shift) const {
-    const RotationAt<T> r(axial_, x3, p3);
+    const RotationAt<T> r(axial_, axial_sign_, x3, p3);
     T h, dh;
     rotation_coefficient<false>(r.s, b_, h, dh);
     for (int i = 0; i < 3; ++i) {
@@ -186,8 +212,7 @@ void RealisationEvaluator::rotation_check(const T* x3, const T* p3, T* alpha, T*
 // so(3) on its three coordinates: delta = L x = w x x (RotationAt's Lx).
 template <class T>
 void RealisationEvaluator::rotation_delta(const T* x3, const T* p3, T* delta) const {
-    Vec3<T> w;
-    for (int i = 0; i < 3; ++i) w.v[i] = (p3[0] * axial_[0][i] + p3[1] * axial_[1][i]) + p3[2] * axial_[2][i];
+    const Vec3<T> w = axial_vector(axial_, axial_sign_, p3);
     const Vec3<T> Lx = cross(w, Vec3<T>{{x3[0], x3[1], x3[2]}});
     for (int i = 0; i < 3; ++i) delta[i] = Lx.v[i];
 }

@@ -42,8 +42,8 @@ TEST_CASE("realisation_eval: the so(3)* closed form equals the Bernoulli series,
         const auto series = RealisationEvaluator::lie_poisson(pi, 60);
         std::mt19937 gen(3);
         std::normal_distribution<double> normal;
-        // theta = |L|: the series branch of h (s = theta^2 <= 4) and the closed-form branch
-        for (double theta : {1e-8, 1e-3, 0.3, 1.0, 1.99, 2.01, 2.5}) {
+        // theta = |L|: each series branch of h (s = theta^2 up to 1/4, 1 and 4, and their ends) and the closed form
+        for (double theta : {1e-8, 1e-3, 0.3, 0.5, 0.7, 1.0, 1.2, 1.99, 2.01, 2.5}) {
             CAPTURE(theta);
             const Eigen::Vector3d x(normal(gen), normal(gen), normal(gen));
             Eigen::Vector3d p(normal(gen), normal(gen), normal(gen));
