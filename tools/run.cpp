@@ -33,11 +33,13 @@ NewtonStepper build_stepper(const Scene& scene) {
     NewtonStepper s =
         scene.scheme->stepper(scene.dt, to_vector(require_x0(scene)));  // the scheme carries k, realisation, jit
     // NOTE: said on stderr, never silently: past the series' range the step is not Poisson to round-off.
-    if (s.info().truncation_estimate > 1e-15)
+    // (an infinite estimate: the terms' sizes did not decay through the degrees measured; JSON writes it as null)
+    if (const double left = s.info().truncation_estimate; left > 1e-15)
         std::cerr << fmt::format(
-            "pgi: {}: warning: the {} realisation truncated at p-degree {} leaves terms of relative size "
-            "{:.1e} at x0's magnitudes: the step is Poisson only to that accuracy (reduce dt)\n",
-            scene.file.string(), s.info().method, s.info().degree, s.info().truncation_estimate);
+            "pgi: {}: warning: the {} realisation truncated at p-degree {} leaves terms of relative size {} at x0's "
+            "magnitudes: the step is Poisson only to that accuracy (reduce dt)\n",
+            scene.file.string(), s.info().method, s.info().degree,
+            std::isfinite(left) ? fmt::format("{:.1e}", left) : std::string("unknown (no decay seen)"));
     return s;
 }
 
