@@ -124,7 +124,7 @@ NewtonStepper NewtonStepper::build(const PoissonStructure& pi, const std::vector
     const double scale = std::max(s.state_norm(x_typical), std::numeric_limits<double>::min());
     s.in_->gradient_ = compile_gradient(M, S, opt.dt, newton_matrix_truncation(pi, opt, x_typical), zero_rows(pi));
 
-    // the truncation degree (and evaluator), sized at every state the step serves: docs/math.md 4 and 6
+    // the truncation degree (and evaluator), sized by its terms at x_typical's magnitudes: docs/math.md 4 and 6
     Eigen::VectorXd p0(static_cast<Eigen::Index>(n));
     s.in_->gradient_.gradient.eval(x_typical.data(), opt.dt, p0.data());
     SizePoint sizes{x_typical.cwiseAbs(), Eigen::VectorXd(static_cast<Eigen::Index>(n))};
