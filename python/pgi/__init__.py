@@ -597,7 +597,10 @@ class Scheme:
 
         parameters: {name: value or (m,) array}: the scheme's parameter values, one for every trajectory or one per
         row of X0 (a sweep in one call; the defaults for those not given). x_typical (n values) is extended with the
-        value of largest magnitude over the rows of each parameter; result.x_typical holds its coordinates.
+        value of largest magnitude over the rows of each parameter; result.x_typical holds its coordinates. A row's
+        single run then shares its bits when it runs on the same Scheme, which keeps the ensemble's step and serves
+        it to a row whose every value has the sign of the one the step was built at (a row of another sign, or a
+        fresh Scheme, builds a step of its own: the same numbers to round-off, not bit for bit).
 
         Recording, each trajectory as its single run integrate(row, ..., x_typical=result.x_typical) records it, bit
         for bit (the trajectories then run one at a time per thread: batch does not apply):
