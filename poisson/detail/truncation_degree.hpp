@@ -42,9 +42,10 @@ struct SizePoint {
 /// A closed form where there is one (log-canonical; so(3)*-type; any other Lie-Poisson structure by its
 /// series to the degree whose tail is below round-off at p0 = grad S_dt(x_typical), scaling and squaring beyond),
 /// otherwise the compiled series truncated at the smallest D whose neglected terms are below round-off (capped at
-/// opt.max_degree), measured as the sizes of their terms at `sizes` (term_size): a bound at every state it
-/// covers, whatever their signs, where values at the typical state cancel (a coordinate at 0, a x^2 - b x^2 at
-/// a = b) and a build reused at another state failed on its truncation. probe: the realisation at probe_degree,
+/// opt.max_degree), measured as the sizes of their terms at `sizes` (term_size): a bound at every state of at most
+/// those magnitudes, whatever their signs, where values at the typical state cancel ((x + y)^2 at (1, -1),
+/// a x^2 - b x^2 at a = b) and a run ended "ok" off, or a build reused at another state failed on its truncation.
+/// (A coordinate at 0 bounds only states where it is 0: Scheme's stepper cache serves per coordinate.) probe: the realisation at probe_degree,
 /// deepened in place from source when D needs it, "below round-off" relative to scale (the size of x_typical's
 /// moving coordinates).
 StepRealisation step_realisation(const PoissonStructure& pi, const StepOptions& opt, RealisationPtr& probe,
