@@ -1,4 +1,5 @@
 #include "poisson/newton_step.hpp"
+#include "series/machine_code.hpp"
 
 #include "poisson/detail/newton_internals.hpp"
 #include "poisson/detail/truncation_degree.hpp"
@@ -460,15 +461,18 @@ void NewtonStepper::adopt_native() {
     native_tier_.reset();
 }
 
-// StepOptions::native at the build: always attaches now, automatic what the cache keeps (a tier for the rest).
+// StepOptions::native at the build: always attaches now, automatic what the cache keeps (a tier for the rest); either
+// writes machine code for the maps left without (series/machine_code.hpp).
 void NewtonStepper::attach_native(NativePolicy policy) {
     if (policy == NativePolicy::never) return;
     const std::vector<CompiledMap*> maps = compiled_maps();
     if (policy == NativePolicy::always) {
         native_maps_ = info_.native_maps = attach_native_code(maps);
+        info_.machine_code_maps = attach_machine_code(maps);
         return;
     }
     native_maps_ = info_.native_maps = attach_kept_native_code(maps);
+    info_.machine_code_maps = attach_machine_code(maps);
     if (NativeTier::estimated_build_seconds(maps) == 0) return;  // (every map native, or empty)
     native_tier_ = std::make_shared<NativeTier>(maps);
     native_countdown_ = native_sample_period;

@@ -43,6 +43,7 @@ struct StepInfo {
     NewtonSolver solver =
         NewtonSolver::dense;      // sparse: J, Hess S_dt and the realisation's derivatives on their patterns
     std::size_t native_maps = 0;  // the compiled maps that run native code (StepOptions::native), at the build
+    std::size_t machine_code_maps = 0;  // the others that run machine code written in memory (series/machine_code.hpp)
     std::size_t hessian_terms =
         0;  // the S_j the Newton matrix's Hess S_dt reads (k unless truncated: compile_gradient)
 };

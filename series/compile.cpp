@@ -712,8 +712,8 @@ static_assert(__STDCPP_DEFAULT_NEW_ALIGNMENT__ >= 16 && CompiledMap::group_width
 
 void CompiledMap::eval(const double* in, double* out) const {
     if (slow_) bind(in + (num_inputs_ - slow_));
-    if (native_) {
-        native_(in, term_coeff_.data(), group_coeff_.data(), out);
+    if (const NativeEval f = native_ ? native_ : machine_) {
+        f(in, term_coeff_.data(), group_coeff_.data(), out);
         const std::size_t O = num_outputs();
         if (!slow_ || std::all_of(out, out + O, [](double v) { return std::isfinite(v); })) return;
     }

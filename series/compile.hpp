@@ -113,6 +113,13 @@ public:
         native_library_ = std::move(library), native_ = f;
     }
     bool native() const { return native_ != nullptr; }
+    /// What eval runs where no native code is attached: machine code written in memory for this map's structure and
+    /// coefficients' zeros (series/machine_code.hpp), the same signature and bits; code keeps it alive (shared by the
+    /// copies of this map).
+    void attach_machine_code(std::shared_ptr<const void> code, NativeEval f) {
+        machine_code_ = std::move(code), machine_ = f;
+    }
+    bool machine_code() const { return machine_ != nullptr; }
     /// m points at once, structure of arrays: in[v m + j] is input v of point j, out[o m + j] is output o
     /// of point j. Every point's outputs are bit for bit eval()'s on it (the same operations in the same
     /// order, lane by lane; the loops over the points are the inner ones, which the compiler vectorises).
@@ -211,6 +218,8 @@ private:
     bool fours_ = false;  // eval() sums the groups on AVX2 (series/compile_avx2.cpp)
     std::shared_ptr<const void> native_library_;
     NativeEval native_ = nullptr;
+    std::shared_ptr<const void> machine_code_;
+    NativeEval machine_ = nullptr;
     void group_outputs();
     void split_sums();
     // term_monomial_ holding target numbers: made[target] its monomial, left and right the products

@@ -23,7 +23,10 @@ double NativeTier::estimated_build_seconds(const std::vector<CompiledMap*>& maps
 
 NativeTier::NativeTier(const std::vector<CompiledMap*>& maps, NativeOptions options)
     : options_(std::move(options)), build_ns_(estimated_build_seconds(maps, options_) * 1e9) {
-    threshold_ns_ = start_share * build_ns_;
+    const std::vector<std::size_t> todo = native_candidates(maps, options_);
+    const bool machine = std::any_of(todo.begin(), todo.end(), [&](std::size_t i) { return maps[i]->machine_code(); });
+    share_ = machine ? machine_code_share : interpreter_share;
+    threshold_ns_ = start_share * build_ns_ / (1 - share_);  // (spent (1 - share) >= start_share B)
 }
 
 bool NativeTier::spend(std::chrono::nanoseconds spent) {
@@ -31,11 +34,11 @@ bool NativeTier::spend(std::chrono::nanoseconds spent) {
     return double(total) >= threshold_ns_ && !starting_.load(std::memory_order_relaxed);
 }
 
-// The run's interpreted time left, R = steps per_step; native code arrives after about the build's estimate B and
-// saves (1 - native_share) of every interpreted second after it: (R - B)(1 - native_share) >= B.
+// The run's time left as it runs now, R = steps per_step; native code arrives after about the build's estimate B and
+// saves (1 - native_share()) of every second after it: (R - B)(1 - native_share()) >= B.
 bool NativeTier::repays(std::chrono::nanoseconds per_step, std::uint64_t steps) const {
     const double left_ns = double(per_step.count()) * double(steps);
-    return (left_ns - build_ns_) * (1 - native_share) >= build_ns_ && !starting_.load(std::memory_order_relaxed);
+    return (left_ns - build_ns_) * (1 - share_) >= build_ns_ && !starting_.load(std::memory_order_relaxed);
 }
 
 void NativeTier::start(const std::vector<CompiledMap*>& maps) {

@@ -22,8 +22,9 @@ public:
     /// start plus a time per term and monomial (the compiler's time grows with the source, NativeOptions::max_size),
     /// measured with pgi_bench_step --jit. 0 when every map that options would compile is native.
     static double estimated_build_seconds(const std::vector<CompiledMap*>& maps, const NativeOptions& options = {});
-    /// The build starts once the time sampled in the maps' steps reaches this share of the estimated build.
-    static constexpr double start_share = 0.5;
+    /// The build starts once the time native code would have saved over the sampled steps, (1 - native_share()) of
+    /// them, reaches this share of the estimated build (with the interpreter's share, after half the build's time).
+    static constexpr double start_share = 0.125;
 
     explicit NativeTier(const std::vector<CompiledMap*>& maps, NativeOptions options = {});
     NativeTier(const NativeTier&) = delete;
@@ -32,8 +33,13 @@ public:
     /// was started: the caller then start()s it. Allocates nothing.
     bool spend(std::chrono::nanoseconds spent);
     /// A step with native code takes at most this share of the interpreted step's time (measured 1/1.8 to 1/1.4 on
-    /// the bundled scenes at k = 10: docs/math.md 6).
-    static constexpr double native_share = 0.75;
+    /// the bundled scenes at k = 10: docs/math.md 6) ...
+    static constexpr double interpreter_share = 0.75;
+    /// ... and this share of the step with machine code (series/machine_code.hpp; measured 0.85-0.94 on the rigid
+    /// body, Lotka-Volterra and Henon-Heiles at k = 10, pgi_bench_step --jit against --default).
+    static constexpr double machine_code_share = 0.9;
+    /// The share for these maps: machine_code_share if any map the build would compile runs machine code.
+    double native_share() const { return share_; }
     /// Whether a run that will take `steps` more steps of `per_step` each (interpreted) repays a build started now: the
     /// time native code saves once the build is done (after about its estimate) is at least the build's estimate. No
     /// build was started yet. The caller then start()s it, before spend() would.
@@ -57,7 +63,7 @@ public:
 private:
     std::shared_ptr<NativeBuild> current() const;
     NativeOptions options_;
-    double threshold_ns_, build_ns_;
+    double share_, threshold_ns_, build_ns_;
     std::atomic<long long> spent_ns_{0};
     std::atomic<bool> starting_{false};
     mutable std::mutex mutex_;  // guards build_

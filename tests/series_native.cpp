@@ -38,27 +38,6 @@ NativeOptions test_options(const std::string& name) {
     return o;
 }
 
-// Outputs of every kind the interpreter has: empty, constant, short rows, long rows (the four sums and their
-// remainder), and groups of outputs sharing monomials (split into four partial sums with zero padding).
-std::vector<Poly> mixed_outputs(const RingPtr& r, std::mt19937& gen) {
-    std::uniform_int_distribution<long> coeff(-999, 999);
-    std::uniform_int_distribution<unsigned long> ex(0, 3);
-    const auto random_poly = [&](int terms) {
-        Poly f(r);
-        for (int t = 0; t < terms; ++t) {
-            Poly m = Poly::constant(r, Rational(coeff(gen), static_cast<unsigned long>(1 + std::abs(coeff(gen)))));
-            for (std::size_t v = 0; v < 3; ++v) m = m * pow(Poly::gen(r, v + 1), ex(gen));
-            f += m;
-        }
-        return f;
-    };
-    std::vector<Poly> outputs{Poly(r), Poly::constant(r, Rational(-7, 3))};
-    for (int terms : {1, 3, 5, 11, 30}) outputs.push_back(random_poly(terms));
-    const Poly shared = random_poly(40);
-    for (long c : {2, -3, 5, 7, -11}) outputs.push_back(Poly::constant(r, Rational(c, 8)) * shared + random_poly(2));
-    return outputs;
-}
-
 // The NativeCodeError that attaching map's native code with o raises (a test failure if there is none); the map stays
 // interpreted and nothing is left half-written in the cache directory, which is then removed.
 std::string native_code_error(CompiledMap& map, const NativeOptions& o) {
@@ -91,8 +70,8 @@ TEST_CASE(
         std::mt19937 gen(21);
         std::uniform_real_distribution<double> input(-2.0, 2.0);
         std::vector<CompiledMap> maps;
-        for (int trial = 0; trial < 4; ++trial) maps.push_back(CompiledMap::build(mixed_outputs(r, gen), {3, 1, 2}));
-        std::vector<Poly> rows = mixed_outputs(r, gen);
+        for (int trial = 0; trial < 4; ++trial) maps.push_back(CompiledMap::build(test::mixed_outputs(r, gen), {3, 1, 2}));
+        std::vector<Poly> rows = test::mixed_outputs(r, gen);
         rows.erase(rows.begin() + 7, rows.end());  // the outputs before the group: rows only, so fours save nothing
         maps.push_back(CompiledMap::build(rows, {3, 1, 2}));
         REQUIRE(maps.front().fours_pay());
@@ -151,7 +130,7 @@ TEST_CASE(
     "all, a coefficient that vanishes at some values and overflowing monomials included") {
     const auto r = make_ring({"unused", "a", "b", "c", "p", "q"});
     std::mt19937 gen(8);
-    const std::vector<Poly> base = mixed_outputs(r, gen);
+    const std::vector<Poly> base = test::mixed_outputs(r, gen);
     const Poly p = Poly::gen(r, 4), q = Poly::gen(r, 5), one = Poly::constant(r, Rational(1));
     // coefficients that are polynomials in p and q: p - 1 vanishes at p = 1, q^2 - p at q^2 = p
     std::vector<Poly> outputs;
@@ -296,7 +275,7 @@ TEST_CASE(
     "zero pattern builds its own") {
     const auto r = make_ring({"unused", "a", "b", "c"});
     std::mt19937 gen(5);
-    const std::vector<Poly> base = mixed_outputs(r, gen);
+    const std::vector<Poly> base = test::mixed_outputs(r, gen);
     // the same monomials with other coefficients (a scale per output, as another dt scales S_j): the same structure
     std::vector<Poly> scaled = base, zeroed = base;
     for (std::size_t o = 0; o < scaled.size(); ++o) scaled[o] = Poly::constant(r, Rational(long(o) - 5, 7)) * base[o];

@@ -3,6 +3,7 @@
 // without changing a bit of the trajectory; no compiler means an interpreted run and a failure that names it.
 #include "poisson/integrate.hpp"
 #include "series/native_tier.hpp"
+#include "series/machine_code.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>
@@ -111,6 +112,7 @@ TEST_CASE("native tier: without a kept library a step starts interpreted, with o
     const TestCache cache("cold");
     NewtonStepper s = rigid_body_stepper(NativePolicy::automatic);
     CHECK(s.native_maps() == 0);
+    CHECK((s.info().machine_code_maps > 0) == machine_code_supported());  // (the interpreter's bits, checked below)
     REQUIRE(s.native_tier() != nullptr);
     NewtonStepper copy = s;
     CHECK(copy.native_tier() == s.native_tier());
@@ -146,16 +148,28 @@ TEST_CASE("native tier: past its share of the estimate it builds once, in the ba
     for (int i = 0; i < 3; ++i) CHECK(bits(a[i]) == bits(b[i]));
 }
 
-TEST_CASE("native tier: a run's expected length starts the build when the steps left repay it, and only then") {
+TEST_CASE("native tier: a run's expected length starts the build when the steps left repay it, and only then; machine "
+          "code saves more of them") {
     CompiledMap map = some_map();
-    const NativeTier tier({&map});
     const double build_ns = NativeTier::estimated_build_seconds({&map}) * 1e9;
     REQUIRE(build_ns > 0);
-    // repaid once (R - B)(1 - native_share) >= B: R >= B (1 + 1 / (1 - native_share))
-    const double enough_ns = build_ns * (1 + 1 / (1 - NativeTier::native_share));
-    const std::chrono::nanoseconds per_step(1000);
-    CHECK(tier.repays(per_step, std::uint64_t(1.01 * enough_ns / 1000)));
-    CHECK_FALSE(tier.repays(per_step, std::uint64_t(0.99 * enough_ns / 1000)));
+    const auto check_repaid = [&](const NativeTier& tier, double share) {
+        CHECK(tier.native_share() == share);
+        // repaid once (R - B)(1 - native_share) >= B: R >= B (1 + 1 / (1 - native_share))
+        const double enough_ns = build_ns * (1 + 1 / (1 - share));
+        const std::chrono::nanoseconds per_step(1000);
+        CHECK(tier.repays(per_step, std::uint64_t(1.01 * enough_ns / 1000)));
+        CHECK_FALSE(tier.repays(per_step, std::uint64_t(0.99 * enough_ns / 1000)));
+    };
+    check_repaid(NativeTier({&map}), NativeTier::interpreter_share);
+    if (!attach_machine_code(map)) return;
+    // the same maps running machine code: a build repays later, and starts after more sampled time
+    NativeTier tier({&map});
+    check_repaid(tier, NativeTier::machine_code_share);
+    const auto interpreted_threshold =
+        std::chrono::nanoseconds(std::int64_t(NativeTier::start_share * build_ns / (1 - NativeTier::interpreter_share)));
+    CHECK_FALSE(tier.spend(interpreted_threshold));
+    CHECK(tier.spend(3 * interpreted_threshold));
 }
 
 TEST_CASE("native tier: a long run integrate_steps drives starts the build at its first timed step; a short one not") {

@@ -3,6 +3,7 @@
 #include "scheme/scene.hpp"
 
 #include <filesystem>
+#include <random>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -68,6 +69,27 @@ inline SchemeValues radial_plane(const std::string& bracket, const std::string& 
     v.order = 4;
     v.realisation = "radial";
     return v;
+}
+
+/// Outputs of every kind the interpreter has: empty, constant, short rows, long rows (the four sums and their
+/// remainder), and groups of outputs sharing monomials (split into four partial sums with zero padding).
+inline std::vector<Poly> mixed_outputs(const RingPtr& r, std::mt19937& gen) {
+    std::uniform_int_distribution<long> coeff(-999, 999);
+    std::uniform_int_distribution<unsigned long> ex(0, 3);
+    const auto random_poly = [&](int terms) {
+        Poly f(r);
+        for (int t = 0; t < terms; ++t) {
+            Poly m = Poly::constant(r, Rational(coeff(gen), static_cast<unsigned long>(1 + std::abs(coeff(gen)))));
+            for (std::size_t v = 0; v < 3; ++v) m = m * pow(Poly::gen(r, v + 1), ex(gen));
+            f += m;
+        }
+        return f;
+    };
+    std::vector<Poly> outputs{Poly(r), Poly::constant(r, Rational(-7, 3))};
+    for (int terms : {1, 3, 5, 11, 30}) outputs.push_back(random_poly(terms));
+    const Poly shared = random_poly(40);
+    for (long c : {2, -3, 5, 7, -11}) outputs.push_back(Poly::constant(r, Rational(c, 8)) * shared + random_poly(2));
+    return outputs;
 }
 
 }  // namespace pgi::test

@@ -3,7 +3,7 @@
 # extras), if any is missing. Idempotent; needs root or sudo.  Usage: bash tools/deps.sh [PACKAGE...]
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libflint-dev libmpfr-dev libgmp-dev libeigen3-dev libtbb-dev doctest-dev
-          libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libfmt-dev libmimalloc-dev pybind11-dev python3-dev python3-numpy
+          libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libfmt-dev libmimalloc-dev libxbyak-dev pybind11-dev python3-dev python3-numpy
           python3-pytest "$@")
 missing=()
 for p in "${packages[@]}"; do

@@ -3,10 +3,11 @@
 // system (F and J), and step time over one evaluation of the vector field pi grad H compiled the same way.
 // Also the alternatives to the Taylor predictor and to a fresh Jacobian per step (Alternatives below): the predictor's
 // miss, extrapolation's, the Jacobian's drift from step to step and one residual evaluation's time.
-// Prints one JSON object per line. Usage: pgi_bench_step SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER] [--jit]
-// [--dt DT]
-// (--dt: instead of the scene's; --jit: the step's maps as native code, StepOptions::jit; its compilation is in
-// build_seconds).
+// Prints one JSON object per line. Usage: pgi_bench_step SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER]
+// [--jit | --default] [--dt DT]
+// (--dt: instead of the scene's; --jit: the step's maps as native code, NativePolicy::always, its compilation in
+// build_seconds; --default: NativePolicy::automatic, machine code and what the cache keeps, no build; neither: the
+// interpreter).
 #include "poisson/integrate.hpp"
 #include "poisson/predictor.hpp"
 #include "scheme/scene.hpp"
@@ -95,21 +96,23 @@ Alternatives alternatives(pgi::NewtonStepper& st, const std::vector<Eigen::Vecto
 }  // namespace
 
 int main(int argc, char** argv) {
-    // positional SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER], and the flags --jit and --dt DT anywhere
+    // positional SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER], and the flags --jit, --default and --dt DT anywhere
     std::vector<std::string> pos;
-    bool jit = false;
+    pgi::NativePolicy native = pgi::NativePolicy::never;
     std::optional<double> dt_asked;
     for (int a = 1; a < argc; ++a) {
         const std::string arg = argv[a];
         if (arg == "--jit")
-            jit = true;
+            native = pgi::NativePolicy::always;
+        else if (arg == "--default")
+            native = pgi::NativePolicy::automatic;
         else if (arg == "--dt" && a + 1 < argc)
             dt_asked = std::stod(argv[++a]);
         else
             pos.push_back(arg);
     }
     if (pos.empty()) {
-        std::cerr << "usage: pgi_bench_step SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER] [--jit] [--dt DT]\n";
+        std::cerr << "usage: pgi_bench_step SCENE [K_MAX | K_MIN:K_MAX] [STEPS] [PREDICTOR_ORDER] [--jit | --default] [--dt DT]\n";
         return 2;
     }
     pgi::Scene s = pgi::load_scene(pos[0]);
@@ -137,7 +140,7 @@ int main(int argc, char** argv) {
         opt.dt = s.dt;
         opt.realisation = s.realisation;
         opt.predictor_order = predictor;
-        opt.native = jit ? pgi::NativePolicy::always : pgi::NativePolicy::never;
+        opt.native = native;
         auto t0 = Clock::now();
         s.phase_space().ring()->budget().restart();                         // each build has the whole time budget
         const pgi::Scheme scheme(s.pi, s.H, s.casimirs, k, s.realisation);  // the scene's problem at order k
@@ -177,6 +180,7 @@ int main(int argc, char** argv) {
                                     {"dt", s.dt},
                                     {"realisation", st.info().method},
                                     {"native_maps", st.info().native_maps},
+                                    {"machine_code_maps", st.info().machine_code_maps},
                                     {"degree", st.info().degree},
                                     {"predictor_order", st.info().predictor_order},
                                     {"ns_per_step", step_ns},

@@ -1,0 +1,31 @@
+#pragma once
+// Machine code for compiled maps, written in memory at once: no compiler, no file, no cache. A CompiledMap's tape as
+// x86-64 AVX instructions (Xbyak encodes them): the interpreter's index loads and loop control disappear, as in native
+// code (series/native.hpp), but the code exists microseconds after the map does, so every run gets it, however short.
+// Every output is formed by the interpreter's operations in the interpreter's order (the same monomial products, the
+// same four partial sums and their pairing, separate multiplies and adds), so the outputs are the interpreter's, bit
+// for bit, as native code's are. Native code, where the cache keeps it or a long run builds it, still runs first: the
+// compiler keeps values in registers where this code keeps every monomial in memory.
+#include "series/compile.hpp"
+
+#include <cstddef>
+#include <vector>
+
+namespace pgi {
+
+/// Whether this processor runs the machine code attach_machine_code writes (x86-64 with AVX).
+bool machine_code_supported();
+
+/// The most terms and monomials a map written as machine code holds: a larger one stays interpreted (its code, about
+/// 25 bytes a term, and its monomials, kept on the stack, would crowd the caches; native code's max_map_size).
+constexpr std::size_t machine_code_max_size = 3000;
+
+/// Writes map's evaluator as machine code and attaches it (CompiledMap::attach_machine_code), unless the map runs
+/// machine code already. Returns whether it runs machine code afterwards: false, the map left as it was, for a map
+/// without outputs or of more than machine_code_max_size terms and monomials, on a processor without AVX, or where
+/// the system refuses to make memory executable. Never throws but std::bad_alloc.
+bool attach_machine_code(CompiledMap& map);
+/// The same for each map that runs no native code; how many of maps run machine code afterwards.
+std::size_t attach_machine_code(const std::vector<CompiledMap*>& maps);
+
+}  // namespace pgi
