@@ -60,7 +60,7 @@ void note_native_failure(const Scene& scene, const NewtonStepper& s, json& r) {
     if (s.native_failure().empty()) return;
     const std::string why = s.native_failure().substr(0, s.native_failure().find('\n'));
     r["native_failure"] = why;
-    std::cerr << fmt::format("pgi: {}: note: native code could not be built, the run stayed interpreted: {}\n",
+    std::cerr << fmt::format("pgi: {}: note: native code could not be built, the run went on without it: {}\n",
                              scene.file.string(), why);
 }
 
@@ -73,6 +73,7 @@ json stepper_info(const Scene& scene, const NewtonStepper& s) {
             {"method_order", s.order()},
             {"predictor_order", s.info().predictor_order},
             {"native_maps", s.native_maps()},
+            {"machine_code_maps", s.info().machine_code_maps},
             {"hessian_terms", s.info().hessian_terms}};
 }
 
