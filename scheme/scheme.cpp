@@ -1,4 +1,5 @@
 #include "scheme/scheme.hpp"
+#include "series/machine_code.hpp"
 
 #include "magnus/modified_hamiltonian.hpp"
 #include "poisson/hamilton_jacobi.hpp"
@@ -372,12 +373,20 @@ SchemeStats Scheme::stats() const {
     return s;
 }
 
+// outputs compiled over the coordinates, with machine code unless the scheme's jit policy is never (the evaluators and
+// a run's invariants: evaluated at every step, they are worth the microseconds it takes).
+CompiledMap Scheme::compile_evaluator(const std::vector<Poly>& outputs) const {
+    CompiledMap map = CompiledMap::build(outputs, phase_space().coordinate_vars());
+    if (jit_ != NativePolicy::never) attach_machine_code(map);
+    return map;
+}
+
 // H, the Casimirs, then extra, compiled over the coordinates.
 CompiledMap Scheme::compile_invariants(const std::vector<Poly>& extra) const {
     std::vector<Poly> f{H_};
     f.insert(f.end(), casimirs_.begin(), casimirs_.end());
     f.insert(f.end(), extra.begin(), extra.end());
-    return CompiledMap::build(f, phase_space().coordinate_vars());
+    return compile_evaluator(f);
 }
 
 CompiledMap Scheme::invariants(const std::vector<Poly>& extra) const {
@@ -391,9 +400,8 @@ const CompiledMap& Scheme::invariants_map() const {
 
 const CompiledMap& Scheme::vector_field_map() const {
     std::lock_guard lock(cache_->mutex);
-    return built_once(cache_->vector_field, cache_->stats.evaluator_builds, [&] {
-        return CompiledMap::build(pi_.hamiltonian_vector_field(H_), phase_space().coordinate_vars());
-    });
+    return built_once(cache_->vector_field, cache_->stats.evaluator_builds,
+                      [&] { return compile_evaluator(pi_.hamiltonian_vector_field(H_)); });
 }
 
 const CompiledBrackets& Scheme::brackets_map() const {
@@ -407,7 +415,7 @@ const CompiledBrackets& Scheme::brackets_map() const {
                     entries.push_back(pi_(i, j));
                     b.entries.emplace_back(i, j);
                 }
-        b.map = CompiledMap::build(entries, phase_space().coordinate_vars());
+        b.map = compile_evaluator(entries);
         return b;
     });
 }
@@ -415,7 +423,7 @@ const CompiledBrackets& Scheme::brackets_map() const {
 const CompiledMap& Scheme::modified_hamiltonian_map(std::size_t upto) const {
     std::lock_guard lock(cache_->mutex);
     return built_once(cache_->modified_maps[upto], cache_->stats.evaluator_builds,
-                      [&] { return CompiledMap::build(modified_hamiltonian(upto), phase_space().coordinate_vars()); });
+                      [&] { return compile_evaluator(modified_hamiltonian(upto)); });
 }
 
 }  // namespace pgi

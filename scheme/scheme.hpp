@@ -161,7 +161,8 @@ public:
 
     // The numeric evaluators' maps (scheme/evaluators.hpp), over the coordinates, each compiled the first time it is
     // asked for and kept for the scheme's life: the references stay valid. Evaluate them with eval_batch (thread-safe),
-    // or eval on a copy (eval's scratch is the map's).
+    // or eval on a copy (eval's scratch is the map's). Unless jit() is never, eval runs machine code
+    // (series/machine_code.hpp), as invariants() does: the interpreter's bits.
     /// pi grad H: output i is dx_i/dt (n outputs).
     const CompiledMap& vector_field_map() const;
     /// The non-zero brackets {x_i, x_j}, i < j.
@@ -180,6 +181,7 @@ private:
     RealisationPtr realisation_locked(std::size_t D) const;
     const std::vector<Poly>& terms_locked() const;
     CompiledMap compile_invariants(const std::vector<Poly>& extra) const;
+    CompiledMap compile_evaluator(const std::vector<Poly>& outputs) const;
 
     PoissonStructure pi_;
     Poly H_;

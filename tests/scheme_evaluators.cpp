@@ -2,6 +2,7 @@
 // Hamiltonian at states, from maps compiled once, against hand-written formulas and runs of the method.
 #include "scheme/evaluators.hpp"
 #include "scheme/trajectory.hpp"
+#include "series/machine_code.hpp"
 #include "test_util.hpp"
 
 #include <doctest/doctest.h>
@@ -122,6 +123,28 @@ TEST_CASE("Evaluators: one row alone and among 300 rows gives the same bits") {
         CHECK(casimir_values(scheme, x).row(0) == C.row(j));
         CHECK(hamiltonian_values(scheme, x)[0] == H[j]);
         CHECK(modified_hamiltonian_values(scheme, x, 0.1, 6)[0] == Ht[j]);
+    }
+}
+
+TEST_CASE("Evaluators: a scheme's maps run machine code unless its jit is never, with the interpreter's bits") {
+    const Scene s = test::bundled("henon_heiles");
+    const Scheme& automatic = *s.scheme;
+    const Scheme never(s.pi, s.H, s.casimirs, s.order, s.realisation, false, NativePolicy::never);
+    const CompiledMap a = automatic.invariants({s.H * s.H}), b = never.invariants({s.H * s.H});
+    const CompiledMap &fa = automatic.vector_field_map(), &fb = never.vector_field_map();
+    CHECK(a.machine_code() == machine_code_supported());
+    CHECK(fa.machine_code() == machine_code_supported());
+    CHECK_FALSE(b.machine_code());
+    CHECK_FALSE(fb.machine_code());
+    const RowMatrix X = random_states(50, s.phase_space().dim(), 5);
+    std::vector<double> ya(a.num_outputs()), yb(b.num_outputs()), ga(fa.num_outputs()), gb(fb.num_outputs());
+    for (Eigen::Index j = 0; j < X.rows(); ++j) {
+        a.eval(X.row(j).data(), ya.data());
+        b.eval(X.row(j).data(), yb.data());
+        CompiledMap(fa).eval(X.row(j).data(), ga.data());  // (eval on a copy: its scratch is the map's)
+        CompiledMap(fb).eval(X.row(j).data(), gb.data());
+        CHECK(ya == yb);
+        CHECK(ga == gb);
     }
 }
 
