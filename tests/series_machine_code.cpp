@@ -85,11 +85,7 @@ TEST_CASE("machine code: a map with parameters gives the interpreter's bits at v
     if (!machine_code_supported()) return;
     const auto r = make_ring({"unused", "a", "b", "c", "p", "q"});
     std::mt19937 gen(9);
-    const std::vector<Poly> base = test::mixed_outputs(r, gen);
-    const Poly p = Poly::gen(r, 4), q = Poly::gen(r, 5), one = Poly::constant(r, Rational(1));
-    std::vector<Poly> outputs;
-    for (std::size_t i = 0; i < base.size(); ++i)
-        outputs.push_back(base[i] * (i % 2 ? p - one : q * q - p) + base[(i + 3) % base.size()] * q);
+    const std::vector<Poly> outputs = test::outputs_with_parameters(r, gen);
     CompiledMap map = CompiledMap::build(outputs, {3, 1, 2, 4, 5}, 2);
     REQUIRE(map.tape().groups > 0);
     const CompiledMap interpreted = map;

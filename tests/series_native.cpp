@@ -130,12 +130,7 @@ TEST_CASE(
     "all, a coefficient that vanishes at some values and overflowing monomials included") {
     const auto r = make_ring({"unused", "a", "b", "c", "p", "q"});
     std::mt19937 gen(8);
-    const std::vector<Poly> base = test::mixed_outputs(r, gen);
-    const Poly p = Poly::gen(r, 4), q = Poly::gen(r, 5), one = Poly::constant(r, Rational(1));
-    // coefficients that are polynomials in p and q: p - 1 vanishes at p = 1, q^2 - p at q^2 = p
-    std::vector<Poly> outputs;
-    for (std::size_t i = 0; i < base.size(); ++i)
-        outputs.push_back(base[i] * (i % 2 ? p - one : q * q - p) + base[(i + 3) % base.size()] * q);
+    const std::vector<Poly> outputs = test::outputs_with_parameters(r, gen);
     const CompiledMap built = CompiledMap::build(outputs, {3, 1, 2, 4, 5}, 2);
     REQUIRE(built.num_slow_inputs() == 2);
     REQUIRE(built.tape().groups > 0);

@@ -92,4 +92,15 @@ inline std::vector<Poly> mixed_outputs(const RingPtr& r, std::mt19937& gen) {
     return outputs;
 }
 
+/// mixed_outputs in a ring whose variables 4 and 5 are parameters p and q, with coefficients that are polynomials in
+/// them: p - 1 vanishes at p = 1, q^2 - p at q^2 = p (compile over {3, 1, 2, 4, 5} with 2 slow inputs).
+inline std::vector<Poly> outputs_with_parameters(const RingPtr& r, std::mt19937& gen) {
+    const std::vector<Poly> base = mixed_outputs(r, gen);
+    const Poly p = Poly::gen(r, 4), q = Poly::gen(r, 5), one = Poly::constant(r, Rational(1));
+    std::vector<Poly> outputs;
+    for (std::size_t i = 0; i < base.size(); ++i)
+        outputs.push_back(base[i] * (i % 2 ? p - one : q * q - p) + base[(i + 3) % base.size()] * q);
+    return outputs;
+}
+
 }  // namespace pgi::test
