@@ -85,8 +85,8 @@ public:
     /// of each group of outputs evaluated together (four at a time).
     std::size_t num_terms() const { return term_coeff_.size() + group_monomial_.size(); }
 
-    /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(). Not thread-safe (scratch; with slow
-    /// inputs, the bound coefficients), unless native without slow inputs.
+    /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs() (they may overlap). Not thread-safe
+    /// (scratch; with slow inputs, the bound coefficients), unless native or machine code without slow inputs.
     void eval(const double* in, double* out) const;
 
     /// The operations summing groups four lanes at once saves over pairs: one per group term whose coefficients are
@@ -119,7 +119,7 @@ public:
     void attach_machine_code(std::shared_ptr<const void> code, NativeEval f) {
         machine_code_ = std::move(code), machine_ = f;
     }
-    bool machine_code() const { return machine_ != nullptr; }
+    bool machine_code() const { return machine_code_ != nullptr; }  // (a moved-from map has none)
     /// m points at once, structure of arrays: in[v m + j] is input v of point j, out[o m + j] is output o
     /// of point j. Every point's outputs are bit for bit eval()'s on it (the same operations in the same
     /// order, lane by lane; the loops over the points are the inner ones, which the compiler vectorises).

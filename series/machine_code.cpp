@@ -148,6 +148,8 @@ public:
         for (std::size_t g = 0; g < tape.groups; ++g) group(g);
         epilogue();
         masks();
+        cache_ = RegisterCache({}, 0);  // (the code is all a map keeps: the planning goes)
+        masks_.clear();
     }
 
     // An upper bound of the code's bytes: every instruction below takes at most 10 (VEX, ModRM, SIB, disp32).
@@ -159,7 +161,7 @@ public:
     }
 
 private:
-    const Tape& tape_;
+    const Tape tape_;  // (the map's arrays, read while the code is written)
     const bool wide_;
     RegisterCache cache_;
     std::size_t frame_ = 0;
@@ -327,6 +329,7 @@ private:
 
 bool attach_machine_code(CompiledMap& map) {
     if (map.machine_code()) return true;
+    if (map.native()) return false;
     if (map.num_outputs() == 0 || map.num_terms() + map.num_monomials() > machine_code_max_size ||
         !machine_code_supported())
         return false;
@@ -358,7 +361,7 @@ bool attach_machine_code(CompiledMap& map) {
 
 std::size_t attach_machine_code(const std::vector<CompiledMap*>& maps) {
     std::size_t written = 0;
-    for (CompiledMap* m : maps) written += !m->native() && attach_machine_code(*m);
+    for (CompiledMap* m : maps) written += attach_machine_code(*m);
     return written;
 }
 

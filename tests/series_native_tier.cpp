@@ -148,8 +148,9 @@ TEST_CASE("native tier: past its share of the estimate it builds once, in the ba
     for (int i = 0; i < 3; ++i) CHECK(bits(a[i]) == bits(b[i]));
 }
 
-TEST_CASE("native tier: a run's expected length starts the build when the steps left repay it, and only then; machine "
-          "code saves more of them") {
+TEST_CASE(
+    "native tier: a run's expected length starts the build when the steps left repay it, and only then; machine "
+    "code saves more of them") {
     CompiledMap map = some_map();
     const double build_ns = NativeTier::estimated_build_seconds({&map}) * 1e9;
     REQUIRE(build_ns > 0);
@@ -166,10 +167,13 @@ TEST_CASE("native tier: a run's expected length starts the build when the steps 
     // the same maps running machine code: a build repays later, and starts after more sampled time
     NativeTier tier({&map});
     check_repaid(tier, NativeTier::machine_code_share);
-    const auto interpreted_threshold =
-        std::chrono::nanoseconds(std::int64_t(NativeTier::start_share * build_ns / (1 - NativeTier::interpreter_share)));
-    CHECK_FALSE(tier.spend(interpreted_threshold));
-    CHECK(tier.spend(3 * interpreted_threshold));
+    const auto threshold = [&](double share) { return NativeTier::start_share * build_ns / (1 - share); };
+    const auto ns = [](double t) { return std::chrono::nanoseconds(std::int64_t(t)); };
+    const double interpreted = threshold(NativeTier::interpreter_share),
+                 machine = threshold(NativeTier::machine_code_share);
+    CHECK_FALSE(tier.spend(ns(interpreted)));  // (where the interpreter's tier would start)
+    CHECK_FALSE(tier.spend(ns(0.98 * machine - interpreted)));
+    CHECK(tier.spend(ns(0.03 * machine)));
 }
 
 TEST_CASE("native tier: a long run integrate_steps drives starts the build at its first timed step; a short one not") {
