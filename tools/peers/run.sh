@@ -5,7 +5,7 @@
 # *.svg, the stiff and extreme suite's table (OUTDIR/suite.md), with LONG_T_END the long-run tables (pgi_peers --long),
 # and every scene's JSON together in tools/peers/peers_results.json. The peers run on their own right-hand side, C
 # compiled by the system C compiler ($CC, else cc) when pgi_peers starts; pgi in its default configuration, with an
-# empty JIT cache of the run's own (a first run's native code policy: interpreted until native code pays).
+# empty JIT cache of the run's own (a first run's native code policy: machine code until native code pays).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 out=${1:-docs/figures}
