@@ -150,7 +150,7 @@ TEST_CASE(
     const std::size_t O = built.num_outputs();
     std::vector<double> a(O), b(O);
     std::size_t compared = 0, non_finite = 0;
-    for (const auto [pv, qv] : {std::pair{0.5, -1.5}, std::pair{1.0, 0.25}, std::pair{4.0, 2.0}, std::pair{1.0, 1.0}}) {
+    for (const auto& [pv, qv] : {std::pair{0.5, -1.5}, std::pair{1.0, 0.25}, std::pair{4.0, 2.0}, std::pair{1.0, 1.0}}) {
         for (int point = 0; point < 100; ++point) {
             double x[5] = {input(gen), input(gen), input(gen), pv, qv};
             if (point == 1) x[0] = -0.0, x[1] = 0.0;  // signed zeros
