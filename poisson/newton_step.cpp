@@ -466,14 +466,10 @@ void NewtonStepper::adopt_native() {
 void NewtonStepper::attach_native(NativePolicy policy) {
     if (policy == NativePolicy::never) return;
     const std::vector<CompiledMap*> maps = compiled_maps();
-    if (policy == NativePolicy::always) {
-        native_maps_ = info_.native_maps = attach_native_code(maps);
-        info_.machine_code_maps = attach_machine_code(maps);
-        return;
-    }
-    native_maps_ = info_.native_maps = attach_kept_native_code(maps);
+    const bool always = policy == NativePolicy::always;
+    native_maps_ = info_.native_maps = always ? attach_native_code(maps) : attach_kept_native_code(maps);
     info_.machine_code_maps = attach_machine_code(maps);
-    if (NativeTier::estimated_build_seconds(maps) == 0) return;  // (every map native, or empty)
+    if (always || NativeTier::estimated_build_seconds(maps) == 0) return;  // (every map native, or empty)
     native_tier_ = std::make_shared<NativeTier>(maps);
     native_countdown_ = native_sample_period;
 }

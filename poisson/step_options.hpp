@@ -25,9 +25,9 @@ struct StepOptions {
     std::size_t predictor_order = 0;  // P of the base point's series; 0 chooses it by cost, up to max(k + 1, 8)
     NewtonSolverChoice solver =
         NewtonSolverChoice::automatic;  // the Newton matrix dense or sparse (NewtonMatrix::choose)
-    /// Whether the step's compiled maps run native code (series/native.hpp): the same bits, faster steps. automatic: a
-    /// kept library at once, else built in the background once the step has run long enough
-    /// (series/native_tier.hpp).
+    /// Whether the step's compiled maps run native code (series/native.hpp) or machine code (series/machine_code.hpp):
+    /// the same bits, faster steps. automatic: a kept library at once, machine code for the rest, native code built in
+    /// the background once the step has run long enough (series/native_tier.hpp); never: the interpreter.
     NativePolicy native = NativePolicy::automatic;
 };
 

@@ -712,11 +712,10 @@ static_assert(__STDCPP_DEFAULT_NEW_ALIGNMENT__ >= 16 && CompiledMap::group_width
 
 void CompiledMap::eval(const double* in, double* out) const {
     if (slow_) bind(in + (num_inputs_ - slow_));
-    // machine code reads the inputs where they are while it writes the outputs: not where out overlaps in
+    const Code& code = native_.holder ? native_ : machine_;
     const auto at = [](const double* p) { return reinterpret_cast<std::uintptr_t>(p); };
-    const bool overlap = at(in) < at(out + num_outputs()) && at(out) < at(in + num_inputs_);
-    if (const NativeEval f = native_ ? native_ : machine_code_ && !overlap ? machine_ : nullptr) {
-        f(in, term_coeff_.data(), group_coeff_.data(), out);
+    if (code.holder && !(at(in) < at(out + num_outputs()) && at(out) < at(in + num_inputs_))) {
+        code.f(in, term_coeff_.data(), group_coeff_.data(), out);
         const std::size_t O = num_outputs();
         if (!slow_ || std::all_of(out, out + O, [](double v) { return std::isfinite(v); })) return;
     }

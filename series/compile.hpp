@@ -85,8 +85,9 @@ public:
     /// of each group of outputs evaluated together (four at a time).
     std::size_t num_terms() const { return term_coeff_.size() + group_monomial_.size(); }
 
-    /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs() (they may overlap). Not thread-safe
-    /// (scratch; with slow inputs, the bound coefficients), unless native or machine code without slow inputs.
+    /// out[o] = outputs[o](in). in has num_inputs() values, out num_outputs(); where they overlap the interpreter runs
+    /// (attached code reads the inputs while it writes the outputs). Not thread-safe (scratch; with slow inputs, the
+    /// bound coefficients), unless native or machine code without slow inputs.
     void eval(const double* in, double* out) const;
 
     /// The operations summing groups four lanes at once saves over pairs: one per group term whose coefficients are
@@ -109,17 +110,13 @@ public:
     /// which masks a coefficient that is zero at these values (an infinite monomial times it adds nothing).
     using NativeEval = void (*)(const double* in, const double* term_coeff, const double* group_coeff, double* out);
     /// eval() runs f from now on, library keeping its code loaded (shared by the copies of this map).
-    void attach_native(std::shared_ptr<const void> library, NativeEval f) {
-        native_library_ = std::move(library), native_ = f;
-    }
-    bool native() const { return native_ != nullptr; }
+    void attach_native(std::shared_ptr<const void> library, NativeEval f) { native_ = {std::move(library), f}; }
+    bool native() const { return native_.holder != nullptr; }
     /// What eval runs where no native code is attached: machine code written in memory for this map's structure and
     /// coefficients' zeros (series/machine_code.hpp), the same signature and bits; code keeps it alive (shared by the
     /// copies of this map).
-    void attach_machine_code(std::shared_ptr<const void> code, NativeEval f) {
-        machine_code_ = std::move(code), machine_ = f;
-    }
-    bool machine_code() const { return machine_code_ != nullptr; }  // (a moved-from map has none)
+    void attach_machine_code(std::shared_ptr<const void> code, NativeEval f) { machine_ = {std::move(code), f}; }
+    bool machine_code() const { return machine_.holder != nullptr; }
     /// m points at once, structure of arrays: in[v m + j] is input v of point j, out[o m + j] is output o
     /// of point j. Every point's outputs are bit for bit eval()'s on it (the same operations in the same
     /// order, lane by lane; the loops over the points are the inner ones, which the compiler vectorises).
@@ -201,7 +198,7 @@ private:
     std::vector<std::uint32_t> term_slot_, group_slot_, lane_slot_;
     mutable std::vector<double> bound_, slot_values_;
     mutable bool bound_any_ = false;
-    mutable bool row_vanishes_ = false;  // a row's coefficient is 0 at the bound values (eval_with masks it then)
+    mutable bool row_vanishes_ = false;        // a row's coefficient is 0 at the bound values (eval_with masks it then)
     std::vector<std::uint32_t> left_, right_;  // monomial 1 + k + m = monomial[left_[m]] * monomial[right_[m]]
     std::vector<std::uint32_t> row_start_, term_monomial_;
     mutable std::vector<double> term_coeff_;  // (mutable: a map with slow inputs binds its coefficients in eval)
@@ -216,10 +213,12 @@ private:
     mutable std::vector<double> lane_coeff_;
     mutable std::vector<double> mono_;
     bool fours_ = false;  // eval() sums the groups on AVX2 (series/compile_avx2.cpp)
-    std::shared_ptr<const void> native_library_;
-    NativeEval native_ = nullptr;
-    std::shared_ptr<const void> machine_code_;
-    NativeEval machine_ = nullptr;
+    // attached code, native or machine, and what keeps it loaded (a moved-from map holds none: it runs no code)
+    struct Code {
+        std::shared_ptr<const void> holder;
+        NativeEval f = nullptr;
+    };
+    Code native_, machine_;
     void group_outputs();
     void split_sums();
     // term_monomial_ holding target numbers: made[target] its monomial, left and right the products

@@ -75,8 +75,8 @@ public:
             if ((r < first || r > last) && held_[std::size_t(r)] != UINT32_MAX) drop(r);
         first_reg_ = first, last_reg_ = last;
     }
-    // The next read, of monomial m: the register holding it, or none (then it is in memory); `keep` loads it into a
-    // register first where it is read again and one can be had (load(r) emits the load). pinned: not to be evicted.
+    // The next read, of monomial m: the register holding it, or none (then it is in memory). A value read again is
+    // loaded into a register first where one can be had (load(r) emits the load). pinned: not to be evicted.
     template <class Load>
     int read(std::uint32_t m, Load&& load, int pinned = none) {
         const std::size_t i = position_++;

@@ -69,11 +69,13 @@ struct NativeOptions {
 /// Whether a step's compiled maps run native code (StepOptions::native); the choice never changes a number, since
 /// native code gives the interpreter's bits.
 enum class NativePolicy {
-    /// Native code the cache already keeps is attached at once (attach_kept_native_code); a step that has run long
-    /// enough for a build to pay builds it in the background (NativeBuild) and switches to it when it is ready.
+    /// Native code the cache already keeps is attached at once (attach_kept_native_code), machine code written in
+    /// memory for the other maps (series/machine_code.hpp); a step that has run long enough for a build to pay builds
+    /// native code in the background (NativeBuild) and switches to it when it is ready.
     automatic,
-    always,  ///< built before the first step (attach_native_code); NativeCodeError if it cannot be
-    never,   ///< interpreted
+    always,  ///< built before the first step (attach_native_code; NativeCodeError if it cannot be), machine code for
+             ///< the maps it leaves out
+    never,   ///< interpreted (no machine code either)
 };
 std::string to_string(NativePolicy p);
 

@@ -2,9 +2,9 @@
 // NativeTier: when a set of compiled maps (a step's) is worth native code under NativePolicy::automatic. A JIT's tier
 // rule: the maps run machine code or the interpreter (no latency for short runs); the time spent in them is sampled,
 // and once the time native code would have saved reaches a share of what the compiler is expected to take, native code
-// is built in the background (NativeBuild) and every user
-// of the maps switches to it when it is ready (the same bits, so a run cannot tell where it switched). Shared by a
-// stepper and its copies (std::shared_ptr), so the time of every run of a Scheme's step counts, from any thread.
+// is built in the background (NativeBuild) and every user of the maps switches to it when it is ready (the same bits,
+// so a run cannot tell where it switched). Shared by a stepper and its copies (std::shared_ptr), so the time of every
+// run of a Scheme's step counts, from any thread.
 #include "series/native.hpp"
 
 #include <atomic>

@@ -55,7 +55,8 @@ void warn_energy_drift(const Scene& scene, double energy_error, json& r) {
 }
 
 // NOTE: said on stderr (one line) and in the JSON document (native_failure): by default native code is built in the
-// background of a long run, and without a compiler the run goes on interpreted, with the same numbers.
+// background of a long run, and without a compiler the run goes on with machine code (or interpreted), with the same
+// numbers.
 void note_native_failure(const Scene& scene, const NewtonStepper& s, json& r) {
     if (s.native_failure().empty()) return;
     const std::string why = s.native_failure().substr(0, s.native_failure().find('\n'));

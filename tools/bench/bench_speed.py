@@ -5,7 +5,7 @@ Usage: /usr/bin/python3 tools/bench/bench_speed.py [--build build] [--json FILE]
                                                   [--sizes 50,100,200,500,1000] [--skip-wp] [--skip-lattice] [--skip-dmv]
 
 Every child runs with an empty JIT cache of its own (PGI_JIT_CACHE): pgi's default configuration then runs as in a
-first run, interpreted until native code pays for its build (these runs never reach that), and no run sees a library
+first run, machine code until native code pays for its build (these runs never reach that), and no run sees a library
 an earlier one kept.
 (a) Work-precision, T = 100, stepping only, on the rigid body, the cyclic Lotka-Volterra system and Henon-Heiles:
     pgi_peers (tools/peers) runs pgi at k = 4, 6, 8, 10, 12 on a dt ladder through its C++ API in its default
@@ -73,7 +73,7 @@ JIT_CACHES = None  # a private directory holding each child's own, empty JIT cac
 
 def run_child(argv, timeout, memory_limit=None):
     """Runs argv with an empty JIT cache of its own (PGI_JIT_CACHE: pgi's default configuration sees no library an
-    earlier run kept, so the runs are those of a first run: interpreted until native code pays for itself); returns
+    earlier run kept, so the runs are those of a first run: machine code until native code pays for itself); returns
     (exit code or None on timeout, stdout, stderr, wall seconds, peak RSS in MiB)."""
     env = dict(os.environ)
     if JIT_CACHES:
@@ -183,7 +183,7 @@ def work_precision(build, scene, timeout, passes):
         best = best_over_orders("")
         jit = best_over_orders("-jit")  # the same steps with native code (jit = true): the same errors, bit for bit
         setups = [r["setup_seconds"] for r in rows if best and r["method"] == f"pgi-k{best[1]}"]
-        # how many of the step's maps ran native code in the default configuration's timed runs (0: interpreted)
+        # how many of the step's maps ran native code in the default configuration's timed runs (0: machine code)
         natives = [r.get("native_maps", 0) for r in rows if best and r["method"] == f"pgi-k{best[1]}"]
         entry.update({"pgi_seconds": best[0] if best else None, "pgi_k": best[1] if best else None,
                       "pgi_how": best[2] if best else "not reached", "pgi_steps": best[3] if best else None,

@@ -17,7 +17,7 @@ namespace {
 
 // The stepper at order k and step dt for starts near x0, built now through pgi's C++ API as a user builds it: a Scheme
 // of the scene's problem at order k in its default configuration (the realisation the scene names, automatic by
-// default; native code as NativePolicy::automatic decides: a library the JIT cache keeps at once, else interpreted
+// default; native code as NativePolicy::automatic decides: a library the JIT cache keeps at once, else machine code
 // until the step's time pays for a build in the background), or for the "-jit" variant NativePolicy::always (native
 // code built now, in the set-up); then scheme.stepper(dt, x0). Runs from any x0 to T on it: integrate_steps
 // (stepper.step and Kahan summation), watching the invariants only when the problem is monitoring; each outcome says
