@@ -7,4 +7,4 @@ cd "$(dirname "$0")/.."
 # Python package's type stubs against the module
 bash tools/deps.sh texlive-latex-base gnuplot-nox libgsl-dev libboost-dev python3 python3-mypy python3-hypothesis
 bash tools/build.sh --all
-ctest --test-dir build --output-on-failure
+ctest --test-dir build --output-on-failure -j "$(nproc)"

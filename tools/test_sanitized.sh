@@ -12,7 +12,7 @@ pgi_configure build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPGI_SANITIZE=ON
 # every target a registered test runs (pgi_dmv_test exists when GSL and Boost are installed, as deps.sh ensures)
 cmake --build build-asan -j "$jobs" --target pgi pgi_tests pgi_dmv_test
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
-    ctest --test-dir build-asan --output-on-failure
+    ctest --test-dir build-asan --output-on-failure -j "$jobs"
 # memcheck on the Release build (valgrind cannot run ASan binaries): every FLINT object is freed (no leak
 # from the wrappers). pgi links mimalloc (CMakeLists.txt, PGI_MIMALLOC): valgrind puts its own malloc in place of
 # mimalloc's too (the soname synonym), and mimalloc's aliases for new, new[] and malloc would read as mismatched
