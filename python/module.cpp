@@ -139,8 +139,11 @@ PyScheme from_values(std::vector<std::string> coordinates, const py::dict& brack
                      std::vector<std::string> casimirs, long order, std::string realisation, std::optional<double> dt,
                      std::optional<Eigen::VectorXd> x0, std::optional<double> t_end, std::size_t max_terms,
                      bool trust_jacobi, std::optional<bool> jit,
-                     std::vector<std::pair<std::string, std::string>> parameters) {
+                     std::vector<std::pair<std::string, std::string>> parameters, std::optional<double> max_seconds,
+                     std::size_t max_memory_mb) {
     pgi::SchemeValues v;
+    v.max_seconds = max_seconds.value_or(pgi::BudgetLimits::default_max_seconds);
+    v.max_memory_mb = max_memory_mb;
     v.parameters = std::move(parameters);
     v.trust_jacobi = trust_jacobi;
     v.jit = native_policy(jit);
@@ -179,23 +182,29 @@ PyScheme from_scene(const pgi::Scene& scene) {
     return s;
 }
 
-// trust_jacobi and jit as the command line's --trust-jacobi and --jit / --no-jit (None: as the scene says).
-pgi::SceneOverrides overrides(bool trust_jacobi, std::optional<bool> jit) {
+// trust_jacobi, jit and the exact phase's budget as the command line's --trust-jacobi, --jit / --no-jit (None: as the
+// scene says), --max-seconds (None: no limit) and --max-memory-mb (0: the default).
+pgi::SceneOverrides overrides(bool trust_jacobi, std::optional<bool> jit, std::optional<double> max_seconds,
+                              std::size_t max_memory_mb) {
     pgi::SceneOverrides o;
     o.trust_jacobi = trust_jacobi;
     if (jit) o.jit = native_policy(jit);
+    o.max_seconds = max_seconds.value_or(pgi::BudgetLimits::default_max_seconds);
+    o.max_memory_mb = max_memory_mb;
     return o;
 }
 
-PyScheme from_toml(const std::string& path, bool trust_jacobi, std::optional<bool> jit) {
+PyScheme from_toml(const std::string& path, bool trust_jacobi, std::optional<bool> jit,
+                   std::optional<double> max_seconds, std::size_t max_memory_mb) {
     py::gil_scoped_release release;
-    return from_scene(pgi::load_scene(path, overrides(trust_jacobi, jit)));
+    return from_scene(pgi::load_scene(path, overrides(trust_jacobi, jit, max_seconds, max_memory_mb)));
 }
 
 // The scene's text (what a pickled Scheme carries to another process); file only names it in messages.
-PyScheme from_toml_text(const std::string& text, const std::string& file, bool trust_jacobi, std::optional<bool> jit) {
+PyScheme from_toml_text(const std::string& text, const std::string& file, bool trust_jacobi, std::optional<bool> jit,
+                        std::optional<double> max_seconds, std::size_t max_memory_mb) {
     py::gil_scoped_release release;
-    return from_scene(pgi::parse_scene(text, file, overrides(trust_jacobi, jit)));
+    return from_scene(pgi::parse_scene(text, file, overrides(trust_jacobi, jit, max_seconds, max_memory_mb)));
 }
 
 py::dict check(const PyScheme& s) {
@@ -649,10 +658,12 @@ PYBIND11_MODULE(_pgi, m) {
              "casimirs"_a = std::vector<std::string>{}, "order"_a = 2, "realisation"_a = "auto", "dt"_a = py::none(),
              "x0"_a = py::none(), "t_end"_a = py::none(), "max_terms"_a = pgi::Ring::default_max_terms,
              "trust_jacobi"_a = false, "jit"_a = py::none(),
-             "parameters"_a = std::vector<std::pair<std::string, std::string>>{})
-        .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false, "jit"_a = py::none())
+             "parameters"_a = std::vector<std::pair<std::string, std::string>>{}, "max_seconds"_a = py::none(),
+             "max_memory_mb"_a = 0)
+        .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false, "jit"_a = py::none(),
+                    "max_seconds"_a = py::none(), "max_memory_mb"_a = 0)
         .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a, "trust_jacobi"_a = false,
-                    "jit"_a = py::none())
+                    "jit"_a = py::none(), "max_seconds"_a = py::none(), "max_memory_mb"_a = 0)
         .def_property_readonly("jacobi_trusted", [](const PyScheme& s) { return s.scheme->jacobi_trusted(); })
         .def_property_readonly("jit", [](const PyScheme& s) { return jit_of(s.scheme->jit()); })
         .def_property_readonly("name", [](const PyScheme& s) { return s.name; })

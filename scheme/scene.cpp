@@ -146,12 +146,8 @@ private:
 
     // The budget of the scene's exact phase, from the overrides (it starts its clock now).
     std::shared_ptr<const Budget> budget() const {
-        BudgetLimits limits{.max_terms = ov_.max_terms, .max_seconds = ov_.max_seconds};
-        if (ov_.max_memory_mb != 0) {  // (the user's budget: of the resident memory, whatever limits it)
-            limits.max_bytes = std::min<std::size_t>(ov_.max_memory_mb, SIZE_MAX >> 20) << 20;
-            limits.address_space = false;
-        }
-        return std::make_shared<const Budget>(limits, ov_.progress);
+        return std::make_shared<const Budget>(budget_limits(ov_.max_terms, ov_.max_memory_mb, ov_.max_seconds),
+                                              ov_.progress);
     }
 
     Poly poly(const PhaseSpace& M, const std::string& key, const std::string& text) const {

@@ -40,6 +40,8 @@ struct SchemeValues {
     long order = 2;                                             // k, the Hamilton-Jacobi order
     std::string realisation = "auto";                           // "auto" | "closed-form" | "radial"
     std::size_t max_terms = Ring::default_max_terms;            // bound on every product of the exact phase
+    std::size_t max_memory_mb = 0;  // the exact phase's memory (0: default_memory_budget(), series/budget.hpp)
+    double max_seconds = BudgetLimits::default_max_seconds;  // its algebra's busy time (none; pgi and Python: 60)
     bool trust_jacobi = false;                                  // skip the Jacobi check: the caller vouches for pi
     NativePolicy jit =
         NativePolicy::automatic;  // when the steps' compiled maps become native code (StepOptions::native)

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <limits>
@@ -36,6 +37,13 @@ std::string seconds_text(double s) {
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.3g s", s);
     return buf;
+}
+
+// How a refusal says to raise a limit: the command line's option and the keyword of Python and SchemeValues.
+std::string raise_hint(std::string_view option) {
+    std::string keyword(option);
+    std::replace(keyword.begin(), keyword.end(), '-', '_');
+    return " (raise it with --" + std::string(option) + " or " + keyword + ")";
 }
 
 // /proc/self/statm's first two fields in bytes: the address space in use and the resident set; zeros where unreadable.
@@ -142,19 +150,19 @@ void Budget::refuse_reserve(const std::string& operation, double terms, double b
     if (terms > static_cast<double>(limits_.max_terms))
         refuse(BudgetExceeded::Resource::terms,
                operation + " could reach " + count(terms) + " terms, above the limit of " +
-                   count(static_cast<double>(limits_.max_terms)) + " (raise it with --max-terms)");
+                   count(static_cast<double>(limits_.max_terms)) + raise_hint("max-terms"));
     const double bytes = terms * bytes_per_term;  // called only when the terms or these bytes are above the budget
     refuse(BudgetExceeded::Resource::memory,
            operation + " could take " + megabytes(bytes) + " (with the " + megabytes(static_cast<double>(resident_)) +
                " in use), above the memory budget of " + megabytes(static_cast<double>(limits_.max_bytes)) +
-               " (raise it with --max-memory-mb)");
+               raise_hint("max-memory-mb"));
 }
 
 void Budget::account(std::string_view operation, std::size_t terms) const {
     if (terms > limits_.max_terms)
         refuse(BudgetExceeded::Resource::terms, std::string(operation) + " reached " + std::to_string(terms) +
                                                     " terms, above the limit of " + std::to_string(limits_.max_terms) +
-                                                    " (raise it with --max-terms)");
+                                                    raise_hint("max-terms"));
     largest_ = std::max(largest_, terms);
     // NOTE: reading the clock costs as much as a small sum; every 32nd operation (and every estimated one)
     // is enough to see time and memory go by
@@ -178,17 +186,26 @@ void Budget::poll(Clock::time_point now) const {
     if (elapsed > limits_.max_seconds)
         refuse(BudgetExceeded::Resource::time, "the exact phase has run " + seconds_text(elapsed) +
                                                    ", above the time budget of " + seconds_text(limits_.max_seconds) +
-                                                   " (raise it with --max-seconds)");
+                                                   raise_hint("max-seconds"));
     resident_ = memory_in_use(limits_.address_space);
     if (resident_ > limits_.max_bytes)
         refuse(BudgetExceeded::Resource::memory,
                "the process uses " + megabytes(static_cast<double>(resident_)) + ", above the memory budget of " +
-                   megabytes(static_cast<double>(limits_.max_bytes)) + " (raise it with --max-memory-mb)");
+                   megabytes(static_cast<double>(limits_.max_bytes)) + raise_hint("max-memory-mb"));
     if (progress_ && elapsed >= 1 && now >= next_progress_) {
         next_progress_ = now + std::chrono::seconds(2);
         progress_("exact phase: " + (stage_.name.empty() ? std::string() : describe(stage_) + ": ") +
                   std::to_string(largest_) + " terms, " + seconds_text(elapsed));
     }
+}
+
+BudgetLimits budget_limits(std::size_t max_terms, std::size_t max_memory_mb, double max_seconds) {
+    BudgetLimits limits{.max_terms = max_terms, .max_seconds = max_seconds};
+    if (max_memory_mb != 0) {  // (the user's budget: of the resident memory, whatever limits it)
+        limits.max_bytes = std::min<std::size_t>(max_memory_mb, SIZE_MAX >> 20) << 20;
+        limits.address_space = false;
+    }
+    return limits;
 }
 
 }  // namespace pgi

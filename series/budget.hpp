@@ -59,6 +59,10 @@ struct BudgetLimits {
     double max_seconds = default_max_seconds;  // busy time of the algebra (see Budget::seconds)
 };
 
+/// The limits a user gives (pgi's --max-terms, --max-memory-mb, --max-seconds; Python's and SchemeValues' keywords):
+/// max_memory_mb = 0 keeps default_memory_budget(), another value bounds the resident memory.
+BudgetLimits budget_limits(std::size_t max_terms, std::size_t max_memory_mb, double max_seconds);
+
 class Budget {
 public:
     /// Receives a progress line ("exact phase: S_3 (3 of 6): 12000 terms, 2.0 s") about once every two

@@ -120,9 +120,46 @@ TEST_CASE("Scheme: from strings equals the scene, and bad values name their entr
     CHECK(key_of([](SchemeValues& w) { w.coordinates = {}; }) == "coordinates");
     CHECK(key_of([](SchemeValues& w) { w.order = 0; }) == "order");
     CHECK(key_of([](SchemeValues& w) { w.realisation = "exact"; }) == "realisation");
+    CHECK(key_of([](SchemeValues& w) { w.max_seconds = 0; }) == "max_seconds");
+    CHECK(key_of([](SchemeValues& w) { w.max_seconds = std::numeric_limits<double>::quiet_NaN(); }) == "max_seconds");
     PoissonStructure general = test::structure({"x", "y", "z"}, {{0, 1, "z^2"}});
     CHECK_THROWS_AS(Scheme(general, general.phase_space().parse("x"), {}, 2, RealisationChoice::closed_form),
                     InputError);
+}
+
+// The budgets a C++ or Python caller gives (pgi's --max-seconds and --max-memory-mb): the exact phase stops with the
+// refusal naming them, and a scheme without them does the same work.
+TEST_CASE("Scheme: from values bounds the exact phase by the time and memory given") {
+    const Scene s = test::bundled("rigid_body");
+    SchemeValues v;
+    v.coordinates = s.phase_space().coordinates();
+    for (std::size_t i = 0; i < 3; ++i)
+        for (std::size_t j = i + 1; j < 3; ++j)
+            v.brackets.emplace_back(v.coordinates[i] + "," + v.coordinates[j], s.pi(i, j).to_string());
+    v.hamiltonian = s.H.to_string();
+    v.order = 12;
+    // (from the parse of H on, whichever operation sees the budget spent first)
+    const auto refusal = [&](SchemeValues w) {
+        try {
+            (void)Scheme::from_values(w).modified_hamiltonian(6);
+        } catch (const ResourceLimitError& e) {
+            return std::string(e.what());
+        }
+        return std::string("no refusal");
+    };
+    SchemeValues slow = v;
+    slow.max_seconds = 1e-9;
+    const std::string time = refusal(slow);
+    CHECK_MESSAGE(time.find("above the time budget of 1e-09 s (raise it with --max-seconds or max_seconds)") !=
+                      std::string::npos,
+                  time);
+    SchemeValues small = v;
+    small.max_memory_mb = 1;
+    const std::string memory = refusal(small);
+    CHECK_MESSAGE(memory.find("above the memory budget of 1 MB (raise it with --max-memory-mb or max_memory_mb)") !=
+                      std::string::npos,
+                  memory);
+    CHECK(refusal(v) == "no refusal");
 }
 
 TEST_CASE("Scheme: the step for a (dt, x_typical) is built once and every copy steps alike") {

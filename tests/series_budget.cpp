@@ -44,7 +44,7 @@ TEST_CASE("sums are bounded by the ring's term budget, not only products") {
         [&] {
             for (int i = 0; i < 60; ++i) sum += pow(Poly::gen(r, 0), static_cast<unsigned long>(i));
         }(),
-        doctest::Contains("a sum reached 51 terms, above the limit of 50 (raise it with --max-terms)"),
+        doctest::Contains("a sum reached 51 terms, above the limit of 50 (raise it with --max-terms or max_terms)"),
         ResourceLimitError);
     CHECK(sum.length() <= 51);  // refused at the first result above the bound, not later
 }
@@ -69,7 +69,7 @@ TEST_CASE("a product is refused before it is formed when its bytes would exceed 
         CHECK_MESSAGE(
             std::string(e.what()).find("a product of a 1500-term and a 1500-term polynomial could take ") == 0,
             e.what());
-        CHECK_MESSAGE(std::string(e.what()).find("(raise it with --max-memory-mb)") != std::string::npos, e.what());
+        CHECK_MESSAGE(std::string(e.what()).find("(raise it with --max-memory-mb or max_memory_mb)") != std::string::npos, e.what());
     }
     CHECK(resident_memory() < before + headroom);  // nothing of the size was allocated
     // with room for it, the same product is formed: the estimate is an upper bound, not a guess
@@ -126,7 +126,7 @@ TEST_CASE("the time budget stops an exact computation between operations, naming
         CHECK(e.resource() == BudgetExceeded::Resource::time);
         CHECK_MESSAGE(std::string(e.what()).find("Hamilton-Jacobi term S_2 (2 of 3): the exact phase has run ") == 0,
                       e.what());
-        CHECK_MESSAGE(std::string(e.what()).find("above the time budget of 1e-09 s (raise it with --max-seconds)") !=
+        CHECK_MESSAGE(std::string(e.what()).find("above the time budget of 1e-09 s (raise it with --max-seconds or max_seconds)") !=
                           std::string::npos,
                       e.what());
     }
@@ -149,6 +149,6 @@ TEST_CASE("a refusal inside the Hamilton-Jacobi terms names the term as k of K")
         const std::string what = e.what();
         CHECK_MESSAGE(what.find("Hamilton-Jacobi term S_") == 0, what);
         CHECK_MESSAGE(what.find(" of 12): ") != std::string::npos, what);
-        CHECK_MESSAGE(what.find("above the limit of 60 (raise it with --max-terms)") != std::string::npos, what);
+        CHECK_MESSAGE(what.find("above the limit of 60 (raise it with --max-terms or max_terms)") != std::string::npos, what);
     }
 }

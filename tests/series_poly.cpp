@@ -300,7 +300,7 @@ TEST_CASE("a power is estimated before it is expanded and refused with its posit
     CHECK_THROWS_WITH_AS(
         Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^10"),
         "polynomial '(x1+x2+x3+x4+x5+x6)^10': expanding the '^' at position 20: the power 10 of a 6-term "
-        "polynomial could reach 3003 terms, above the limit of 1000 (raise it with --max-terms)",
+        "polynomial could reach 3003 terms, above the limit of 1000 (raise it with --max-terms or max_terms)",
         ResourceLimitError);
     CHECK(Poly::parse(r, "(x1+x2+x3+x4+x5+x6)^5").length() == 252);  // binomial(10, 5): within the budget
     // the same for a product: 126 * 126 terms, at most binomial(14, 6) = 3003 monomials of degree 8

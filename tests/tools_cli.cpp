@@ -409,7 +409,7 @@ TEST_CASE("cli: resource guards stop the exact phase and oversized output before
     CHECK(terms.out.empty());
     CHECK_MESSAGE(terms.err.find("exact phase stopped: radial realisation, terms of degree ") != std::string::npos,
                   terms.err);
-    CHECK(terms.err.find("above the limit of 20000 (raise it with --max-terms)") != std::string::npos);
+    CHECK(terms.err.find("above the limit of 20000 (raise it with --max-terms or max_terms)") != std::string::npos);
     const fs::path csv = fs::temp_directory_path() / ("pgi_test_big_" + std::to_string(::getpid()) + ".csv");
     Run big = pgi_run({"integrate", nambu, "--t-end", "1e6", "--csv", csv.string(), "--max-csv-mb", "10"});
     CHECK(big.exit_code == 4);

@@ -108,7 +108,7 @@ TEST_CASE("under a memory cap pgi ends with exit 4 or 5 and a message, never an 
         budget.out.find("hamiltonian.H: polynomial '(x1+x2+x3+x4+x5+x6)^60': expanding the '^' at position 20: the "
                         "power 60 of a 6-term polynomial could take ") != std::string::npos,
         budget.out);
-    CHECK(budget.out.find("above the memory budget of 220 MB (raise it with --max-memory-mb)") != std::string::npos);
+    CHECK(budget.out.find("above the memory budget of 220 MB (raise it with --max-memory-mb or max_memory_mb)") != std::string::npos);
     // a budget above the cap lets FLINT run out of memory: exit 5 and a message, not SIGABRT (134)
     Shell oom = shell(cap + " --max-memory-mb 100000");
     CHECK_MESSAGE(oom.exit_code == 5, oom.out);
@@ -119,7 +119,7 @@ TEST_CASE("under a memory cap pgi ends with exit 4 or 5 and a message, never an 
     Shell phase = shell("ulimit -v 300000; exec " + pgi() + " modified " + lattice.path() + " --upto 8");
     CHECK_MESSAGE(phase.exit_code == 4, phase.out);
     CHECK_MESSAGE(phase.out.find("exact phase stopped: ") != std::string::npos, phase.out);
-    CHECK(phase.out.find("above the memory budget of 220 MB (raise it with --max-memory-mb)") != std::string::npos);
+    CHECK(phase.out.find("above the memory budget of 220 MB (raise it with --max-memory-mb or max_memory_mb)") != std::string::npos);
 }
 
 TEST_CASE("an explicit memory budget bounds the resident memory, whatever the address-space limit") {
@@ -141,7 +141,7 @@ TEST_CASE("a long exact phase shows progress on a terminal, --quiet silences it,
     CHECK_MESSAGE(shown.exit_code == 4, shown.out);
     CHECK_MESSAGE(shown.out.find("pgi: exact phase: ") != std::string::npos, shown.out);
     CHECK_MESSAGE(shown.out.find(" terms, 1") != std::string::npos, shown.out);  // "..., N terms, 1.0 s"
-    CHECK(shown.out.find("above the time budget of 2 s (raise it with --max-seconds)") != std::string::npos);
+    CHECK(shown.out.find("above the time budget of 2 s (raise it with --max-seconds or max_seconds)") != std::string::npos);
     Shell quiet = shell(std::string("script -qec \"").append(run).append(" --quiet >/dev/null\" /dev/null"));
     CHECK_MESSAGE(quiet.exit_code == 4, quiet.out);
     CHECK_MESSAGE(quiet.out.find("pgi: exact phase: ") == std::string::npos, quiet.out);

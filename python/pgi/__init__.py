@@ -106,7 +106,7 @@ class EnsembleResult:
 
 def _rebuild(description):
     """A Scheme from its description (what pickle carries): ("values", kwargs) or ("toml", text, file,
-    trust_jacobi, jit)."""
+    trust_jacobi, jit, max_seconds, max_memory_mb)."""
     if description[0] == "values":
         return Scheme(**description[1])
     return Scheme._from_toml_text(*description[1:])
@@ -190,6 +190,13 @@ def _count(name, value, lo, hi):
             or not lo <= value <= hi):
         raise InputError(f"{name}: {_shown(value)} is not a whole number from {lo} to {'2^53' if hi == _MAX_COUNT else hi}")
     return int(value)
+
+
+def _exact_budget(max_seconds, max_memory_mb):
+    """The exact phase's time and memory budgets, checked with the command line's ranges (--max-seconds,
+    --max-memory-mb); None stays None (no time limit; the default memory budget)."""
+    return (_positive_float("max_seconds", max_seconds, 1e9),
+            _optional_count("max_memory_mb", max_memory_mb, 1, 2 ** 40))
 
 
 def _optional_count(name, value, lo, hi):
@@ -366,11 +373,17 @@ class Scheme:
     out of range raises InputError (a ValueError) naming the argument."""
 
     def __init__(self, coordinates, brackets, hamiltonian, casimirs=(), order=2, realisation="auto", dt=None,
-                 x0=None, t_end=None, max_terms=20_000_000, trust_jacobi=False, jit=None, parameters=None):
+                 x0=None, t_end=None, max_terms=20_000_000, trust_jacobi=False, jit=None, parameters=None,
+                 max_seconds=60, max_memory_mb=None):
         """coordinates: the names (a list of strings); brackets: {"a,b": "{a,b} as a polynomial"}, the others
         following by skew-symmetry; hamiltonian: H; casimirs: a list of polynomials that Poisson-commute with
         everything; order: k, 1..64; realisation: "auto", "lie-poisson", "radial", ... (as a scene's);
-        dt, x0, t_end: the defaults of step() and integrate(); max_terms: the exact phase's product bound.
+        dt, x0, t_end: the defaults of step() and integrate().
+
+        The exact phase's budget, as the command line's: max_terms bounds every product's terms (--max-terms),
+        max_seconds the busy time of its algebra over the scheme's life (--max-seconds; 60 as pgi's, None: no
+        limit), max_memory_mb the process's resident memory while it runs (--max-memory-mb; None: half the physical
+        memory). Past one, the work stops with ResourceLimitError naming the limit; nothing is kept half-built.
 
         trust_jacobi=True: the caller vouches for the Jacobi identity of the brackets, which is then not checked
         (check()["jacobi"] is then {"holds": None, "skipped": "trust_jacobi"}, as `pgi --trust-jacobi` reports it): for large structures known to be Poisson.
@@ -401,33 +414,37 @@ class Scheme:
         x0 = _state("x0", x0, len(coordinates))
         t_end = _nonnegative_float("t_end", t_end)
         max_terms = _count("max_terms", max_terms, 1, _MAX_COUNT)
+        max_seconds, max_memory_mb = _exact_budget(max_seconds, max_memory_mb)
         trust_jacobi, jit = _flag("trust_jacobi", trust_jacobi), _jit(jit)
         defaults = _parameter_defaults(parameters)
         self._core = _Scheme(coordinates, brackets, hamiltonian, casimirs, order, realisation, dt, x0, t_end, max_terms,
-                             trust_jacobi, jit, defaults)
+                             trust_jacobi, jit, defaults, max_seconds, max_memory_mb or 0)
         self._description = ("values", dict(coordinates=coordinates, brackets=brackets, hamiltonian=hamiltonian,
                                             casimirs=casimirs, order=order, realisation=realisation, dt=dt,
                                             x0=None if x0 is None else x0.tolist(), t_end=t_end, max_terms=max_terms,
-                                            trust_jacobi=trust_jacobi, jit=jit, parameters=dict(defaults)))
+                                            trust_jacobi=trust_jacobi, jit=jit, parameters=dict(defaults),
+                                            max_seconds=max_seconds, max_memory_mb=max_memory_mb))
 
     @classmethod
-    def from_toml(cls, path, trust_jacobi=False, jit=None):
-        """The scene file's scheme (its dt, x0 and t_end become the defaults). trust_jacobi as for Scheme();
-        jit=True or False overrides the scene's integrator.jit (as `pgi --jit` and `--no-jit`); None keeps it."""
+    def from_toml(cls, path, trust_jacobi=False, jit=None, max_seconds=60, max_memory_mb=None):
+        """The scene file's scheme (its dt, x0 and t_end become the defaults). trust_jacobi, max_seconds and
+        max_memory_mb as for Scheme(); jit=True or False overrides the scene's integrator.jit (as `pgi --jit` and
+        `--no-jit`); None keeps it."""
         trust_jacobi, jit = _flag("trust_jacobi", trust_jacobi), _jit(jit)
+        max_seconds, max_memory_mb = _exact_budget(max_seconds, max_memory_mb)
         try:  # the text, so a pickled Scheme carries the scene itself
             with open(path, "rb") as f:
                 text = f.read()
         except OSError:
-            _Scheme.from_toml(str(path), trust_jacobi, jit)  # raises pgi's own SceneError naming the file
+            _Scheme.from_toml(str(path), trust_jacobi, jit, max_seconds, max_memory_mb or 0)  # pgi's SceneError
             raise
-        return cls._from_toml_text(text, str(path), trust_jacobi, jit)
+        return cls._from_toml_text(text, str(path), trust_jacobi, jit, max_seconds, max_memory_mb)
 
     @classmethod
-    def _from_toml_text(cls, text, file, trust_jacobi=False, jit=None):
+    def _from_toml_text(cls, text, file, trust_jacobi=False, jit=None, max_seconds=60, max_memory_mb=None):
         s = cls.__new__(cls)
-        s._core = _Scheme.from_toml_text(text, file, trust_jacobi, jit)
-        s._description = ("toml", text, file, trust_jacobi, jit)
+        s._core = _Scheme.from_toml_text(text, file, trust_jacobi, jit, max_seconds, max_memory_mb or 0)
+        s._description = ("toml", text, file, trust_jacobi, jit, max_seconds, max_memory_mb)
         return s
 
     @property
