@@ -183,10 +183,11 @@ PyScheme from_scene(const pgi::Scene& scene) {
 }
 
 // trust_jacobi, jit and the exact phase's budget as the command line's --trust-jacobi, --jit / --no-jit (None: as the
-// scene says), --max-seconds (None: no limit) and --max-memory-mb (0: the default).
+// scene says), --max-seconds (None: no limit), --max-memory-mb (0: the default) and --max-terms.
 pgi::SceneOverrides overrides(bool trust_jacobi, std::optional<bool> jit, std::optional<double> max_seconds,
-                              std::size_t max_memory_mb) {
+                              std::size_t max_memory_mb, std::size_t max_terms) {
     pgi::SceneOverrides o;
+    o.max_terms = max_terms;
     o.trust_jacobi = trust_jacobi;
     if (jit) o.jit = native_policy(jit);
     o.max_seconds = max_seconds.value_or(pgi::BudgetLimits::default_max_seconds);
@@ -195,16 +196,17 @@ pgi::SceneOverrides overrides(bool trust_jacobi, std::optional<bool> jit, std::o
 }
 
 PyScheme from_toml(const std::string& path, bool trust_jacobi, std::optional<bool> jit,
-                   std::optional<double> max_seconds, std::size_t max_memory_mb) {
+                   std::optional<double> max_seconds, std::size_t max_memory_mb, std::size_t max_terms) {
     py::gil_scoped_release release;
-    return from_scene(pgi::load_scene(path, overrides(trust_jacobi, jit, max_seconds, max_memory_mb)));
+    return from_scene(pgi::load_scene(path, overrides(trust_jacobi, jit, max_seconds, max_memory_mb, max_terms)));
 }
 
 // The scene's text (what a pickled Scheme carries to another process); file only names it in messages.
 PyScheme from_toml_text(const std::string& text, const std::string& file, bool trust_jacobi, std::optional<bool> jit,
-                        std::optional<double> max_seconds, std::size_t max_memory_mb) {
+                        std::optional<double> max_seconds, std::size_t max_memory_mb, std::size_t max_terms) {
     py::gil_scoped_release release;
-    return from_scene(pgi::parse_scene(text, file, overrides(trust_jacobi, jit, max_seconds, max_memory_mb)));
+    return from_scene(
+        pgi::parse_scene(text, file, overrides(trust_jacobi, jit, max_seconds, max_memory_mb, max_terms)));
 }
 
 py::dict check(const PyScheme& s) {
@@ -661,9 +663,10 @@ PYBIND11_MODULE(_pgi, m) {
              "parameters"_a = std::vector<std::pair<std::string, std::string>>{}, "max_seconds"_a = py::none(),
              "max_memory_mb"_a = 0)
         .def_static("from_toml", &from_toml, "path"_a, "trust_jacobi"_a = false, "jit"_a = py::none(),
-                    "max_seconds"_a = py::none(), "max_memory_mb"_a = 0)
+                    "max_seconds"_a = py::none(), "max_memory_mb"_a = 0, "max_terms"_a = pgi::Ring::default_max_terms)
         .def_static("from_toml_text", &from_toml_text, "text"_a, "file"_a, "trust_jacobi"_a = false,
-                    "jit"_a = py::none(), "max_seconds"_a = py::none(), "max_memory_mb"_a = 0)
+                    "jit"_a = py::none(), "max_seconds"_a = py::none(), "max_memory_mb"_a = 0,
+                    "max_terms"_a = pgi::Ring::default_max_terms)
         .def_property_readonly("jacobi_trusted", [](const PyScheme& s) { return s.scheme->jacobi_trusted(); })
         .def_property_readonly("jit", [](const PyScheme& s) { return jit_of(s.scheme->jit()); })
         .def_property_readonly("name", [](const PyScheme& s) { return s.name; })

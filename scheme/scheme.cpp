@@ -129,7 +129,29 @@ struct Scheme::Cache {
     std::optional<CompiledBrackets> brackets;
     std::map<std::size_t, std::optional<CompiledMap>> modified_maps;  // by upto
     SchemeStats stats;
+    std::size_t calls = 0;  // the public calls under way on the thread holding the mutex (ExactCall)
 };
+
+namespace {
+
+// A public call's hold on the scheme's cache, and its exact phase: the outermost call restarts the budget's clock,
+// so each call's exact work has the whole time budget and the time between calls (integrating, the caller's own
+// work: a Python session, a Dask worker building steps for one dt after another) never counts.
+class ExactCall {
+public:
+    ExactCall(const Budget& budget, std::recursive_mutex& mutex, std::size_t& calls) : lock_(mutex), calls_(calls) {
+        if (calls_++ == 0) budget.restart();
+    }
+    ~ExactCall() { --calls_; }
+    ExactCall(const ExactCall&) = delete;
+    ExactCall& operator=(const ExactCall&) = delete;
+
+private:
+    std::lock_guard<std::recursive_mutex> lock_;
+    std::size_t& calls_;
+};
+
+}  // namespace
 
 Scheme::Scheme(PoissonStructure pi, Poly H, std::vector<Poly> casimirs, std::size_t order, RealisationChoice choice,
                bool trust_jacobi, NativePolicy jit, std::vector<Parameter> parameters)
@@ -248,7 +270,7 @@ const SchemeChecks& Scheme::structure_checks_locked() const {
 }
 
 const SchemeChecks& Scheme::checks() const {
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     structure_checks_locked();
     SchemeChecks& c = *cache_->checks;
     if (!c.jacobi && !c.realisation_checked) {
@@ -263,7 +285,7 @@ const SchemeChecks& Scheme::checks() const {
 }
 
 void Scheme::require_valid() const {
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     require_valid_locked();
 }
 
@@ -281,7 +303,7 @@ void Scheme::require_valid_locked() const {
 }
 
 Realisation Scheme::realisation(std::size_t D) const {
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     return *realisation_locked(D);
 }
 
@@ -301,7 +323,7 @@ RealisationPtr Scheme::realisation_locked(std::size_t D) const {
 }
 
 const std::vector<Poly>& Scheme::terms() const {
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     return terms_locked();
 }
 
@@ -319,7 +341,7 @@ const std::vector<Poly>& Scheme::terms_locked() const {
 }
 
 std::vector<Poly> Scheme::modified_hamiltonian(std::size_t m) const {
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     auto& Ht = cache_->modified;
     if (Ht.size() < m + 1) {
         // h through t^m reads beta through p-degree m, S alpha through k - 1: one realisation serves both
@@ -349,7 +371,7 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
     if (!(opt.dt > 0) || !std::isfinite(opt.dt))
         throw std::invalid_argument("Scheme::stepper: dt must be positive and finite");
     const detail::TypicalSize size(x_typical, pi_.moving_dimension());
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     auto& cache = cache_->steppers;
     auto best = std::find_if(cache.begin(), cache.end(), [&](const StepperEntry& e) { return e.serves(opt, size); });
     if (best == cache.end()) {
@@ -368,7 +390,7 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
 }
 
 SchemeStats Scheme::stats() const {
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     SchemeStats s = cache_->stats;
     s.steppers_kept = cache_->steppers.size();
     return s;
@@ -395,18 +417,18 @@ CompiledMap Scheme::invariants(const std::vector<Poly>& extra) const {
 }
 
 const CompiledMap& Scheme::invariants_map() const {
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     return built_once(cache_->invariants, cache_->stats.evaluator_builds, [&] { return compile_invariants({}); });
 }
 
 const CompiledMap& Scheme::vector_field_map() const {
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     return built_once(cache_->vector_field, cache_->stats.evaluator_builds,
                       [&] { return compile_evaluator(pi_.hamiltonian_vector_field(H_)); });
 }
 
 const CompiledBrackets& Scheme::brackets_map() const {
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     return built_once(cache_->brackets, cache_->stats.evaluator_builds, [&] {
         CompiledBrackets b;
         std::vector<Poly> entries;
@@ -422,7 +444,7 @@ const CompiledBrackets& Scheme::brackets_map() const {
 }
 
 const CompiledMap& Scheme::modified_hamiltonian_map(std::size_t upto) const {
-    std::lock_guard lock(cache_->mutex);
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
     return built_once(cache_->modified_maps[upto], cache_->stats.evaluator_builds,
                       [&] { return compile_evaluator(modified_hamiltonian(upto)); });
 }

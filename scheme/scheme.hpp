@@ -42,7 +42,7 @@ struct SchemeValues {
     std::size_t max_terms = Ring::default_max_terms;            // bound on every product of the exact phase
     std::size_t max_memory_mb = 0;  // the exact phase's memory (0: default_memory_budget(), series/budget.hpp)
     double max_seconds = BudgetLimits::default_max_seconds;  // its algebra's busy time (none; pgi and Python: 60)
-    bool trust_jacobi = false;                                  // skip the Jacobi check: the caller vouches for pi
+    bool trust_jacobi = false;                               // skip the Jacobi check: the caller vouches for pi
     NativePolicy jit =
         NativePolicy::automatic;  // when the steps' compiled maps become native code (StepOptions::native)
     /// Parameters and their defaults {{"w1", "1/2"}, {"eps", "0.05"}} (exact: 0.05 is 1/20), usable in H and the

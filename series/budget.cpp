@@ -200,6 +200,8 @@ void Budget::poll(Clock::time_point now) const {
 }
 
 BudgetLimits budget_limits(std::size_t max_terms, std::size_t max_memory_mb, double max_seconds) {
+    if (!(max_seconds > 0))
+        throw std::invalid_argument("max_seconds: must be positive, got " + seconds_text(max_seconds));
     BudgetLimits limits{.max_terms = max_terms, .max_seconds = max_seconds};
     if (max_memory_mb != 0) {  // (the user's budget: of the resident memory, whatever limits it)
         limits.max_bytes = std::min<std::size_t>(max_memory_mb, SIZE_MAX >> 20) << 20;

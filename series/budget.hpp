@@ -60,7 +60,8 @@ struct BudgetLimits {
 };
 
 /// The limits a user gives (pgi's --max-terms, --max-memory-mb, --max-seconds; Python's and SchemeValues' keywords):
-/// max_memory_mb = 0 keeps default_memory_budget(), another value bounds the resident memory.
+/// max_memory_mb = 0 keeps default_memory_budget(), another value bounds the resident memory; max_seconds must be
+/// positive (infinity: no limit), std::invalid_argument otherwise.
 BudgetLimits budget_limits(std::size_t max_terms, std::size_t max_memory_mb, double max_seconds);
 
 class Budget {

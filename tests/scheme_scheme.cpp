@@ -150,9 +150,9 @@ TEST_CASE("Scheme: from values bounds the exact phase by the time and memory giv
     SchemeValues slow = v;
     slow.max_seconds = 1e-9;
     const std::string time = refusal(slow);
-    CHECK_MESSAGE(time.find("above the time budget of 1e-09 s (raise it with --max-seconds or max_seconds)") !=
-                      std::string::npos,
-                  time);
+    CHECK_MESSAGE(
+        time.find("above the time budget of 1e-09 s (raise it with --max-seconds or max_seconds)") != std::string::npos,
+        time);
     SchemeValues small = v;
     small.max_memory_mb = 1;
     const std::string memory = refusal(small);

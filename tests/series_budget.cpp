@@ -69,7 +69,9 @@ TEST_CASE("a product is refused before it is formed when its bytes would exceed 
         CHECK_MESSAGE(
             std::string(e.what()).find("a product of a 1500-term and a 1500-term polynomial could take ") == 0,
             e.what());
-        CHECK_MESSAGE(std::string(e.what()).find("(raise it with --max-memory-mb or max_memory_mb)") != std::string::npos, e.what());
+        CHECK_MESSAGE(
+            std::string(e.what()).find("(raise it with --max-memory-mb or max_memory_mb)") != std::string::npos,
+            e.what());
     }
     CHECK(resident_memory() < before + headroom);  // nothing of the size was allocated
     // with room for it, the same product is formed: the estimate is an upper bound, not a guess
@@ -126,9 +128,10 @@ TEST_CASE("the time budget stops an exact computation between operations, naming
         CHECK(e.resource() == BudgetExceeded::Resource::time);
         CHECK_MESSAGE(std::string(e.what()).find("Hamilton-Jacobi term S_2 (2 of 3): the exact phase has run ") == 0,
                       e.what());
-        CHECK_MESSAGE(std::string(e.what()).find("above the time budget of 1e-09 s (raise it with --max-seconds or max_seconds)") !=
-                          std::string::npos,
-                      e.what());
+        CHECK_MESSAGE(
+            std::string(e.what()).find(
+                "above the time budget of 1e-09 s (raise it with --max-seconds or max_seconds)") != std::string::npos,
+            e.what());
     }
 }
 
@@ -149,6 +152,22 @@ TEST_CASE("a refusal inside the Hamilton-Jacobi terms names the term as k of K")
         const std::string what = e.what();
         CHECK_MESSAGE(what.find("Hamilton-Jacobi term S_") == 0, what);
         CHECK_MESSAGE(what.find(" of 12): ") != std::string::npos, what);
-        CHECK_MESSAGE(what.find("above the limit of 60 (raise it with --max-terms or max_terms)") != std::string::npos, what);
+        CHECK_MESSAGE(what.find("above the limit of 60 (raise it with --max-terms or max_terms)") != std::string::npos,
+                      what);
     }
+}
+
+TEST_CASE("budget_limits: the user's three values, memory in MB of the resident set, a non-positive time refused") {
+    const BudgetLimits given = budget_limits(10, 3, 2.5);
+    CHECK(given.max_terms == 10);
+    CHECK(given.max_bytes == std::size_t(3) << 20);
+    CHECK_FALSE(given.address_space);
+    CHECK(given.max_seconds == 2.5);
+    const BudgetLimits defaults = budget_limits(10, 0, std::numeric_limits<double>::infinity());
+    CHECK(defaults.max_bytes == default_memory_budget());
+    CHECK(defaults.address_space == default_memory_budget_is_address_space());
+    CHECK(budget_limits(1, SIZE_MAX, 1).max_bytes == (SIZE_MAX >> 20) << 20);  // clamped, not wrapped
+    for (const double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN()})
+        CHECK_THROWS_WITH_AS(budget_limits(1, 0, bad), doctest::Contains("max_seconds: must be positive"),
+                             std::invalid_argument);
 }

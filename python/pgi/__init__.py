@@ -106,7 +106,7 @@ class EnsembleResult:
 
 def _rebuild(description):
     """A Scheme from its description (what pickle carries): ("values", kwargs) or ("toml", text, file,
-    trust_jacobi, jit, max_seconds, max_memory_mb)."""
+    trust_jacobi, jit, max_seconds, max_memory_mb, max_terms), checked as the constructors check their arguments."""
     if description[0] == "values":
         return Scheme(**description[1])
     return Scheme._from_toml_text(*description[1:])
@@ -197,6 +197,17 @@ def _exact_budget(max_seconds, max_memory_mb):
     --max-memory-mb); None stays None (no time limit; the default memory budget)."""
     return (_positive_float("max_seconds", max_seconds, 1e9),
             _optional_count("max_memory_mb", max_memory_mb, 1, 2 ** 40))
+
+
+def _toml_arguments(trust_jacobi, jit, max_seconds, max_memory_mb, max_terms):
+    """Scheme.from_toml's keywords after the path, checked (a pickled description's too)."""
+    return (_flag("trust_jacobi", trust_jacobi), _jit(jit), *_exact_budget(max_seconds, max_memory_mb),
+            _count("max_terms", max_terms, 1, _MAX_COUNT))
+
+
+def _toml_core_arguments(trust_jacobi, jit, max_seconds, max_memory_mb, max_terms):
+    """The checked keywords as the module takes them (no memory budget: 0)."""
+    return trust_jacobi, jit, max_seconds, max_memory_mb or 0, max_terms
 
 
 def _optional_count(name, value, lo, hi):
@@ -381,9 +392,11 @@ class Scheme:
         dt, x0, t_end: the defaults of step() and integrate().
 
         The exact phase's budget, as the command line's: max_terms bounds every product's terms (--max-terms),
-        max_seconds the busy time of its algebra over the scheme's life (--max-seconds; 60 as pgi's, None: no
-        limit), max_memory_mb the process's resident memory while it runs (--max-memory-mb; None: half the physical
-        memory). Past one, the work stops with ResourceLimitError naming the limit; nothing is kept half-built.
+        max_seconds the busy time of its algebra in each call that does exact work (--max-seconds; 60 as pgi's,
+        None: no limit; the time between calls never counts), max_memory_mb the process's resident memory while it
+        runs (--max-memory-mb; None: half the physical memory, or 3/4 of `ulimit -v`'s address space when one is
+        set). Past one, the work stops with ResourceLimitError naming the limit; nothing is kept half-built. One
+        product or power is checked before it starts (its predicted terms and memory) and after it ends (the time).
 
         trust_jacobi=True: the caller vouches for the Jacobi identity of the brackets, which is then not checked
         (check()["jacobi"] is then {"holds": None, "skipped": "trust_jacobi"}, as `pgi --trust-jacobi` reports it): for large structures known to be Poisson.
@@ -426,31 +439,33 @@ class Scheme:
                                             max_seconds=max_seconds, max_memory_mb=max_memory_mb))
 
     @classmethod
-    def from_toml(cls, path, trust_jacobi=False, jit=None, max_seconds=60, max_memory_mb=None):
-        """The scene file's scheme (its dt, x0 and t_end become the defaults). trust_jacobi, max_seconds and
-        max_memory_mb as for Scheme(); jit=True or False overrides the scene's integrator.jit (as `pgi --jit` and
-        `--no-jit`); None keeps it."""
-        trust_jacobi, jit = _flag("trust_jacobi", trust_jacobi), _jit(jit)
-        max_seconds, max_memory_mb = _exact_budget(max_seconds, max_memory_mb)
+    def from_toml(cls, path, trust_jacobi=False, jit=None, max_seconds=60, max_memory_mb=None,
+                  max_terms=20_000_000):
+        """The scene file's scheme (its dt, x0 and t_end become the defaults). trust_jacobi and the exact phase's
+        budget (max_seconds, max_memory_mb, max_terms) as for Scheme(); jit=True or False overrides the scene's
+        integrator.jit (as `pgi --jit` and `--no-jit`); None keeps it."""
+        arguments = _toml_arguments(trust_jacobi, jit, max_seconds, max_memory_mb, max_terms)
         try:  # the text, so a pickled Scheme carries the scene itself
             with open(path, "rb") as f:
                 text = f.read()
         except OSError:
-            _Scheme.from_toml(str(path), trust_jacobi, jit, max_seconds, max_memory_mb or 0)  # pgi's SceneError
+            _Scheme.from_toml(str(path), *_toml_core_arguments(*arguments))  # raises pgi's SceneError naming the file
             raise
-        return cls._from_toml_text(text, str(path), trust_jacobi, jit, max_seconds, max_memory_mb)
+        return cls._from_toml_text(text, str(path), *arguments)
 
     @classmethod
-    def _from_toml_text(cls, text, file, trust_jacobi=False, jit=None, max_seconds=60, max_memory_mb=None):
+    def _from_toml_text(cls, text, file, trust_jacobi=False, jit=None, max_seconds=60, max_memory_mb=None,
+                        max_terms=20_000_000):
+        arguments = _toml_arguments(trust_jacobi, jit, max_seconds, max_memory_mb, max_terms)
         s = cls.__new__(cls)
-        s._core = _Scheme.from_toml_text(text, file, trust_jacobi, jit, max_seconds, max_memory_mb or 0)
-        s._description = ("toml", text, file, trust_jacobi, jit, max_seconds, max_memory_mb)
+        s._core = _Scheme.from_toml_text(text, file, *_toml_core_arguments(*arguments))
+        s._description = ("toml", text, file, *arguments)
         return s
 
     @property
     def description(self):
         """What rebuilds this Scheme elsewhere: ("values", the constructor's arguments) or ("toml", the scene's
-        text, its file name, trust_jacobi, jit). Pickling a Scheme sends this; the exact work is redone (once) where it lands."""
+        text, its file name, trust_jacobi, jit, max_seconds, max_memory_mb, max_terms). Pickling a Scheme sends this; the exact work is redone (once) where it lands."""
         return self._description
 
     def __reduce__(self):

@@ -133,5 +133,5 @@ def test_the_scheme_explains_itself_with_real_methods_and_properties():
     assert "max_output_mb" in inspect.signature(pgi.Scheme.integrate).parameters
     assert "max_steps" in inspect.signature(pgi.Scheme.integrate_ensemble).parameters
     assert list(inspect.signature(pgi.Scheme.from_toml).parameters) == ["path", "trust_jacobi", "jit", "max_seconds",
-                                                                        "max_memory_mb"]
+                                                                        "max_memory_mb", "max_terms"]
     assert s.order == 4 and s.method_order == 4 and s.coordinates == ["x1", "x2", "x3"]

@@ -1,6 +1,7 @@
 """The exact phase's budget from Python, as the command line's (--max-seconds, --max-memory-mb): a Scheme stops
 its algebra with ResourceLimitError naming the limit, 60 seconds by default as pgi's; a pickled Scheme keeps it."""
 import pickle
+import time
 
 import pytest
 
@@ -36,6 +37,15 @@ def test_the_default_budget_is_the_command_lines_and_lets_ordinary_work_through(
     assert len(pgi.Scheme(**HEAVY, max_seconds=None).modified_hamiltonian(6)) > 0
 
 
+def test_each_call_has_the_whole_time_budget_and_the_time_between_calls_never_counts():
+    # the budget counts gaps under a second between operations as busy: 0.6 s of the caller's own work before
+    # the second call, against a budget of 0.5 s, must not be charged to it
+    s = pgi.Scheme(**HEAVY, max_seconds=0.5)
+    s.modified_hamiltonian(2)
+    time.sleep(0.6)
+    assert len(s.modified_hamiltonian(6)) == 7
+
+
 def test_a_scene_file_takes_the_same_budgets():
     path = SCENES / "rigid_body.toml"
     refused_by_budget("max_seconds", lambda: pgi.Scheme.from_toml(path, max_seconds=1e-9), upto=12)
@@ -51,7 +61,7 @@ def test_a_pickled_scheme_keeps_its_budget():
         if kind == "values":
             tiny = ("values", dict(rest[0], max_seconds=1e-9))
         else:
-            tiny = ("toml", *rest[:4], 1e-9, rest[5])
+            tiny = ("toml", *rest[:4], 1e-9, *rest[5:])
         refused_by_budget("max_seconds", lambda: pgi._rebuild(tiny), upto=12)
 
 
@@ -67,3 +77,20 @@ def test_a_bad_time_budget_is_refused_naming_it(value):
 def test_a_bad_memory_budget_is_refused_naming_it(value):
     with pytest.raises(pgi.InputError, match="max_memory_mb"):
         pgi.Scheme(**RIGID_BODY, max_memory_mb=value)
+    with pytest.raises(pgi.InputError, match="max_memory_mb"):
+        pgi.Scheme.from_toml(SCENES / "rigid_body.toml", max_memory_mb=value)
+
+
+def test_a_tampered_description_is_checked_as_the_constructors_check_it():
+    kind, text, file, *rest = pgi.Scheme.from_toml(SCENES / "rigid_body.toml").description
+    for position, name, value in [(2, "max_seconds", float("nan")), (2, "max_seconds", -1.0),
+                                  (3, "max_memory_mb", True), (4, "max_terms", 0), (0, "trust_jacobi", "yes")]:
+        tampered = list(rest)
+        tampered[position] = value
+        with pytest.raises(pgi.InputError, match=name):
+            pgi._rebuild((kind, text, file, *tampered))
+
+
+def test_a_scene_file_takes_the_terms_bound_its_refusal_names():
+    with pytest.raises(pgi.ResourceLimitError, match="max_terms"):
+        pgi.Scheme.from_toml(SCENES / "rigid_body.toml", max_terms=5).modified_hamiltonian(8)
