@@ -79,16 +79,26 @@ TEST_CASE("Scheme: the checks report class, Jacobi, Casimirs and the realisation
     CHECK(broken.stats().terms_builds == 0);
 }
 
-TEST_CASE("Scheme: from strings equals the scene, and bad values name their entry") {
-    const Scene s = test::bundled("rigid_body");
+namespace {
+
+// The bundled rigid body's scene as plain values (its Casimir left out).
+SchemeValues rigid_body_values(const Scene& s) {
     SchemeValues v;
     v.coordinates = s.phase_space().coordinates();
     for (std::size_t i = 0; i < 3; ++i)
         for (std::size_t j = i + 1; j < 3; ++j)
             v.brackets.emplace_back(v.coordinates[i] + "," + v.coordinates[j], s.pi(i, j).to_string());
     v.hamiltonian = s.H.to_string();
-    v.casimirs = {s.casimirs[0].to_string()};
     v.order = long(s.order);
+    return v;
+}
+
+}  // namespace
+
+TEST_CASE("Scheme: from strings equals the scene, and bad values name their entry") {
+    const Scene s = test::bundled("rigid_body");
+    SchemeValues v = rigid_body_values(s);
+    v.casimirs = {s.casimirs[0].to_string()};
     const Scheme scheme = Scheme::from_values(v);
     auto texts = [](const std::vector<Poly>& v) {
         std::vector<std::string> out;
@@ -130,13 +140,7 @@ TEST_CASE("Scheme: from strings equals the scene, and bad values name their entr
 // The budgets a C++ or Python caller gives (pgi's --max-seconds and --max-memory-mb): the exact phase stops with the
 // refusal naming them, and a scheme without them does the same work.
 TEST_CASE("Scheme: from values bounds the exact phase by the time and memory given") {
-    const Scene s = test::bundled("rigid_body");
-    SchemeValues v;
-    v.coordinates = s.phase_space().coordinates();
-    for (std::size_t i = 0; i < 3; ++i)
-        for (std::size_t j = i + 1; j < 3; ++j)
-            v.brackets.emplace_back(v.coordinates[i] + "," + v.coordinates[j], s.pi(i, j).to_string());
-    v.hamiltonian = s.H.to_string();
+    SchemeValues v = rigid_body_values(test::bundled("rigid_body"));
     v.order = 12;
     // (from the parse of H on, whichever operation sees the budget spent first)
     const auto refusal = [&](SchemeValues w) {
