@@ -38,6 +38,8 @@ public:
     std::size_t dim() const { return static_cast<std::size_t>(x0_.size()); }
     std::size_t derivatives() const { return m_; }     // m
     std::size_t degree() const { return 2 * m_ + 1; }  // of the interpolant in theta
+    /// Its compiled map (the Lie derivatives), for code to be attached to.
+    std::vector<CompiledMap*> compiled_maps() { return {&lie_}; }
 
 private:
     void derivatives_at(const Eigen::VectorXd& x, Eigen::MatrixXd& d) const;

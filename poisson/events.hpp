@@ -43,6 +43,8 @@ public:
     /// Whether g_i going from g0 to g1 is a crossing in event i's direction (a zero is reached from
     /// the side the direction names; a start on the zero is not a crossing, it was reported before).
     bool crosses(std::size_t i, double g0, double g1) const;
+    /// Its compiled maps (g and its gradients), for code to be attached to.
+    std::vector<CompiledMap*> compiled_maps() { return {&g_, &grad_}; }
 
 private:
     std::vector<EventSpec> specs_;

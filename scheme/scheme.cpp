@@ -400,7 +400,7 @@ SchemeStats Scheme::stats() const {
 // a run's invariants: evaluated at every step, they are worth the microseconds it takes).
 CompiledMap Scheme::compile_evaluator(const std::vector<Poly>& outputs) const {
     CompiledMap map = CompiledMap::build(outputs, phase_space().coordinate_vars());
-    if (jit_ != NativePolicy::never) attach_machine_code(map);
+    attach_machine_code({&map}, jit_);
     return map;
 }
 

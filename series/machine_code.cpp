@@ -365,4 +365,8 @@ std::size_t attach_machine_code(const std::vector<CompiledMap*>& maps) {
     return written;
 }
 
+std::size_t attach_machine_code(const std::vector<CompiledMap*>& maps, NativePolicy policy) {
+    return policy == NativePolicy::never ? 0 : attach_machine_code(maps);
+}
+
 }  // namespace pgi

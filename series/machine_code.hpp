@@ -9,6 +9,7 @@
 // keeps it or a long run builds it, still runs first: the compiler allocates every register, where this code keeps
 // the products on the stack and the values read again in the registers a phase leaves free.
 #include "series/compile.hpp"
+#include "series/native.hpp"
 
 #include <cstddef>
 #include <vector>
@@ -31,5 +32,8 @@ constexpr std::size_t machine_code_max_size = 3000;
 bool attach_machine_code(CompiledMap& map);
 /// The same for each map that runs no native code; how many of maps run machine code afterwards.
 std::size_t attach_machine_code(const std::vector<CompiledMap*>& maps);
+/// The same as a scheme's jit policy gives it to the maps it builds beside its steps (its evaluators, a run's events
+/// and dense output): every policy but never (which keeps the interpreter alone).
+std::size_t attach_machine_code(const std::vector<CompiledMap*>& maps, NativePolicy policy);
 
 }  // namespace pgi

@@ -1,5 +1,7 @@
 // The numeric evaluators (scheme/evaluators.hpp): the vector field, pi, H, the Casimirs and the modified
 // Hamiltonian at states, from maps compiled once, against hand-written formulas and runs of the method.
+#include "poisson/dense_output.hpp"
+#include "poisson/events.hpp"
 #include "scheme/evaluators.hpp"
 #include "scheme/trajectory.hpp"
 #include "series/machine_code.hpp"
@@ -7,6 +9,7 @@
 
 #include <doctest/doctest.h>
 
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -146,6 +149,36 @@ TEST_CASE("Evaluators: a scheme's maps run machine code unless its jit is never,
         CHECK(ya == yb);
         CHECK(ga == gb);
     }
+}
+
+// A run's events and dense output are maps the scheme builds beside its step: machine code by the same policy, and
+// the crossings the interpreter finds, bit for bit (a Poincare section of Henon-Heiles, both directions).
+TEST_CASE("Evaluators: events and their dense output take the scheme's policy, the crossings the same bits") {
+    const Scene s = test::bundled("henon_heiles");
+    const Scheme never(s.pi, s.H, s.casimirs, s.order, s.realisation, false, NativePolicy::never);
+    TrajectoryEvents events;
+    events.specs = {{"q1", 0, false}, {"p2 - q2", 1, false}};
+    events.samples = 3;
+    const Eigen::VectorXd x0 = Eigen::Map<const Eigen::VectorXd>(s.x0->data(), Eigen::Index(s.x0->size()));
+    const Trajectory a = integrate(*s.scheme, x0, s.dt, 40.0, 100, std::nullopt, events);
+    const Trajectory b = integrate(never, x0, s.dt, 40.0, 100, std::nullopt, events);
+    REQUIRE(a.status == StepStatus::ok);
+    REQUIRE(a.crossings.size() >= 10);
+    REQUIRE(a.crossings.size() == b.crossings.size());
+    for (std::size_t i = 0; i < a.crossings.size(); ++i) {
+        CAPTURE(i);
+        CHECK(a.crossings[i].event == b.crossings[i].event);
+        CHECK(std::bit_cast<std::uint64_t>(a.crossings[i].t) == std::bit_cast<std::uint64_t>(b.crossings[i].t));
+        CHECK(a.crossings[i].x == b.crossings[i].x);
+    }
+    EventSet set = EventSet::build(s.phase_space(), events.specs);
+    DenseOutput dense = DenseOutput::build(s.pi, s.H, 4);
+    std::vector<CompiledMap*> maps = set.compiled_maps();
+    maps.push_back(dense.compiled_maps()[0]);
+    CHECK(attach_machine_code(maps, NativePolicy::never) == 0);
+    for (const CompiledMap* m : maps) CHECK_FALSE(m->machine_code());
+    CHECK(attach_machine_code(maps, NativePolicy::automatic) == (machine_code_supported() ? maps.size() : 0));
+    for (const CompiledMap* m : maps) CHECK(m->machine_code() == machine_code_supported());
 }
 
 TEST_CASE("Evaluators: the Casimirs stay at round-off along a run") {

@@ -2,6 +2,7 @@
 
 #include "poisson/step_jacobian.hpp"
 #include "scheme/detail/time_output.hpp"
+#include "series/machine_code.hpp"
 
 namespace pgi {
 
@@ -25,10 +26,19 @@ RunRequest trajectory_request(const Scheme& scheme, double dt, double t_end, con
 
 namespace {
 
-// The events, built (and checked) before the step is.
+// The events, built (and checked) before the step is, running machine code as the scheme's evaluators do.
 std::optional<EventSet> event_set(const Scheme& scheme, const TrajectoryEvents& events) {
     if (events.specs.empty()) return std::nullopt;
-    return EventSet::build(scheme.phase_space(), events.specs, events.naming);
+    EventSet set = EventSet::build(scheme.phase_space(), events.specs, events.naming);
+    attach_machine_code(set.compiled_maps(), scheme.jit());
+    return set;
+}
+
+// The dense output the events are located on, likewise.
+DenseOutput dense_output(const Scheme& scheme, std::size_t method_order) {
+    DenseOutput d = DenseOutput::build(scheme.structure(), scheme.hamiltonian(), method_order);
+    attach_machine_code(d.compiled_maps(), scheme.jit());
+    return d;
 }
 
 }  // namespace
@@ -40,9 +50,7 @@ TrajectoryRunner::TrajectoryRunner(const Scheme& scheme, double dt, const RunPla
       prototype_(scheme.stepper(dt, x_typical)), stepper_(prototype_), loop_(scheme) {
     loop_.set_cancel(cancel);
     if (events_)
-        detector_prototype_.emplace(*events_,
-                                    DenseOutput::build(scheme.structure(), scheme.hamiltonian(), prototype_.order()),
-                                    options.events.samples);
+        detector_prototype_.emplace(*events_, dense_output(scheme, prototype_.order()), options.events.samples);
 }
 
 Trajectory TrajectoryRunner::run(const Eigen::VectorXd& x0) {
