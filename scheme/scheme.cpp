@@ -404,6 +404,20 @@ CompiledMap Scheme::compile_evaluator(const std::vector<Poly>& outputs) const {
     return map;
 }
 
+EventSet Scheme::event_set(std::vector<EventSpec> specs, const EventNaming& naming) const {
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    EventSet set = EventSet::build(phase_space(), std::move(specs), naming);
+    attach_machine_code(set.compiled_maps(), jit_);
+    return set;
+}
+
+DenseOutput Scheme::dense_output(std::size_t method_order) const {
+    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    DenseOutput d = DenseOutput::build(pi_, H_, method_order);
+    attach_machine_code(d.compiled_maps(), jit_);
+    return d;
+}
+
 // H, the Casimirs, then extra, compiled over the coordinates.
 CompiledMap Scheme::compile_invariants(const std::vector<Poly>& extra) const {
     std::vector<Poly> f{H_};

@@ -4,6 +4,8 @@
 // time it is asked for, once: the checks, the realisation to the p-degree a request needs, S_1..S_k,
 // the compiled step for a dt, the modified Hamiltonian to a power of dt. Every user of pgi (the command
 // line, the report, the Python module, a C++ program) goes through it.
+#include "poisson/dense_output.hpp"
+#include "poisson/events.hpp"
 #include "poisson/newton_step.hpp"
 #include "scheme/input.hpp"
 #include "series/compile.hpp"
@@ -92,7 +94,8 @@ public:
     static Scheme from_values(const SchemeValues& values);
     explicit Scheme(const SchemeValues& values) : Scheme(from_values(values)) {}
 
-    /// A copy shares nothing: it recomputes what it is asked for.
+    /// A copy shares no artefact: it recomputes what it is asked for. It shares the exact phase's budget (its ring's),
+    /// which one thread at a time may use.
     Scheme(const Scheme& other);
     Scheme& operator=(const Scheme& other);
     Scheme(Scheme&&) noexcept;
@@ -157,6 +160,11 @@ public:
     /// from opt; opt.k and opt.realisation are the scheme's (InputError if they differ), opt.dt is dt.
     NewtonStepper stepper(const StepOptions& opt, const Eigen::VectorXd& x_typical) const;
     static constexpr std::size_t stepper_cache_size = 8;
+    /// A run's events (EventSet::build) and the dense output their crossings are located on (DenseOutput::build, for
+    /// a step of method_order): each call one exact computation within the scheme's budget, their maps running
+    /// machine code as the evaluators' do.
+    EventSet event_set(std::vector<EventSpec> specs, const EventNaming& naming) const;
+    DenseOutput dense_output(std::size_t method_order) const;
     /// H, the Casimirs, then extra, compiled over the coordinates: what a run watches.
     /// Without extra, a copy of invariants_map().
     CompiledMap invariants(const std::vector<Poly>& extra = {}) const;

@@ -171,14 +171,15 @@ TEST_CASE("Evaluators: events and their dense output take the scheme's policy, t
         CHECK(std::bit_cast<std::uint64_t>(a.crossings[i].t) == std::bit_cast<std::uint64_t>(b.crossings[i].t));
         CHECK(a.crossings[i].x == b.crossings[i].x);
     }
-    EventSet set = EventSet::build(s.phase_space(), events.specs);
-    DenseOutput dense = DenseOutput::build(s.pi, s.H, 4);
-    std::vector<CompiledMap*> maps = set.compiled_maps();
-    maps.push_back(dense.compiled_maps()[0]);
-    CHECK(attach_machine_code(maps, NativePolicy::never) == 0);
-    for (const CompiledMap* m : maps) CHECK_FALSE(m->machine_code());
-    CHECK(attach_machine_code(maps, NativePolicy::automatic) == (machine_code_supported() ? maps.size() : 0));
-    for (const CompiledMap* m : maps) CHECK(m->machine_code() == machine_code_supported());
+    // what the runs and pgi section build them with
+    for (const Scheme* scheme : {s.scheme.get(), &never}) {
+        EventSet set = scheme->event_set(events.specs, {});
+        DenseOutput dense = scheme->dense_output(4);
+        std::vector<CompiledMap*> maps = set.compiled_maps();
+        maps.push_back(dense.compiled_maps()[0]);
+        const bool machine = scheme->jit() != NativePolicy::never && machine_code_supported();
+        for (const CompiledMap* m : maps) CHECK(m->machine_code() == machine);
+    }
 }
 
 TEST_CASE("Evaluators: the Casimirs stay at round-off along a run") {

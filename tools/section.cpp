@@ -20,7 +20,7 @@ using nlohmann::json;
 json section_report(const Scene& scene, const SectionOptions& options) {
     if (!scene.x0) throw SceneError(scene.file, "run.x0", "missing: give [run] x0 or --x0");
     if (!scene.t_end) throw SceneError(scene.file, "run.t_end", "missing: give [run] t_end or --t-end");
-    EventSet events = EventSet::build(scene.phase_space(), {{options.event, options.direction, false}});
+    EventSet events = scene.scheme->event_set({{options.event, options.direction, false}}, {});
     // opened before the run, so a bad path is refused before any work; renamed into place only after it
     std::optional<AtomicFile> file;
     if (options.csv) file.emplace(*options.csv);
@@ -29,7 +29,7 @@ json section_report(const Scene& scene, const SectionOptions& options) {
     const std::size_t N =
         step_count(scene, options.max_steps, options.samples);  // refused above the budgets, before any work
     NewtonStepper stepper = scene.scheme->stepper(scene.dt, x);
-    EventDetector detector(std::move(events), DenseOutput::build(scene.pi, scene.H, stepper.order()), options.samples);
+    EventDetector detector(std::move(events), scene.scheme->dense_output(stepper.order()), options.samples);
     json crossings = json::array();
     RunLoop loop(*scene.scheme);  // the run loop of pgi integrate, with the events and no other observer
     const RunEnd run = loop.run(

@@ -2,7 +2,6 @@
 
 #include "poisson/step_jacobian.hpp"
 #include "scheme/detail/time_output.hpp"
-#include "series/machine_code.hpp"
 
 namespace pgi {
 
@@ -26,19 +25,10 @@ RunRequest trajectory_request(const Scheme& scheme, double dt, double t_end, con
 
 namespace {
 
-// The events, built (and checked) before the step is, running machine code as the scheme's evaluators do.
+// The events, built (and checked) before the step is.
 std::optional<EventSet> event_set(const Scheme& scheme, const TrajectoryEvents& events) {
     if (events.specs.empty()) return std::nullopt;
-    EventSet set = EventSet::build(scheme.phase_space(), events.specs, events.naming);
-    attach_machine_code(set.compiled_maps(), scheme.jit());
-    return set;
-}
-
-// The dense output the events are located on, likewise.
-DenseOutput dense_output(const Scheme& scheme, std::size_t method_order) {
-    DenseOutput d = DenseOutput::build(scheme.structure(), scheme.hamiltonian(), method_order);
-    attach_machine_code(d.compiled_maps(), scheme.jit());
-    return d;
+    return scheme.event_set(events.specs, events.naming);
 }
 
 }  // namespace
@@ -49,8 +39,7 @@ TrajectoryRunner::TrajectoryRunner(const Scheme& scheme, double dt, const RunPla
     : scheme_(&scheme), options_(options), steps_(plan.steps), events_(event_set(scheme, options.events)),
       prototype_(scheme.stepper(dt, x_typical)), stepper_(prototype_), loop_(scheme) {
     loop_.set_cancel(cancel);
-    if (events_)
-        detector_prototype_.emplace(*events_, dense_output(scheme, prototype_.order()), options.events.samples);
+    if (events_) detector_prototype_.emplace(*events_, scheme.dense_output(prototype_.order()), options.events.samples);
 }
 
 Trajectory TrajectoryRunner::run(const Eigen::VectorXd& x0) {

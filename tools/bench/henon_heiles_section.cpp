@@ -39,8 +39,7 @@ int main(int argc, char** argv) try {
     opt.k = s.order;
     opt.dt = s.dt;
     pgi::NewtonStepper stepper = pgi::NewtonStepper::build(s.pi, s.H, opt, starts.front());
-    pgi::EventDetector detector(pgi::EventSet::build(s.phase_space(), {{"q1", +1, false}}),
-                                pgi::DenseOutput::build(s.pi, s.H, stepper.order()));
+    pgi::EventDetector detector(s.scheme->event_set({{"q1", +1, false}}, {}), s.scheme->dense_output(stepper.order()));
     pgi::RunLoop loop(*s.scheme);  // the run of every surface (it watches H at every step, with events or not)
     const auto build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const auto N = static_cast<std::size_t>(std::ceil(T / s.dt - 1e-9));
