@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -26,10 +27,16 @@ struct SignalTable {
     std::atomic<int> file_state[files];  // 0 free, 1 being written, 2 registered
     char path[files][4096];
     std::atomic<pid_t> group[groups];  // 0 free, else a running child's process group
+    // Spawns under way on other threads (spawn_registered), and whether the handler has begun: a child spawned but not
+    // yet registered when the signal came would outlive the program, so the handler waits for those to register
+    // (their threads hold the signals back), and none starts once it has begun.
+    std::atomic<int> spawning;
+    std::atomic<bool> exiting;
 };
 SignalTable table{};  // constant-initialised: safe to read in a handler at any time
 
-static_assert(std::atomic<int>::is_always_lock_free && std::atomic<pid_t>::is_always_lock_free);
+static_assert(std::atomic<int>::is_always_lock_free && std::atomic<pid_t>::is_always_lock_free &&
+              std::atomic<bool>::is_always_lock_free);
 
 int register_file(const std::string& path) {
     if (path.size() >= sizeof table.path[0]) return -1;
@@ -53,6 +60,10 @@ int register_group(pid_t pgid) {
 }
 
 extern "C" void kill_children_remove_temporaries_and_exit(int sig) {
+    table.exiting.store(true);
+    // a spawn under way registers within microseconds (its thread blocks no more than that); a second at most
+    const timespec pause{0, 1'000'000};
+    for (int i = 0; i < 1000 && table.spawning.load() != 0; ++i) ::nanosleep(&pause, nullptr);
     for (auto& g : table.group)
         if (const pid_t pgid = g.load(); pgid > 0) ::kill(-pgid, SIGKILL);
     for (int i = 0; i < SignalTable::files; ++i)
@@ -126,8 +137,9 @@ struct SpawnSetup {
     }
 };
 
-// Spawns argv with SIGINT and SIGTERM held back until its group is registered (a signal in between would leave it
-// running); returns the pid (the group's id) and the slot, or the spawn error.
+// Spawns argv with SIGINT and SIGTERM held back on this thread until its group is registered, and counted in
+// table.spawning for a handler running on another thread meanwhile (a signal in between would leave it running);
+// returns the pid (the group's id) and the slot, or the spawn error.
 int spawn_registered(const std::vector<std::string>& argv, int output, pid_t& pid, int& slot) {
     std::vector<char*> args;
     for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
@@ -137,9 +149,14 @@ int spawn_registered(const std::vector<std::string>& argv, int output, pid_t& pi
     sigaddset(&held, SIGINT);
     sigaddset(&held, SIGTERM);
     ::pthread_sigmask(SIG_BLOCK, &held, &previous);
-    const SpawnSetup setup(output);
-    const int spawned = ::posix_spawnp(&pid, args[0], &setup.actions, &setup.attr, args.data(), environ);
-    if (spawned == 0) slot = register_group(pid);
+    table.spawning.fetch_add(1);
+    int spawned = ECANCELED;  // (the handler has begun on another thread: it is about to end the program)
+    if (!table.exiting.load()) {
+        const SpawnSetup setup(output);
+        spawned = ::posix_spawnp(&pid, args[0], &setup.actions, &setup.attr, args.data(), environ);
+        if (spawned == 0) slot = register_group(pid);
+    }
+    table.spawning.fetch_sub(1);
     ::pthread_sigmask(SIG_SETMASK, &previous, nullptr);
     return spawned;
 }
