@@ -181,8 +181,13 @@ Scheme Scheme::from_values(const SchemeValues& v) {
         names.push_back(name);
     }
     check_parameter_names(v.coordinates, {names.begin() + long(v.coordinates.size()), names.end()});
-    if (!(v.max_seconds > 0)) throw InputError("max_seconds", "must be positive");
-    PhaseSpace M(names, std::make_shared<const Budget>(budget_limits(v.max_terms, v.max_memory_mb, v.max_seconds)));
+    BudgetLimits limits;
+    try {  // (budget_limits' own check of the time: one rule, here named as the field)
+        limits = budget_limits(v.max_terms, v.max_memory_mb, v.max_seconds);
+    } catch (const std::invalid_argument&) {
+        throw InputError("max_seconds", "must be positive");
+    }
+    PhaseSpace M(names, std::make_shared<const Budget>(limits));
     PoissonStructure pi = structure_from_brackets(M, v.brackets);
     Poly H = parse_polynomial(M, "hamiltonian.H", v.hamiltonian);
     std::vector<Poly> casimirs;
