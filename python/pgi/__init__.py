@@ -17,6 +17,8 @@ Bad input raises ValueError (pgi.InputError); a step not solved to round-off rai
 import collections.abc as _abc
 import math as _math
 import numbers as _numbers
+import os as _os
+import stat as _stat
 import warnings as _warnings
 
 import numpy as _np
@@ -445,12 +447,17 @@ class Scheme:
         budget (max_seconds, max_memory_mb, max_terms) as for Scheme(); jit=True or False overrides the scene's
         integrator.jit (as `pgi --jit` and `--no-jit`); None keeps it."""
         arguments = _toml_arguments(trust_jacobi, jit, max_seconds, max_memory_mb, max_terms)
-        try:  # the text, so a pickled Scheme carries the scene itself
-            with open(path, "rb") as f:
-                text = f.read()
+        try:  # the text, so a pickled Scheme carries the scene itself; opened without blocking (a FIFO would wait)
+            fd = _os.open(path, _os.O_RDONLY | _os.O_NONBLOCK)
         except OSError:
-            _Scheme.from_toml(str(path), *_toml_core_arguments(*arguments))  # raises pgi's SceneError naming the file
-            raise
+            fd = None
+        if fd is None or not _stat.S_ISREG(_os.fstat(fd).st_mode):  # pgi's SceneError names the file and why
+            if fd is not None:
+                _os.close(fd)
+            _Scheme.from_toml(str(path), *_toml_core_arguments(*arguments))
+            raise SceneError(f"{path}: cannot be read as a scene file")
+        with _os.fdopen(fd, "rb") as f:
+            text = f.read()
         return cls._from_toml_text(text, str(path), *arguments)
 
     @classmethod

@@ -135,3 +135,19 @@ def test_the_scheme_explains_itself_with_real_methods_and_properties():
     assert list(inspect.signature(pgi.Scheme.from_toml).parameters) == ["path", "trust_jacobi", "jit", "max_seconds",
                                                                         "max_memory_mb", "max_terms"]
     assert s.order == 4 and s.method_order == 4 and s.coordinates == ["x1", "x2", "x3"]
+
+
+def test_a_scene_path_that_is_no_regular_file_is_refused_naming_it_without_waiting(tmp_path):
+    import os
+    import signal
+    fifo, directory = tmp_path / "scene.toml", tmp_path / "dir.toml"
+    os.mkfifo(fifo)
+    directory.mkdir()
+    signal.alarm(20)  # a FIFO opened for reading waits for a writer: a hang fails here instead
+    try:
+        for path, why in [(fifo, "not a regular file"), (directory, "is a directory"), (tmp_path / "none.toml", "")]:
+            with pytest.raises(pgi.SceneError, match=str(path.name)) as e:
+                pgi.Scheme.from_toml(path)
+            assert why in str(e.value)
+    finally:
+        signal.alarm(0)
