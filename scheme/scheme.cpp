@@ -113,11 +113,9 @@ void check_parameters(const PoissonStructure& pi, const std::vector<Parameter>& 
 
 }  // namespace
 
-// What has been computed so far. One recursive mutex: artefacts call each other (the checks ask for
-// the realisation, the modified Hamiltonian for S).
+// What has been computed so far, read and written under the budget's session (ExactCall).
 struct Scheme::Cache {
     explicit Cache(RealisationChoice choice) : realisation(choice) {}
-    std::recursive_mutex mutex;
     std::optional<SchemeChecks> checks;
     DeepestRealisation realisation;          // at the deepest p-degree asked so far
     std::optional<std::vector<Poly>> terms;  // S_1..S_k
@@ -129,26 +127,21 @@ struct Scheme::Cache {
     std::optional<CompiledBrackets> brackets;
     std::map<std::size_t, std::optional<CompiledMap>> modified_maps;  // by upto
     SchemeStats stats;
-    std::size_t calls = 0;  // the public calls under way on the thread holding the mutex (ExactCall)
 };
 
 namespace {
 
-// A public call's hold on the scheme's cache, and its exact phase: the outermost call restarts the budget's clock,
-// so each call's exact work has the whole time budget and the time between calls (integrating, the caller's own
-// work: a Python session, a Dask worker building steps for one dt after another) never counts.
+// A public call's hold on the scheme's cache, and its exact phase: the session of the ring's budget, which every copy
+// of the scheme shares (their exact work runs one call at a time, each with the whole time budget; the time between
+// calls, integrating or the caller's own work, a Python session, a Dask worker building steps for one dt after
+// another, never counts). Artefacts call each other (the checks ask for the realisation, the modified Hamiltonian for
+// S): the session is recursive.
 class ExactCall {
 public:
-    ExactCall(const Budget& budget, std::recursive_mutex& mutex, std::size_t& calls) : lock_(mutex), calls_(calls) {
-        if (calls_++ == 0) budget.restart();
-    }
-    ~ExactCall() { --calls_; }
-    ExactCall(const ExactCall&) = delete;
-    ExactCall& operator=(const ExactCall&) = delete;
+    explicit ExactCall(const Scheme& scheme) : session_(scheme.phase_space().ring()->budget()) {}
 
 private:
-    std::lock_guard<std::recursive_mutex> lock_;
-    std::size_t& calls_;
+    BudgetSession session_;
 };
 
 }  // namespace
@@ -275,7 +268,7 @@ const SchemeChecks& Scheme::structure_checks_locked() const {
 }
 
 const SchemeChecks& Scheme::checks() const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     structure_checks_locked();
     SchemeChecks& c = *cache_->checks;
     if (!c.jacobi && !c.realisation_checked) {
@@ -290,7 +283,7 @@ const SchemeChecks& Scheme::checks() const {
 }
 
 void Scheme::require_valid() const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     require_valid_locked();
 }
 
@@ -308,7 +301,7 @@ void Scheme::require_valid_locked() const {
 }
 
 Realisation Scheme::realisation(std::size_t D) const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     return *realisation_locked(D);
 }
 
@@ -328,7 +321,7 @@ RealisationPtr Scheme::realisation_locked(std::size_t D) const {
 }
 
 const std::vector<Poly>& Scheme::terms() const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     return terms_locked();
 }
 
@@ -346,7 +339,7 @@ const std::vector<Poly>& Scheme::terms_locked() const {
 }
 
 std::vector<Poly> Scheme::modified_hamiltonian(std::size_t m) const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     auto& Ht = cache_->modified;
     if (Ht.size() < m + 1) {
         // h through t^m reads beta through p-degree m, S alpha through k - 1: one realisation serves both
@@ -376,7 +369,7 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
     if (!(opt.dt > 0) || !std::isfinite(opt.dt))
         throw std::invalid_argument("Scheme::stepper: dt must be positive and finite");
     const detail::TypicalSize size(x_typical, pi_.moving_dimension());
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     auto& cache = cache_->steppers;
     auto best = std::find_if(cache.begin(), cache.end(), [&](const StepperEntry& e) { return e.serves(opt, size); });
     if (best == cache.end()) {
@@ -395,7 +388,7 @@ NewtonStepper Scheme::stepper(const StepOptions& opt, const Eigen::VectorXd& x_t
 }
 
 SchemeStats Scheme::stats() const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     SchemeStats s = cache_->stats;
     s.steppers_kept = cache_->steppers.size();
     return s;
@@ -410,14 +403,14 @@ CompiledMap Scheme::compile_evaluator(const std::vector<Poly>& outputs) const {
 }
 
 EventSet Scheme::event_set(std::vector<EventSpec> specs, const EventNaming& naming) const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     EventSet set = EventSet::build(phase_space(), std::move(specs), naming);
     attach_machine_code(set.compiled_maps(), jit_);
     return set;
 }
 
 DenseOutput Scheme::dense_output(std::size_t method_order) const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     DenseOutput d = DenseOutput::build(pi_, H_, method_order);
     attach_machine_code(d.compiled_maps(), jit_);
     return d;
@@ -436,18 +429,18 @@ CompiledMap Scheme::invariants(const std::vector<Poly>& extra) const {
 }
 
 const CompiledMap& Scheme::invariants_map() const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     return built_once(cache_->invariants, cache_->stats.evaluator_builds, [&] { return compile_invariants({}); });
 }
 
 const CompiledMap& Scheme::vector_field_map() const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     return built_once(cache_->vector_field, cache_->stats.evaluator_builds,
                       [&] { return compile_evaluator(pi_.hamiltonian_vector_field(H_)); });
 }
 
 const CompiledBrackets& Scheme::brackets_map() const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     return built_once(cache_->brackets, cache_->stats.evaluator_builds, [&] {
         CompiledBrackets b;
         std::vector<Poly> entries;
@@ -463,7 +456,7 @@ const CompiledBrackets& Scheme::brackets_map() const {
 }
 
 const CompiledMap& Scheme::modified_hamiltonian_map(std::size_t upto) const {
-    const ExactCall call(phase_space().ring()->budget(), cache_->mutex, cache_->calls);
+    const ExactCall call(*this);
     return built_once(cache_->modified_maps[upto], cache_->stats.evaluator_builds,
                       [&] { return compile_evaluator(modified_hamiltonian(upto)); });
 }

@@ -94,8 +94,8 @@ public:
     static Scheme from_values(const SchemeValues& values);
     explicit Scheme(const SchemeValues& values) : Scheme(from_values(values)) {}
 
-    /// A copy shares no artefact: it recomputes what it is asked for. It shares the exact phase's budget (its ring's),
-    /// which one thread at a time may use.
+    /// A copy shares no artefact: it recomputes what it is asked for. It shares the exact phase's budget (its ring's):
+    /// the exact work of a scheme and of its copies runs one call at a time, whatever the threads (BudgetSession).
     Scheme(const Scheme& other);
     Scheme& operator=(const Scheme& other);
     Scheme(Scheme&&) noexcept;

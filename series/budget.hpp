@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <functional>
 #include <limits>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -99,6 +100,7 @@ public:
     void restart() const;
 
 private:
+    friend class BudgetSession;
     using Clock = std::chrono::steady_clock;
     [[noreturn]] void refuse(BudgetExceeded::Resource r, const std::string& what) const;
     bool begin_and_exceeds(double terms, double bytes_per_term) const;
@@ -108,7 +110,9 @@ private:
     BudgetLimits limits_;
     ProgressSink progress_;
     // NOTE: the state below changes inside const checks (the rings holding the budget are const);
-    // an exact phase runs on one thread.
+    // an exact phase runs on one thread, and callers that may share a budget across threads hold a BudgetSession.
+    mutable std::recursive_mutex session_mutex_;
+    mutable std::size_t sessions_ = 0;  // the sessions under way on the thread holding session_mutex_
     mutable Stage stage_;
     mutable std::size_t largest_ = 0;
     mutable std::size_t resident_ = 0;  // memory_in_use(limits_.address_space) at the last poll
@@ -118,6 +122,24 @@ private:
     mutable bool estimated_ = false;   // reserve() was called for the operation under way
     mutable Clock::duration busy_{};
     mutable unsigned operations_ = 0;
+};
+
+/// One caller's exact computation on a budget, while it lives: it holds the budget's lock, so that the computations of
+/// every ring sharing the budget (and every copy of what holds those rings) run one at a time; and the outermost
+/// session on a thread restarts the budget's clock, so that each computation has the whole time budget and the time
+/// between computations never counts. The lock is recursive: a computation may begin another on its thread.
+class BudgetSession {
+public:
+    explicit BudgetSession(const Budget& b) : lock_(b.session_mutex_), budget_(b) {
+        if (budget_.sessions_++ == 0) budget_.restart();
+    }
+    ~BudgetSession() { --budget_.sessions_; }
+    BudgetSession(const BudgetSession&) = delete;
+    BudgetSession& operator=(const BudgetSession&) = delete;
+
+private:
+    std::lock_guard<std::recursive_mutex> lock_;
+    const Budget& budget_;
 };
 
 /// Names a stage of the exact phase while it lives, e.g. BudgetStage s(budget, "Hamilton-Jacobi term S_3", 3, 6);

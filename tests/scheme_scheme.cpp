@@ -7,6 +7,9 @@
 #include "tools/commands.hpp"
 
 #include <doctest/doctest.h>
+#include <atomic>
+#include <chrono>
+#include <thread>
 
 using namespace pgi;
 
@@ -164,6 +167,35 @@ TEST_CASE("Scheme: from values bounds the exact phase by the time and memory giv
                       std::string::npos,
                   memory);
     CHECK(refusal(v) == "no refusal");
+}
+
+// Copies share their ring's budget: their exact calls run one at a time, so the calls of one copy (each restarting the
+// budget's clock) never keep another's computation under way alive past its time budget.
+TEST_CASE("Scheme: copies run their exact calls one at a time, each within the time budget") {
+    SchemeValues v = rigid_body_values(test::bundled("rigid_body"));
+    v.order = 12;
+    v.max_seconds = 0.3;
+    const Scheme a = Scheme::from_values(v);
+    const Scheme b = a;  // NOLINT(performance-unnecessary-copy-initialization): the copy is the subject
+    std::atomic<bool> done{false};
+    std::atomic<std::size_t> calls{0};
+    std::thread other([&] {
+        while (!done) {
+            (void)b.checks();
+            ++calls;
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        }
+    });
+    std::string refusal = "no refusal";
+    try {
+        (void)a.modified_hamiltonian(32);  // about 10 s of exact work on one core
+    } catch (const BudgetExceeded& e) {
+        refusal = e.what();
+    }
+    done = true;
+    other.join();
+    CHECK_MESSAGE(refusal.find("above the time budget of 0.3 s") != std::string::npos, refusal);
+    CHECK(calls > 0);
 }
 
 TEST_CASE("Scheme: the step for a (dt, x_typical) is built once and every copy steps alike") {
