@@ -107,12 +107,20 @@ std::size_t ComposeByOrder::append(const Poly& f) {
 }
 
 std::uint32_t ComposeByOrder::product_index(const SparseExponents& e) {
-    if (auto it = product_of_.find(e); it != product_of_.end()) return it->second;
-    SparseExponents lower = e;
-    if (--lower.front().second == 0) lower.erase(lower.begin());
-    const std::uint32_t low = product_index(lower);
-    products_.push_back(Product{e.front().first, low, {}});
-    return product_of_[e] = static_cast<std::uint32_t>(products_.size() - 1);
+    // e, e less one of its first variable, ... down to a product formed before (the empty one at worst), then each
+    // formed from the one below it: a loop, since the chain is as long as e's degree
+    std::vector<SparseExponents> chain;
+    auto found = product_of_.find(e);
+    for (SparseExponents lower = e; found == product_of_.end(); found = product_of_.find(lower)) {
+        chain.push_back(lower);
+        if (--lower.front().second == 0) lower.erase(lower.begin());
+    }
+    std::uint32_t index = found->second;
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+        products_.push_back(Product{it->front().first, index, {}});
+        index = product_of_[*it] = static_cast<std::uint32_t>(products_.size() - 1);
+    }
+    return index;
 }
 
 void ComposeByOrder::set_image(std::size_t v, std::size_t m, Poly c) {
@@ -127,15 +135,24 @@ void ComposeByOrder::set_image(std::size_t v, std::size_t m, Poly c) {
 
 const Poly& ComposeByOrder::product_coefficient(std::uint32_t p, std::size_t m) {
     if (p == 0) return m == 0 ? *one_ : *zero_;
-    Product& product = products_[p];
+    // the products below p (each one factor less) whose coefficients through m are not formed yet, formed from the
+    // lowest up, each once: a loop, since the chain is as long as the product's degree
+    std::vector<std::uint32_t> chain;
+    for (std::uint32_t q = p; products_[q].lower != 0 && products_[q].c.size() <= m; q = products_[q].lower)
+        chain.push_back(q);
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) extend_product(*it, m);
+    const Product& product = products_[p];
+    return product.lower == 0 ? (*images_[product.factor])[m] : product.c[m];
+}
+
+// Product q's coefficients through m, from its lower product's (formed through m, or an image) and its factor's image.
+void ComposeByOrder::extend_product(std::uint32_t q, std::size_t m) {
+    Product& product = products_[q];
     const Series& image = *images_[product.factor];
-    if (product.lower == 0) return image[m];
-    std::vector<Poly>& c = product.c;
-    if (c.size() > m) return c[m];
-    c.reserve(N_);
-    product_coefficient(product.lower, m);  // the lower product's coefficients through m, each formed once
     const Product& lower = products_[product.lower];
     const Series* lower_image = lower.lower == 0 ? &*images_[lower.factor] : nullptr;
+    std::vector<Poly>& c = product.c;
+    c.reserve(N_);
     std::vector<Poly> terms;
     for (std::size_t k = c.size(); k <= m; ++k) {
         terms.clear();
@@ -145,7 +162,6 @@ const Poly& ComposeByOrder::product_coefficient(std::uint32_t p, std::size_t m) 
         }
         c.push_back(terms.empty() ? Poly(ring_) : sum(std::move(terms), ring_));
     }
-    return c[m];
 }
 
 Poly ComposeByOrder::coefficient(std::size_t i, std::size_t m) {

@@ -60,6 +60,7 @@ private:
     std::uint32_t product_index(const SparseExponents& e);
     // Coefficient m of product p, formed (with the ones below it) on first use.
     const Poly& product_coefficient(std::uint32_t p, std::size_t m);
+    void extend_product(std::uint32_t q, std::size_t m);
 
     RingPtr ring_;
     std::optional<Poly> one_, zero_;  // the empty product's coefficients

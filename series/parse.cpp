@@ -95,10 +95,20 @@ private:
             }
             Operand b = unary();
             op_ = at;
+            check_degree(a.value.total_degree() + b.value.total_degree(), "a product", at);
             a.value = a.value * b.value;
             a.scale = std::max(a.scale, b.scale);
         }
         return a;
+    }
+
+    // Every polynomial read has total degree at most max_exponent, however its factors were written: x^1000 * x^1000
+    // and (x1 x2)^600 are refused as x^2000 is, before anything is expanded (deeper, the compiled maps' monomial
+    // chains and the exact phase's products grow without a use).
+    void check_degree(long degree, const char* what, std::size_t at) const {
+        if (degree > long(max_exponent_))
+            fail(std::string(what) + " of degree " + std::to_string(degree) + " exceeds the degree limit " +
+                 std::to_string(max_exponent_) + " (at position " + pos(at) + ")");
     }
 
     // After '/': the reciprocal of a non-zero constant.
@@ -146,6 +156,7 @@ private:
                  " exceeds the limit " + std::to_string(max_exponent_) + " (at position " + pos(start) + ")");
         if (end < text_.size() && (text_[end] == '.' || decimal_literal_length(text_.substr(start)) > end - start))
             fail("'^' must be followed by a non-negative integer at position " + pos(start) + ", not a decimal");
+        check_degree(a.value.total_degree() * long(n), "a power", at);
         i_ = end;
         if (skip_space() < text_.size() && text_[i_] == '^')
             fail("chained exponents at position " + pos(i_) + ": write (a^b)^c");

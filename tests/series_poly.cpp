@@ -71,6 +71,17 @@ TEST_CASE("poly: malformed polynomials get a message naming the problem") {
     CHECK_THROWS_WITH_AS(Poly::parse(r, "x^100000"),
                          "malformed polynomial 'x^100000': exponent 100000 exceeds the limit 1000 (at position 3)",
                          ParseError);
+    // the degree, however the factors are written: products and powers of polynomials, not only of a variable
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "x^1000*x^1000"),
+                         "malformed polynomial 'x^1000*x^1000': a product of degree 2000 exceeds the degree limit 1000 "
+                         "(at position 7)",
+                         ParseError);
+    CHECK_THROWS_WITH_AS(Poly::parse(r, "(x*y)^600"),
+                         "malformed polynomial '(x*y)^600': a power of degree 1200 exceeds the degree limit 1000 "
+                         "(at position 6)",
+                         ParseError);
+    CHECK(Poly::parse(r, "x^500*y^500").total_degree() == 1000);
+    CHECK(Poly::parse(r, "(x*y)^500").total_degree() == 1000);
     CHECK_THROWS_WITH_AS(Poly::parse(r, "1.5.2*x"),
                          "malformed polynomial '1.5.2*x': unexpected character '.' at position 4", ParseError);
     CHECK_THROWS_WITH_AS(Poly::parse(r, "x +"),
