@@ -23,6 +23,38 @@ namespace pgi {
 
 namespace {
 
+// The deepest key a scene may write (a scene's own are three deep): toml++ reads, and its tables free, a dotted key
+// by recursion, one level a segment, so that a key of 40000 segments (an 80 KB line) overflowed the stack.
+constexpr std::size_t max_key_depth = 64;
+
+// The line of the first key in text with more than max_key_depth segments, or 0. A lexical scan, before any parse:
+// the dots outside strings and comments since the last of `= [ ] { } ,` or a line's end (a number or a date has one).
+std::size_t deep_key_line(std::string_view text) {
+    std::size_t line = 1, dots = 0;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (c == '"' || c == '\'') {  // a string, basic or literal, on one line or several
+            const std::string_view quote =
+                text.substr(i, 3) == std::string(3, c) ? text.substr(i, 3) : text.substr(i, 1);
+            std::size_t j = i + quote.size();
+            while (j < text.size() && text.substr(j, quote.size()) != quote) {
+                if (text[j] == '\\' && c == '"') ++j;  // an escape (the quote after it does not end the string)
+                if (j < text.size() && text[j] == '\n') ++line;
+                ++j;
+            }
+            i = std::min(text.size(), j + quote.size()) - 1;
+        } else if (c == '#') {
+            while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+        } else if (c == '.') {
+            if (++dots >= max_key_depth) return line;  // (dots + 1 segments)
+        } else if (c == '\n' || c == '=' || c == '[' || c == ']' || c == '{' || c == '}' || c == ',') {
+            line += c == '\n';
+            dots = 0;
+        }
+    }
+    return 0;
+}
+
 // Reads one scene file; every error names the file and the key.
 class SceneReader {
 public:
@@ -108,6 +140,9 @@ private:
     }
 
     toml::table parse_document(std::string_view text) const {
+        if (const std::size_t line = deep_key_line(text))
+            fail("", "a key nested deeper than " + std::to_string(max_key_depth) + " levels at line " +
+                         std::to_string(line));
         try {
             return toml::parse(text, file_.string());
         } catch (const toml::parse_error& e) {
