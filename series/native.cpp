@@ -365,16 +365,24 @@ std::string load_checked(const CacheDir& dir, const std::string& name, const std
 // The largest library read to check its digest.
 constexpr std::size_t max_library_bytes = std::size_t(1) << 30;
 
-// The kept library of key, loaded, when its source is source, its digest the one pgi wrote beside it and it holds
-// every symbol; else null (and it is built anew, replacing whatever was there).
-std::shared_ptr<void> load_kept(const CacheDir& dir, const std::string& key, const std::string& source,
-                                const std::vector<std::string>& symbols) {
+// What KEY.hash holds: the digests of the command and source the library was built from, and of the library. The
+// first ties a library to its build: a library and its digest copied from another key (a restored or merged cache)
+// match each other, not the source asked for, and are never loaded.
+std::string kept_digest(const std::string& build, const std::string& library) {
+    return detail::sha256_hex(build) + " " + detail::sha256_hex(library) + "\n";
+}
+
+// The kept library of key, loaded, when its source is source, its digests the ones pgi wrote beside it for this build
+// (the command and source, build) and it holds every symbol; else null (and it is built anew, replacing whatever was
+// there).
+std::shared_ptr<void> load_kept(const CacheDir& dir, const std::string& key, const std::string& build,
+                                const std::string& source, const std::vector<std::string>& symbols) {
     const std::optional<std::string> kept_source = dir.read(key + ".cpp", source.size());
     const std::optional<std::string> digest = dir.read(key + ".hash", 256);
     if (!kept_source || *kept_source != source || !digest) return nullptr;
     const Fd fd = dir.open_file(key + ".so");
     const std::optional<std::string> bytes = CacheDir::read_fd(fd, max_library_bytes);
-    if (!bytes || *digest != detail::sha256_hex(*bytes) + "\n") return nullptr;
+    if (!bytes || *digest != kept_digest(build, *bytes)) return nullptr;
     std::shared_ptr<void> handle;
     load_checked(dir, key + ".so", symbols, handle);
     return handle;
@@ -393,8 +401,8 @@ std::shared_ptr<void> library_for(const std::string& source, const std::vector<s
     std::string command;
     for (const std::string& word : argv) command += (command.empty() ? "" : " ") + word;
     const CacheDir dir = cache_directory(o);
-    const std::string key = key_of(command + "\n" + source);
-    if (std::shared_ptr<void> kept = load_kept(dir, key, source, symbols)) return kept;
+    const std::string build = command + "\n" + source, key = key_of(build);
+    if (std::shared_ptr<void> kept = load_kept(dir, key, build, source, symbols)) return kept;
     if (!compile) return nullptr;
     const std::string tmp = key + "." + unique_suffix();
     TemporaryFile src((dir.path() / (tmp + ".cpp")).string()), lib((dir.path() / (tmp + ".so")).string()),
@@ -416,7 +424,7 @@ std::shared_ptr<void> library_for(const std::string& source, const std::vector<s
     const std::string why = bytes ? load_checked(dir, tmp + ".so", symbols, handle) : "cannot be read";
     if (!why.empty())
         throw NativeCodeError(compiler + "exited with status 0 but what it wrote " + why + " (nothing kept)");
-    dir.write_new(tmp + ".hash", detail::sha256_hex(*bytes) + "\n", 0600);
+    dir.write_new(tmp + ".hash", kept_digest(build, *bytes), 0600);
     // the library first, its digest last: a reader between the renames finds a mismatch and builds again
     if (!dir.rename(tmp + ".so", key + ".so") || !dir.rename(tmp + ".cpp", key + ".cpp") ||
         !dir.rename(tmp + ".hash", key + ".hash"))

@@ -70,7 +70,8 @@ TEST_CASE(
         std::mt19937 gen(21);
         std::uniform_real_distribution<double> input(-2.0, 2.0);
         std::vector<CompiledMap> maps;
-        for (int trial = 0; trial < 4; ++trial) maps.push_back(CompiledMap::build(test::mixed_outputs(r, gen), {3, 1, 2}));
+        for (int trial = 0; trial < 4; ++trial)
+            maps.push_back(CompiledMap::build(test::mixed_outputs(r, gen), {3, 1, 2}));
         std::vector<Poly> rows = test::mixed_outputs(r, gen);
         rows.erase(rows.begin() + 7, rows.end());  // the outputs before the group: rows only, so fours save nothing
         maps.push_back(CompiledMap::build(rows, {3, 1, 2}));
@@ -150,7 +151,8 @@ TEST_CASE(
     const std::size_t O = built.num_outputs();
     std::vector<double> a(O), b(O);
     std::size_t compared = 0, non_finite = 0;
-    for (const auto& [pv, qv] : {std::pair{0.5, -1.5}, std::pair{1.0, 0.25}, std::pair{4.0, 2.0}, std::pair{1.0, 1.0}}) {
+    for (const auto& [pv, qv] :
+         {std::pair{0.5, -1.5}, std::pair{1.0, 0.25}, std::pair{4.0, 2.0}, std::pair{1.0, 1.0}}) {
         for (int point = 0; point < 100; ++point) {
             double x[5] = {input(gen), input(gen), input(gen), pv, qv};
             if (point == 1) x[0] = -0.0, x[1] = 0.0;  // signed zeros
@@ -525,6 +527,39 @@ TEST_CASE("native: a library planted under a kept name, without pgi's digest or 
         CHECK_FALSE(fs::exists(marker));
         CHECK(fs::exists(digest));
     }
+    fs::remove_all(o.cache_dir);
+}
+
+// A restored or merged cache may pair one key's source with another key's library and digest, which match each other.
+TEST_CASE("native: a library and digest kept under another key are not loaded for this key's source") {
+    const Scratch scratch("swapped");
+    const auto r = make_ring({"x"});
+    NativeOptions o = test_options("swapped");
+    const auto keys = [&] {
+        std::set<std::string> found;
+        for (const std::string& name : names_in(o.cache_dir))
+            if (name.size() > 3 && name.substr(name.size() - 3) == ".so") found.insert(name.substr(0, name.size() - 3));
+        return found;
+    };
+    CompiledMap square = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+    REQUIRE(attach_native_code({&square}, o) == 1);
+    const std::string square_key = *keys().begin();
+    CompiledMap cube = CompiledMap::build({pow(Poly::gen(r, 0), 3) + Poly::gen(r, 0)}, {0});
+    REQUIRE(attach_native_code({&cube}, o) == 1);
+    std::set<std::string> both = keys();
+    REQUIRE(both.size() == 2);
+    both.erase(square_key);
+    const fs::path dir(o.cache_dir);
+    for (const char* ext : {".so", ".hash"}) {  // the cube's pair under the square's key, by renames
+        fs::copy_file(dir / (*both.begin() + ext), dir / (square_key + ext + ".swapping"));
+        fs::rename(dir / (square_key + ext + ".swapping"), dir / (square_key + ext));
+    }
+    CompiledMap again = CompiledMap::build({pow(Poly::gen(r, 0), 2)}, {0});
+    REQUIRE(attach_native_code({&again}, o) == 1);  // built anew
+    const double x = 3;
+    double y = 0;
+    again.eval(&x, &y);
+    CHECK(y == 9);
     fs::remove_all(o.cache_dir);
 }
 
