@@ -123,9 +123,9 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "--jit: SIGTERM or SIGINT while the compiler runs kills its process group, removes the temporaries, exits 143 or "
-    "130") {
-    for (const int sig : {SIGTERM, SIGINT}) {
+    "--jit: a signal that ends pgi while the compiler runs (SIGTERM, SIGINT, a closed terminal's SIGHUP) kills its "
+    "process group, removes the temporaries, exits 128 + the signal") {
+    for (const int sig : {SIGTERM, SIGINT, SIGHUP}) {
         CAPTURE(sig);
         const Sandbox box("jit-signal");
         const fs::path cache = box.path / "cache", pid_file = box.path / "compiler.pid",

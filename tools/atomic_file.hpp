@@ -2,7 +2,7 @@
 // AtomicFile: output written to a fresh temporary file beside its target (created exclusively, with an
 // unpredictable name, never through a link), flushed to disk and renamed into place by commit(), so a
 // reader never sees half a file; an uncommitted file is removed by the destructor, and by
-// the signal handler (series/detail/child_process.hpp) when SIGINT or SIGTERM ends the program.
+// the signal handler (series/detail/child_process.hpp) when a signal (SIGINT, SIGTERM, SIGHUP, ...) ends the program.
 #include "series/detail/child_process.hpp"
 
 #include <cerrno>
@@ -69,7 +69,8 @@ inline std::filesystem::path directory_of(const std::filesystem::path& target) {
 }  // namespace detail
 
 /// Installs the handler that removes the temporary files of unfinished AtomicFiles (and of native code) and kills
-/// running child processes on SIGINT and SIGTERM, then exits with 128 + the signal number (130, 143).
+/// running child processes on the signals that end a process (SIGINT, SIGTERM, SIGHUP, ...), then exits with 128 + the
+/// signal number (130, 143, 129, ...).
 inline void remove_temporaries_on_signals() {
     end_cleanly_on_signals();
 }
@@ -134,9 +135,15 @@ public:
 
     std::ostream& stream() { return *stream_; }
 
+    /// Flushes to disk (fsync) and closes, the target not yet touched. Throws OutputError if the data could not be
+    /// written. (commit() does it when not done.)
+    void finish() {
+        if (fd_ >= 0) flush_and_close();
+    }
+
     /// Flushes to disk (fsync) and renames into place. Throws OutputError if the data could not be written.
     void commit() {
-        flush_and_close();
+        finish();
         if (::rename(temp_.c_str(), target_.c_str()) != 0)
             throw OutputError(target_.string() + ": cannot rename the written file into place (" +
                               std::strerror(errno) + ")");
@@ -146,7 +153,7 @@ public:
     /// As commit(), but never replaces a file: link(2) gives the target its name only if the name is free. Throws
     /// OutputError if the target exists by then (the temporary is removed, the existing file left as it was).
     void commit_new() {
-        flush_and_close();
+        finish();
         if (::link(temp_.c_str(), target_.c_str()) != 0)
             throw OutputError(target_.string() + (errno == EEXIST ? ": exists (written meanwhile?): not replaced"
                                                                   : ": cannot give the written file its name (" +
@@ -156,7 +163,7 @@ public:
     }
 
 private:
-    void flush_and_close() {
+    void flush_and_close() {  // (once: fd_ is then closed)
         stream_->flush();
         const bool written = *stream_ && !buffer_->failed() && ::fsync(fd_) == 0;
         const int saved = errno;
@@ -173,5 +180,13 @@ private:
     std::unique_ptr<detail::FdBuffer> buffer_;
     std::unique_ptr<std::ostream> stream_;
 };
+
+/// Commits a set of files that belong together (an ensemble's arrays and table): every one is written to disk before
+/// any is renamed, so a write that fails (a full disk, a file-size limit) leaves every target as it was, never some
+/// old and some new.
+inline void commit_all(const std::vector<std::unique_ptr<AtomicFile>>& files) {
+    for (const auto& f : files) f->finish();
+    for (const auto& f : files) f->commit();
+}
 
 }  // namespace pgi

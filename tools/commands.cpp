@@ -1,10 +1,17 @@
 #include "tools/commands.hpp"
 
 #include "magnus/magnus.hpp"
+#include "series/message.hpp"
 
 #include <fmt/format.h>
 
+#include <iostream>
+
 namespace pgi {
+
+void say(const std::string& line) {
+    std::cerr << printable(line) << "\n";
+}
 
 using nlohmann::json;
 

@@ -13,6 +13,10 @@
 
 namespace pgi {
 
+/// Prints one line of diagnostics ("pgi: ...") on stderr, its control characters shown as \xNN: a path or a name in
+/// it may hold any byte (an escape sequence, a newline), and a message stays one line.
+void say(const std::string& line);
+
 /// Class, skew and Jacobi verdicts, each Casimir's verdict, and the realisation identities through
 /// the p-degree the order needs. "ok" is false when any verdict fails.
 nlohmann::json check_report(const Scene& scene);

@@ -3,6 +3,7 @@
 #include "scheme/ensemble.hpp"
 #include "scheme/trajectory.hpp"
 #include "tools/atomic_file.hpp"
+#include "tools/commands.hpp"
 #include "tools/csv.hpp"
 #include "tools/npy.hpp"
 #include "tools/sample.hpp"
@@ -238,22 +239,22 @@ int ensemble_command(const Scene& scene, const EnsembleCommandOptions& o, bool j
     write_npy(out[1]->stream(), r.x);
     write_npy(out[2]->stream(), errors);
     write_csv(out[3]->stream(), scene, X0, r);
-    for (auto& f : out) f->commit();
+    commit_all(out);
     const auto j = summary(scene, r, o, scene.dt, *scene.t_end, seconds, files);
     std::cout << (json ? j.dump(2) + "\n" : summary_text(j)) << std::flush;
     // NOTE: as `pgi integrate` says of one run (tools/run.cpp), never silently: exit 0 with H off by a tenth or more
     if (const std::size_t w = j["energy_warnings"]; w > 0)
-        std::cerr << fmt::format(
+        say(fmt::format(
             "pgi: {}: warning: {} of {} trajectories reached a relative energy error above {} (energy_warning in "
             "{}): every step solved its equation, but at dt = {} order {} does not follow the flow of H there "
-            "(reduce dt or raise the order)\n",
-            scene.file.string(), w, r.members.size(), energy_warning_from, files[3], scene.dt, scene.order);
+            "(reduce dt or raise the order)",
+            scene.file.string(), w, r.members.size(), energy_warning_from, files[3], scene.dt, scene.order));
     std::size_t failed = 0, first = 0;
     for (std::size_t i = r.members.size(); i-- > 0;)
         if (r.members[i].status != TrajectoryStatus::ok) ++failed, first = i;
     if (!failed) return 0;
-    std::cerr << "pgi: " << scene.file.string() << ": " << failed << " of " << r.members.size()
-              << " trajectories did not reach t_end (see " << files[3] << "); first: " << status_line(r, first) << "\n";
+    say("pgi: " + scene.file.string() + ": " + std::to_string(failed) + " of " + std::to_string(r.members.size()) +
+        " trajectories did not reach t_end (see " + files[3] + "); first: " + status_line(r, first));
     return 3;
 }
 

@@ -199,13 +199,12 @@ void check_before_work(const std::string& name, const Options& o, const pgi::Sce
 }
 
 int run_command(const std::string& name, Options o) {
-    if (!o.quiet && ::isatty(2))
-        o.overrides.progress = [](const std::string& line) { std::cerr << "pgi: " << line << std::endl; };
+    if (!o.quiet && ::isatty(2)) o.overrides.progress = [](const std::string& line) { pgi::say("pgi: " + line); };
     pgi::Scene scene = pgi::load_scene(o.scene, o.overrides);
     check_before_work(name, o, scene);
     if (o.overrides.trust_jacobi)
-        std::cerr << "pgi: " << o.scene
-                  << ": the Jacobi identity is not checked (--trust-jacobi: the structure is taken on trust)\n";
+        pgi::say("pgi: " + o.scene +
+                 ": the Jacobi identity is not checked (--trust-jacobi: the structure is taken on trust)");
     if (name == "ensemble") {
         auto eo = o.ensemble;
         eo.x0_given = o.overrides.x0.has_value();
@@ -215,7 +214,7 @@ int run_command(const std::string& name, Options o) {
         auto report = pgi::check_report(scene);
         emit(o, report, pgi::check_text);
         if (!report["ok"]) {
-            std::cerr << "pgi: " << o.scene << ": a check fails (see the report)\n";
+            pgi::say("pgi: " + o.scene + ": a check fails (see the report)");
             return 2;
         }
         return 0;
@@ -265,7 +264,7 @@ int run_command(const std::string& name, Options o) {
         if (scene.x0 && scene.t_end) print(pgi::integrate_text(pgi::integrate_report(scene, io)));
     }
     if (plot)
-        for (const auto& f : plot->write()) std::cerr << "pgi: wrote " << f.string() << "\n";
+        for (const auto& f : plot->write()) pgi::say("pgi: wrote " + f.string());
     return 0;
 }
 
@@ -283,7 +282,7 @@ int run_and_map_exceptions(const std::string& name, Options& o) {
                 if (!e.partial().is_null()) try {
                         print(e.partial().dump(2) + "\n");
                     } catch (const pgi::OutputError& out) {
-                        std::cerr << "pgi: " << out.what() << "\n";
+                        pgi::say(std::string("pgi: ") + out.what());
                         return 6;
                     }
             } catch (...) {
@@ -313,6 +312,7 @@ std::string_view invoked(int argc, char** argv) {
 int main(int argc, char** argv) {
     std::atexit(flint_cleanup_master);  // FLINT's own caches, so memcheck sees every block freed
     std::signal(SIGPIPE, SIG_IGN);      // a closed pipe is a failed write (exit 6), not a silent death
+    std::signal(SIGXFSZ, SIG_IGN);      // so is a file above the size limit (ulimit -f): EFBIG, not a core dump
     pgi::remove_temporaries_on_signals();
     throw_on_allocation_failure();
     CLI::App app{"pgi: exact Poisson integrators from symplectic groupoids"};
@@ -440,7 +440,7 @@ int main(int argc, char** argv) {
                     opt && opt->count() > 0 &&
                     std::any_of(opt->results().begin(), opt->results().end(),
                                 [](const std::string& r) { return r.empty(); })) {
-                    std::cerr << "pgi: " << name << ": an empty path\n";
+                    pgi::say(std::string("pgi: ") + name + ": an empty path");
                     return 2;
                 }
     } catch (const CLI::Success& e) {

@@ -344,8 +344,7 @@ RunPlot::RunPlot(const Scene& scene, fs::path dir, std::string_view coordinates)
     try {
         modified_ = sum_powers(scene.scheme->modified_hamiltonian(modified_upto_), Rational::from_double(scene.dt));
     } catch (const ResourceLimitError& e) {
-        std::cerr << "pgi: " << scene.file.string() << ": --plot: no modified Hamiltonian in the figure (" << e.what()
-                  << ")\n";
+        say("pgi: " + scene.file.string() + ": --plot: no modified Hamiltonian in the figure (" + e.what() + ")");
     }
 }
 

@@ -35,11 +35,11 @@ NewtonStepper build_stepper(const Scene& scene) {
     // NOTE: said on stderr, never silently: past the series' range the step is not Poisson to round-off.
     // (an infinite estimate: the terms' sizes did not decay through the degrees measured; JSON writes it as null)
     if (const double left = s.info().truncation_estimate; left > 1e-15)
-        std::cerr << fmt::format(
+        say(fmt::format(
             "pgi: {}: warning: the {} realisation truncated at p-degree {} leaves terms of relative size {} at x0's "
-            "magnitudes: the step is Poisson only to that accuracy (reduce dt)\n",
+            "magnitudes: the step is Poisson only to that accuracy (reduce dt)",
             scene.file.string(), s.info().method, s.info().degree,
-            std::isfinite(left) ? fmt::format("{:.1e}", left) : std::string("unknown (no decay seen)"));
+            std::isfinite(left) ? fmt::format("{:.1e}", left) : std::string("unknown (no decay seen)")));
     return s;
 }
 
@@ -48,10 +48,10 @@ void warn_energy_drift(const Scene& scene, double energy_error, json& r) {
     const bool drifted = energy_drifted(energy_error);
     r["energy_warning"] = drifted;
     if (!drifted) return;
-    std::cerr << fmt::format(
-        "pgi: {}: warning: the relative energy error reached {:.2e} (above {}): every step solved its "
-        "equation, but at dt = {} order {} does not follow the flow of H (reduce dt or raise the order)\n",
-        scene.file.string(), energy_error, energy_warning_from, scene.dt, scene.order);
+    say(
+        fmt::format("pgi: {}: warning: the relative energy error reached {:.2e} (above {}): every step solved its "
+                    "equation, but at dt = {} order {} does not follow the flow of H (reduce dt or raise the order)",
+                    scene.file.string(), energy_error, energy_warning_from, scene.dt, scene.order));
 }
 
 // NOTE: said on stderr (one line) and in the JSON document (native_failure): by default native code is built in the
@@ -61,8 +61,8 @@ void note_native_failure(const Scene& scene, const NewtonStepper& s, json& r) {
     if (s.native_failure().empty()) return;
     const std::string why = s.native_failure().substr(0, s.native_failure().find('\n'));
     r["native_failure"] = why;
-    std::cerr << fmt::format("pgi: {}: note: native code could not be built, the run went on without it: {}\n",
-                             scene.file.string(), why);
+    say(fmt::format("pgi: {}: note: native code could not be built, the run went on without it: {}",
+                    scene.file.string(), why));
 }
 
 json stepper_info(const Scene& scene, const NewtonStepper& s) {

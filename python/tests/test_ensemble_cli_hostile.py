@@ -101,3 +101,28 @@ def test_a_failed_first_step_is_reported_with_its_status_not_ok(states):
     assert code == 3
     rows = np.genfromtxt(states / "lv.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
     assert str(rows["status"]) != "ok" and int(rows["steps"]) == 0
+
+
+def test_a_write_that_fails_leaves_every_output_of_the_set_as_it_was(tmp_path):
+    """A file-size limit (ulimit -f) fails the write of the larger arrays: exit 6, and the four files are all the
+    earlier run's (none replaced), never some old and some new; a fresh prefix gets none of them."""
+    def run(seed, prefix, limit=None):
+        def limited():
+            if limit is not None:
+                import resource
+                resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+        return subprocess.run([PGI, "ensemble", str(RB), "--sample", "box", "--count", "200", "--box", "-1,1",
+                               "--seed", str(seed), "--out", str(prefix), "--t-end", "1"],
+                              capture_output=True, text=True, timeout=120, preexec_fn=limited)
+    first = run(1, tmp_path / "E")
+    assert first.returncode == 0, first.stderr
+    files = sorted(tmp_path.glob("E.*"))
+    assert len(files) == 4
+    before = {f.name: f.read_bytes() for f in files}
+    failed = run(2, tmp_path / "E", limit=16 * 1024)
+    assert failed.returncode == 6, failed.stderr
+    assert "write failed" in failed.stderr
+    assert {f.name: f.read_bytes() for f in sorted(tmp_path.glob("E.*"))} == before
+    fresh = run(2, tmp_path / "F", limit=16 * 1024)
+    assert fresh.returncode == 6, fresh.stderr
+    assert not list(tmp_path.glob("F.*")) and not list(tmp_path.glob(".F.*"))

@@ -35,6 +35,20 @@ struct SignalTable {
 };
 SignalTable table{};  // constant-initialised: safe to read in a handler at any time
 
+// The signals whose default action ends the process, and on which pgi ends it itself, its children killed and its
+// temporaries removed: an interrupt, a termination, a closed terminal (SIGHUP), a quit, and the timers, user signals
+// and CPU limit a supervisor may send. (Not SIGPIPE and SIGXFSZ, which the CLI ignores so that a write fails with exit
+// 6; not the profilers' SIGPROF and SIGVTALRM.)
+constexpr int ending_signals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGALRM, SIGUSR1, SIGUSR2, SIGXCPU};
+
+// The ending signals, held back in a handler and while a child is spawned and registered.
+sigset_t ending_set() {
+    sigset_t set;
+    sigemptyset(&set);
+    for (int sig : ending_signals) sigaddset(&set, sig);
+    return set;
+}
+
 static_assert(std::atomic<int>::is_always_lock_free && std::atomic<pid_t>::is_always_lock_free &&
               std::atomic<bool>::is_always_lock_free);
 
@@ -68,22 +82,20 @@ extern "C" void kill_children_remove_temporaries_and_exit(int sig) {
         if (const pid_t pgid = g.load(); pgid > 0) ::kill(-pgid, SIGKILL);
     for (int i = 0; i < SignalTable::files; ++i)
         if (table.file_state[i].load() == 2) ::unlink(table.path[i]);
-    ::_exit(128 + sig);  // 130 for SIGINT, 143 for SIGTERM, as the shell reports a signal
+    ::_exit(128 + sig);  // 130 for SIGINT, 143 for SIGTERM, 129 for SIGHUP..., as the shell reports a signal
 }
 
 void install_handler(int sig) {
     struct sigaction sa {};
     sa.sa_handler = kill_children_remove_temporaries_and_exit;
-    sigemptyset(&sa.sa_mask);
-    sigaddset(&sa.sa_mask, SIGINT);
-    sigaddset(&sa.sa_mask, SIGTERM);
+    sa.sa_mask = ending_set();
     ::sigaction(sig, &sa, nullptr);
 }
 
-// Where SIGINT or SIGTERM would simply end the process (a C++ program using the library), the handler takes over, so
+// Where an ending signal would simply end the process (a C++ program using the library), the handler takes over, so
 // that a child is not left running without its parent; a handler someone installed (Python's, the CLI's) is kept.
 void install_handler_where_default() {
-    for (int sig : {SIGINT, SIGTERM}) {
+    for (int sig : ending_signals) {
         struct sigaction current {};
         if (::sigaction(sig, nullptr, &current) == 0 && current.sa_handler == SIG_DFL &&
             !(current.sa_flags & SA_SIGINFO))
@@ -119,10 +131,10 @@ struct SpawnSetup {
     SpawnSetup(int output) {
         posix_spawnattr_init(&attr);
         posix_spawnattr_setpgroup(&attr, 0);
-        sigset_t none, defaults;
+        sigset_t none;
         sigemptyset(&none);
-        sigemptyset(&defaults);
-        for (int sig : {SIGINT, SIGTERM, SIGPIPE, SIGQUIT, SIGHUP}) sigaddset(&defaults, sig);
+        sigset_t defaults = ending_set();  // (exec resets the handled ones; the ignored ones would stay ignored)
+        for (int sig : {SIGPIPE, SIGXFSZ}) sigaddset(&defaults, sig);
         posix_spawnattr_setsigmask(&attr, &none);
         posix_spawnattr_setsigdefault(&attr, &defaults);
         posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
@@ -137,17 +149,15 @@ struct SpawnSetup {
     }
 };
 
-// Spawns argv with SIGINT and SIGTERM held back on this thread until its group is registered, and counted in
+// Spawns argv with the ending signals held back on this thread until its group is registered, and counted in
 // table.spawning for a handler running on another thread meanwhile (a signal in between would leave it running);
 // returns the pid (the group's id) and the slot, or the spawn error.
 int spawn_registered(const std::vector<std::string>& argv, int output, pid_t& pid, int& slot) {
     std::vector<char*> args;
     for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
-    sigset_t held, previous;
-    sigemptyset(&held);
-    sigaddset(&held, SIGINT);
-    sigaddset(&held, SIGTERM);
+    const sigset_t held = ending_set();
+    sigset_t previous;
     ::pthread_sigmask(SIG_BLOCK, &held, &previous);
     table.spawning.fetch_add(1);
     int spawned = ECANCELED;  // (the handler has begun on another thread: it is about to end the program)
@@ -235,8 +245,7 @@ void TemporaryFile::keep() {
 }
 
 void end_cleanly_on_signals() {
-    install_handler(SIGINT);
-    install_handler(SIGTERM);
+    for (int sig : ending_signals) install_handler(sig);
 }
 
 }  // namespace pgi

@@ -1,9 +1,10 @@
 #pragma once
 // The one way pgi runs another program (the compiler for native code, gnuplot for figures), and what a signal must
 // undo. A child gets an argv (no shell: nothing in it is interpreted), a process group of its own, /dev/null as its
-// input, and a bounded capture of its output; past its time-out the whole group is killed and reaped. On SIGINT or
-// SIGTERM the running children's groups are killed and the registered temporary files removed before pgi ends with
-// 130 or 143 (the CLI's handler, or the one run_child installs where the signal's action is the default one).
+// input, and a bounded capture of its output; past its time-out the whole group is killed and reaped. On a signal
+// that ends the process (SIGINT, SIGTERM, SIGHUP, ...: end_cleanly_on_signals) the running children's groups are
+// killed and the registered temporary files removed before pgi ends with 128 + the signal (the CLI's handler, or the
+// one run_child installs where the signal's action is the default one).
 #include <atomic>
 #include <chrono>
 #include <cstddef>
@@ -36,8 +37,8 @@ struct ChildResult {
 /// no pipe can be made.
 ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& options = {});
 
-/// A file pgi is creating, removed by the destructor unless keep() was called, and by the signal handler if SIGINT
-/// or SIGTERM ends pgi first. The path is registered in a fixed table (64 at once; beyond, only the destructor).
+/// A file pgi is creating, removed by the destructor unless keep() was called, and by the signal handler if a signal
+/// ends pgi first. The path is registered in a fixed table (64 at once; beyond, only the destructor).
 class TemporaryFile {
 public:
     explicit TemporaryFile(std::string path);
@@ -54,8 +55,9 @@ private:
     bool kept_ = false;
 };
 
-/// Installs the handler for SIGINT and SIGTERM that kills the running children's groups, removes the registered
-/// temporaries and ends the process with 128 + the signal (130, 143). The CLI calls it first thing.
+/// Installs the handler for the signals that end a process (SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGALRM, SIGUSR1,
+/// SIGUSR2, SIGXCPU) that kills the running children's groups, removes the registered temporaries and ends the process
+/// with 128 + the signal (130, 143, 129, ...). The CLI calls it first thing.
 void end_cleanly_on_signals();
 
 }  // namespace pgi
