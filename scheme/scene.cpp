@@ -293,8 +293,10 @@ private:
     }
     double real(const std::string& key, const std::string& s, std::string* text = nullptr) const {
         try {
-            double v = Rational::parse(s).to_double();
+            const Rational exact = Rational::parse(s);
+            const double v = exact.to_double();
             if (!std::isfinite(v)) fail(key, "'" + s + "' is out of the double range");
+            if (v == 0 && !exact.is_zero()) fail(key, "'" + s + "' is below the double range (it rounds to 0)");
             if (text) *text = s;
             return v;
         } catch (const std::invalid_argument& e) {
