@@ -626,6 +626,7 @@ py::dict stats(const PyScheme& s) {
 PYBIND11_MODULE(_pgi, m) {
     m.doc() = "pgi's C++ core; use the package pgi";
     m.attr("__version__") = std::string(pgi::version());
+    m.attr("max_scene_bytes") = pgi::max_scene_bytes;
     // Bad input is a ValueError (InputError carries the entry at fault in its message); a budget (of the exact
     // phase, or a run's: RunBudgetError) a RuntimeError of its own. A failed step is reported, and
     // pgi/__init__.py raises StepFailure. Out of memory is a MemoryError saying so; a run stopped without a

@@ -57,6 +57,8 @@ RunPlan plan_run(const RunRequest& r, const RunLimits& limits) {
     if (r.event_samples > RunLimits::max_event_samples)
         throw RunBudgetError(format("event_samples = %zu is above the limit of %zu sign tests per step",
                                     r.event_samples, RunLimits::max_event_samples));
+    if (r.events > RunLimits::max_events)
+        throw RunBudgetError(format("%zu events are above the limit of %zu per run", r.events, RunLimits::max_events));
     RunPlan plan;
     plan.steps = static_cast<std::size_t>(steps);
     plan.records = r.t_eval.empty() ? recorded_steps(plan.steps, r.every) : r.t_eval.size();

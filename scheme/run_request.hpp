@@ -37,6 +37,9 @@ struct RunLimits {
     static constexpr double default_max_output_mb = 1024;
     /// Sign tests of an event per step: past this the dense output dominates any step.
     static constexpr std::size_t max_event_samples = 10'000;
+    /// Events of one run: each crossing is located with every event's value (a step where m events cross costs m^2
+    /// evaluations), so 30000 events took 17 s a step; sections and stops need a few.
+    static constexpr std::size_t max_events = 256;
     std::size_t max_steps = default_max_steps;     // steps of one trajectory
     double max_output_mb = default_max_output_mb;  // bytes kept / 2^20
 };
@@ -50,6 +53,7 @@ struct RunRequest {
     std::size_t invariants = 1;  // values kept per recorded row besides t and x (H, the Casimirs, ...)
     std::size_t trajectories = 1;
     std::size_t event_samples = 1;
+    std::size_t events = 0;          // event polynomials watched
     std::span<const double> t_eval;  // times to record at instead of every `every`-th step (empty: every applies)
     bool tangent = false;            // each trajectory keeps its tangent map (dim x dim)
 };

@@ -63,6 +63,9 @@ public:
     Scene read() { return read_text(file_text()); }
 
     Scene read_text(std::string_view text) {
+        if (text.size() > max_scene_bytes)  // (a file's size is checked before it is read: read_input_file)
+            fail("", "the text has " + std::to_string(text.size()) + " bytes, above the limit of " +
+                         std::to_string(max_scene_bytes));
         toml::table doc = parse_document(text);
         check_keys(doc, "",
                    {"name", "coordinates", "parameters", "brackets", "hamiltonian", "integrator", "run", "magnus",

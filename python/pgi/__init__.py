@@ -26,6 +26,7 @@ import numpy as _np
 from ._pgi import InputError, NativeCodeError, ResourceLimitError, SceneError, __version__
 from ._pgi import Scheme as _Scheme
 from ._pgi import _Recording
+from ._pgi import max_scene_bytes as _max_scene_bytes
 
 __all__ = ["Scheme", "Result", "EnsembleResult", "LyapunovResult", "StepFailure", "EnergyWarning", "InputError", "SceneError", "ResourceLimitError", "NativeCodeError",
            "__version__"]
@@ -256,6 +257,8 @@ def _times(name, value):
     a = _real_array(name, value, "a 1-d array of times")
     if a.ndim != 1:
         raise InputError(f"{name}: must be a 1-d array of times, got an array of shape {a.shape}")
+    if a.size == 0:  # (the run would record by steps instead, as without t_eval: never silently)
+        raise InputError(f"{name}: is empty: give at least one time, or None to record by steps")
     return _np.ascontiguousarray(a)
 
 
@@ -456,8 +459,8 @@ class Scheme:
                 _os.close(fd)
             _Scheme.from_toml(str(path), *_toml_core_arguments(*arguments))
             raise SceneError(f"{path}: cannot be read as a scene file")
-        with _os.fdopen(fd, "rb") as f:
-            text = f.read()
+        with _os.fdopen(fd, "rb") as f:  # at most one byte past the limit, which the reader then refuses
+            text = f.read(_max_scene_bytes + 1)
         return cls._from_toml_text(text, str(path), *arguments)
 
     @classmethod
@@ -587,7 +590,8 @@ class Scheme:
         x_typical when given (an ensemble's x_typical gives its run of this trajectory, bit for bit).
 
         Budgets, checked before any work (ResourceLimitError, as `pgi integrate` exits 4): max_steps (default
-        1e8) steps, max_output_mb (default 1024) MB of recorded rows kept in memory, event_samples at most 10000.
+        1e8) steps, max_output_mb (default 1024) MB of recorded rows kept in memory, event_samples at most 10000,
+        at most 256 events.
 
         events: a list of polynomials g(x) in the coordinates whose zeros are reported, each "g", a tuple
         (g, direction, terminal) (direction +1: g rising through 0, -1: falling, 0: both, the default;

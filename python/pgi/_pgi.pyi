@@ -3,6 +3,7 @@
 from typing import Any
 
 __version__: str
+max_scene_bytes: int
 
 class InputError(ValueError): ...
 class SceneError(InputError): ...

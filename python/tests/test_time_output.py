@@ -54,7 +54,7 @@ def test_rows_between_steps_keep_the_casimir():
 
 @pytest.mark.parametrize("times, says", [([0.5, 0.2], "increase strictly"), ([-1.0], "outside [0, t_end"),
                                          ([float("nan")], "not finite"), ([[0.1, 0.2]], "1-d array"),
-                                         (["a"], "t_eval"), ([2.0], "outside [0, t_end")])
+                                         (["a"], "t_eval"), ([2.0], "outside [0, t_end"), ([], "is empty")])
 def test_bad_times_are_refused_naming_t_eval(times, says):
     s = rigid_body()
     with pytest.raises(pgi.InputError) as e:

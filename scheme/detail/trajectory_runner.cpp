@@ -11,6 +11,7 @@ RunRequest trajectory_request(const Scheme& scheme, double dt, double t_end, con
     request.dt = dt, request.t_end = t_end, request.every = options.every, request.dim = scheme.dim();
     request.invariants = 1 + scheme.casimirs().size();
     request.event_samples = options.events.samples;
+    request.events = options.events.specs.size();
     request.t_eval = options.t_eval;
     request.tangent = options.tangent;
     request.trajectories = trajectories;
