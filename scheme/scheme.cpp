@@ -235,7 +235,7 @@ RowMatrix Scheme::parameter_rows(const ParameterValues& values, std::size_t m) c
             throw InputError(key, "has " + std::to_string(v.size()) + " values, for " + std::to_string(P.rows()) +
                                       " trajectories (give 1 value, or one per trajectory)");
         for (std::size_t j = 0; j < v.size(); ++j)
-            if (!std::isfinite(v[j])) throw InputError(key, "value " + std::to_string(j) + " is not finite");
+            if (!std::isfinite(v[j])) throw InputError(key, "its value at row " + std::to_string(j) + " is not finite");
         for (Eigen::Index j = 0; j < P.rows(); ++j) P(j, Eigen::Index(a)) = v[v.size() == 1 ? 0 : std::size_t(j)];
     }
     return P;

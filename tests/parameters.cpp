@@ -312,7 +312,7 @@ TEST_CASE("parameters: bad input is refused with an InputError naming it") {
     CHECK_THROWS_WITH_AS(s.parameter_rows({{"I1", {1.0}}}),
                          "parameters: unknown parameter 'I1' (the scheme's parameters: w1, w2, w3)", InputError);
     CHECK_THROWS_WITH_AS(s.parameter_rows({{"w1", {std::numeric_limits<double>::quiet_NaN()}}}),
-                         "parameters.w1: value 0 is not finite", InputError);
+                         "parameters.w1: its value at row 0 is not finite", InputError);
     EnsembleOptions o;
     o.parameters = {{"w2", {1.0, 2.0, 3.0}}};
     CHECK_THROWS_WITH_AS(integrate_ensemble(s, X0, 0.1, 1.0, o),

@@ -393,7 +393,7 @@ class Scheme:
                  max_seconds=60, max_memory_mb=None):
         """coordinates: the names (a list of strings); brackets: {"a,b": "{a,b} as a polynomial"}, the others
         following by skew-symmetry; hamiltonian: H; casimirs: a list of polynomials that Poisson-commute with
-        everything; order: k, 1..64; realisation: "auto", "lie-poisson", "radial", ... (as a scene's);
+        everything; order: k, 1..64; realisation: "auto", "closed-form" or "radial" (as a scene's);
         dt, x0, t_end: the defaults of step() and integrate().
 
         The exact phase's budget, as the command line's: max_terms bounds every product's terms (--max-terms),
@@ -450,6 +450,8 @@ class Scheme:
         budget (max_seconds, max_memory_mb, max_terms) as for Scheme(); jit=True or False overrides the scene's
         integrator.jit (as `pgi --jit` and `--no-jit`); None keeps it."""
         arguments = _toml_arguments(trust_jacobi, jit, max_seconds, max_memory_mb, max_terms)
+        if "\0" in str(path):
+            raise SceneError(f"{str(path)!r}: not a file name (it holds a NUL byte)")
         try:  # the text, so a pickled Scheme carries the scene itself; opened without blocking (a FIFO would wait)
             fd = _os.open(path, _os.O_RDONLY | _os.O_NONBLOCK)
         except OSError:

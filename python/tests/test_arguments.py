@@ -166,3 +166,8 @@ def test_from_toml_reads_no_more_than_a_scene_may_hold(tmp_path):
     with pytest.raises(pgi.SceneError, match=f"above the limit of {8 << 20}"):
         pgi.Scheme.from_toml(big)
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 100 << 10  # KiB: well under 300 MB
+
+
+def test_from_toml_refuses_a_path_with_a_nul_byte_as_a_scene_error():
+    with pytest.raises(pgi.SceneError, match="NUL byte"):
+        pgi.Scheme.from_toml("a\0b.toml")

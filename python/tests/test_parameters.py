@@ -119,7 +119,7 @@ def test_bad_parameters_are_refused_naming_them():
     s = rigid_body()
     with pytest.raises(pgi.InputError, match=r"parameters: unknown parameter 'I1' \(the scheme's parameters: w1, w2, w3\)"):
         s.integrate(X0, t_end=1, parameters={"I1": 2.0})
-    with pytest.raises(pgi.InputError, match="parameters.w1: value 0 is not finite"):
+    with pytest.raises(pgi.InputError, match="parameters.w1: its value at row 0 is not finite"):
         s.integrate(X0, t_end=1, parameters={"w1": float("nan")})
     with pytest.raises(pgi.InputError, match="parameters.w2: has 3 values, for 2 trajectories"):
         s.integrate_ensemble(np.tile(X0, (2, 1)), t_end=1, parameters={"w2": [1.0, 2.0, 3.0]})
