@@ -4,7 +4,6 @@
 #include "tools/atomic_file.hpp"
 #include "tools/commands.hpp"
 
-#include <iostream>
 #include <new>
 #include <string>
 

@@ -456,12 +456,14 @@ class Scheme:
             fd = _os.open(path, _os.O_RDONLY | _os.O_NONBLOCK)
         except OSError:
             fd = None
-        if fd is None or not _stat.S_ISREG(_os.fstat(fd).st_mode):  # pgi's SceneError names the file and why
+        info = None if fd is None else _os.fstat(fd)
+        if info is None or not _stat.S_ISREG(info.st_mode) or info.st_size > _max_scene_bytes:
+            # pgi's own reader refuses it: its SceneError names the file and why (not a file, its size)
             if fd is not None:
                 _os.close(fd)
             _Scheme.from_toml(str(path), *_toml_core_arguments(*arguments))
             raise SceneError(f"{path}: cannot be read as a scene file")
-        with _os.fdopen(fd, "rb") as f:  # at most one byte past the limit, which the reader then refuses
+        with _os.fdopen(fd, "rb") as f:  # (at most one byte past the limit, should the file grow meanwhile)
             text = f.read(_max_scene_bytes + 1)
         return cls._from_toml_text(text, str(path), *arguments)
 

@@ -155,15 +155,15 @@ def test_a_scene_path_that_is_no_regular_file_is_refused_naming_it_without_waiti
 
 
 def test_from_toml_reads_no_more_than_a_scene_may_hold(tmp_path):
-    """A scene file above pgi's 8 MiB limit is refused as the command line refuses it, after reading at most one byte
-    past the limit (a 300 MB sparse file once took 600 MB of memory before its syntax error)."""
+    """A scene file above pgi's 8 MiB limit is refused as the command line refuses it, by its size, before it is read
+    (a 300 MB sparse file once took 600 MB of memory before its syntax error)."""
     import resource
     big = tmp_path / "big.toml"
     with open(big, "wb") as f:
         f.write((SCENES / "rigid_body.toml").read_bytes())
         f.truncate(300 << 20)
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    with pytest.raises(pgi.SceneError, match=f"above the limit of {8 << 20}"):
+    with pytest.raises(pgi.SceneError, match=f"the file has {300 << 20} bytes, above the limit of {8 << 20}"):
         pgi.Scheme.from_toml(big)
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 100 << 10  # KiB: well under 300 MB
 
