@@ -66,7 +66,7 @@ private:
     void evaluate(const NewtonStepper& s, Mask F, T* J);
     Mask accept_check(const NewtonStepper& s, Mask C, Mask small);
     void finish(const NewtonStepper& s, Mask E, T* increment);
-    void polish(Mask E);
+    void polish(Mask E, T* delta) const;  // delta moved where the lanes of E polish
     void factor(Mask F, const T* J);
     const T* inputs(const T* point, bool magnitudes);
     void solve_kept(const T* b, T* d) const;

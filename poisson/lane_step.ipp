@@ -266,6 +266,8 @@ void LaneStep<N, T>::evaluate(const NewtonStepper& s, Mask F, T* J) {
     commit<N>(F, v.delta, values_.delta);
     commit<N * N>(F, v.alpha_x, values_.alpha_x);
     commit<N * N>(F, v.alpha_p, values_.alpha_p);
+    commit<N * N>(F, v.delta_x, values_.delta_x);
+    commit<N * N>(F, v.delta_p, values_.delta_p);
     commit<N>(F, v.exponent, values_.exponent);
     commit<N>(F, v.em1, values_.em1);
 }
@@ -321,28 +323,31 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
     return lanes::both(C, ratio <= 1.0);
 }
 
-// NewtonStepper::polish for the lanes of E: where the last correction was above round-off, one more simplified
-// round from the accepted r_ (the kept factors, p updated by the kept Hessian).
+// NewtonStepper::polish for the lanes of E: where the last correction was above round-off, the increment moved to
+// first order by one more simplified round from the accepted r_ (d = J^{-1} r_ with the kept factors, p moved by the
+// kept Hessian): by -(delta_x d + delta_p H d), delta's derivatives from the last Newton system.
 template <int N, class T>
-void LaneStep<N, T>::polish(Mask E) {
+void LaneStep<N, T>::polish(Mask E, T* delta) const {
     const Mask P = lanes::both(E, newton_rules::polishes(correction_, lanes::max(x_norm_, state_norm(xb_))));
     if (!lanes::any(P)) return;
-    T d[N], p[N];
+    T d[N], q[N];
     solve_kept(r_, d);
     const Mask go = lanes::both(P, all_finite<N>(d));
     for (int i = 0; i < N; ++i) {
-        T q{};
-        for (int k = 0; k < N; ++k) q = q + H_[i + N * k] * d[k];
-        p[i] = p_[i] - q;
-        xb_[i] = select(go, xb_[i] - d[i], xb_[i]);
+        q[i] = T{};
+        for (int k = 0; k < N; ++k) q[i] = q[i] + H_[i + N * k] * d[k];
     }
-    commit<N>(go, p, p_);
-    commit<N>(go, d, dx_);
+    for (int i = 0; i < N; ++i) {
+        T moved{};
+        for (int k = 0; k < N; ++k) moved = moved + values_.delta_x[i + N * k] * d[k];
+        for (int k = 0; k < N; ++k) moved = moved + values_.delta_p[i + N * k] * q[k];
+        delta[i] = select(go, delta[i] - moved, delta[i]);
+    }
 }
 
 // NewtonStepper::finish for the lanes of E (accepted): ill-conditioned when the tolerance exceeds sqrt(u) |x|, else
-// the increment delta at the (polished) base point, evaluated here once for every lane, non-finite, above the
-// truncation bound, or ok.
+// the increment delta at the accepted base point, evaluated here once for every lane and polished, non-finite, above
+// the truncation bound, or ok.
 template <int N, class T>
 void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
     const Mask ill =
@@ -350,8 +355,8 @@ void LaneStep<N, T>::finish(const NewtonStepper& s, Mask E, T* increment) {
     end(ill, StepStatus::ill_conditioned);
     const Mask solved = lanes::both(E, lanes::negate(ill));
     if (!lanes::any(solved)) return;  // (a failed test: no delta to take)
-    polish(solved);
     s.in_->realisation_.delta_lanes<N>(xb_, p_, check_.delta, maps_, &values_);
+    polish(solved, check_.delta);
     commit<N>(solved, check_.delta, increment);
     const Mask non_finite = lanes::both(solved, lanes::negate(all_finite<N>(check_.delta)));
     end(non_finite, StepStatus::non_finite);

@@ -164,7 +164,7 @@ private:
     bool within_tolerance();
     void add_propagated_sizes();
     StepStatus finish(double x_norm, Eigen::VectorXd& increment);
-    void polish(double x_norm);
+    void polish(double x_norm, Eigen::VectorXd& increment);
     bool solve(bool again);
     void size_scratch(std::size_t n);
     std::vector<CompiledMap*> compiled_maps();  // every map the step evaluates, for native code (StepOptions::native)
@@ -186,7 +186,7 @@ private:
     double state_norm(const Eigen::VectorXd& v) const {
         return v.head(Eigen::Index(moving_)).lpNorm<Eigen::Infinity>();
     }
-    Eigen::VectorXd gsize_, tol_;
+    Eigen::VectorXd gsize_, tol_, moved_;             // moved_: the polishing round's first-order change of delta
     Eigen::VectorXd xb_, xb_good_, p_, r_, dx_, gh_;  // gh_: with_hessian's outputs (the Hessian's upper triangle)
     Eigen::VectorXd hessian_;                         // Hess S_dt on its whole pattern (expand_hessian)
     Eigen::MatrixXd hess_, J_, D_;

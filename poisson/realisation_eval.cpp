@@ -561,22 +561,19 @@ void gather_block(const int (&block)[3], const Eigen::VectorXd& x, const Eigen::
 // and delta's derivatives: delta = L(p) x, so delta_x = L(p) and delta_p e_j = C_j x.
 void RealisationEvaluator::eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p,
                                          RealisationValues& v) const {
-    double x3[3], p3[3], alpha[3], delta[3], alpha_x[9], alpha_p[9];
+    double x3[3], p3[3], alpha[3], delta[3], alpha_x[9], alpha_p[9], delta_x[9], delta_p[9];
     gather_block(block_, x, p, x3, p3);
-    rotation_eval(x3, p3, alpha, delta, alpha_x, alpha_p);
+    rotation_eval(x3, p3, alpha, delta, alpha_x, alpha_p, delta_x, delta_p);
     v.alpha = x;
     v.delta.setZero();
     v.alpha_x.setIdentity();
-    v.alpha_p.setZero();
+    for (auto* m : {&v.alpha_p, &v.delta_x, &v.delta_p}) m->setZero();
     for (int i = 0; i < 3; ++i) {
         v.alpha[block_[i]] = alpha[i], v.delta[block_[i]] = delta[i];
-        for (int k = 0; k < 3; ++k)
+        for (int k = 0; k < 3; ++k) {
             v.alpha_x(block_[i], block_[k]) = alpha_x[i + 3 * k], v.alpha_p(block_[i], block_[k]) = alpha_p[i + 3 * k];
-    }
-    v.delta_x.setZero();
-    for (Eigen::Index j = 0; j < x.size(); ++j) {
-        v.delta_x += p[j] * C_[std::size_t(j)];
-        v.delta_p.col(j).noalias() = C_[std::size_t(j)] * x;
+            v.delta_x(block_[i], block_[k]) = delta_x[i + 3 * k], v.delta_p(block_[i], block_[k]) = delta_p[i + 3 * k];
+        }
     }
 }
 

@@ -34,12 +34,12 @@ struct RealisationCheck {
 };
 
 /// What the Newton step reads of one evaluation, over lanes (poisson/lanes.hpp: T = double for one state, a
-/// Pack for several) at a fixed dimension N: alpha, delta, alpha_x and alpha_p (column-major N x N); for the
+/// Pack for several) at a fixed dimension N: alpha, delta and their derivatives (column-major N x N); for the
 /// log-canonical form also its exponents u_j and e^{u_j/2} - 1 there, from which check_lanes near that point takes
 /// its own exponentials (docs/math.md 3).
 template <int N, class T>
 struct LaneRealisation {
-    T alpha[N], delta[N], alpha_x[N * N], alpha_p[N * N], exponent[N], em1[N];
+    T alpha[N], delta[N], alpha_x[N * N], alpha_p[N * N], delta_x[N * N], delta_p[N * N], exponent[N], em1[N];
 };
 /// RealisationCheck over lanes.
 template <int N, class T>
@@ -156,7 +156,8 @@ private:
     /// so(3) on its three coordinates (x3, p3: their values; the blocks 3 x 3, column-major): eval_lanes' alpha,
     /// delta, alpha_x and alpha_p, check_lanes' values and delta_lanes' delta there (poisson/realisation_lanes.ipp).
     template <class T>
-    void rotation_eval(const T* x3, const T* p3, T* alpha, T* delta, T* alpha_x, T* alpha_p) const;
+    void rotation_eval(const T* x3, const T* p3, T* alpha, T* delta, T* alpha_x, T* alpha_p, T* delta_x,
+                       T* delta_p) const;
     template <class T>
     void rotation_check(const T* x3, const T* p3, T* alpha, T* delta, T* size, T* shift) const;
     template <class T>

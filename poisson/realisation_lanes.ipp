@@ -102,16 +102,17 @@ void rotation_coefficient(T s, const std::vector<double>& b, T& h, T& dh) {
     }
 }
 
-// log_canonical_derivatives' entries into the dense N x N blocks of the Newton step (alpha_x and alpha_p only).
+// log_canonical_derivatives' entries into the dense N x N blocks of the Newton step.
 template <int N, class T>
 struct LanePut {
     LaneRealisation<N, T>& v;
-    PGI_LANE_INLINE void operator()(std::size_t, std::size_t j, std::size_t l, const T& ax, const T& ap, const T&,
-                                    const T&) const {
-        v.alpha_x[j + N * l] = ax, v.alpha_p[j + N * l] = ap;
+    PGI_LANE_INLINE void operator()(std::size_t, std::size_t j, std::size_t l, const T& ax, const T& ap, const T& dx,
+                                    const T& dp) const {
+        v.alpha_x[j + N * l] = ax, v.alpha_p[j + N * l] = ap, v.delta_x[j + N * l] = dx, v.delta_p[j + N * l] = dp;
     }
-    PGI_LANE_INLINE void diagonal(std::size_t j, const T& e, const T&) const {
+    PGI_LANE_INLINE void diagonal(std::size_t j, const T& e, const T& s) const {
         v.alpha_x[j + N * j] = v.alpha_x[j + N * j] + e;
+        v.delta_x[j + N * j] = v.delta_x[j + N * j] + s;
     }
 };
 
@@ -170,7 +171,8 @@ struct RotationAt {
 // h w w^T (L^2 = w w^T - s I), alpha_p e_j = -C_j x / 2 + h (c_j x L x + w x C_j x) + dh (2 w . c_j) L^2 x (ds/dp_j =
 // 2 w . c_j), delta = L x.
 template <class T>
-void RealisationEvaluator::rotation_eval(const T* x3, const T* p3, T* alpha, T* delta, T* alpha_x, T* alpha_p) const {
+void RealisationEvaluator::rotation_eval(const T* x3, const T* p3, T* alpha, T* delta, T* alpha_x, T* alpha_p,
+                                         T* delta_x, T* delta_p) const {
     const RotationAt<T> r(axial_, axial_sign_, x3, p3);
     T h, dh;
     rotation_coefficient<true>(r.s, b_, h, dh);
@@ -182,6 +184,7 @@ void RealisationEvaluator::rotation_eval(const T* x3, const T* p3, T* alpha, T* 
             // L(i, k) = (w x e_k)_i: -w_m on the cycle (0,1), (1,2), (2,0), +w_m off it, m the third index
             const T L_ik = i == k ? T{} : ((i + 1) % 3 == k ? -r.w.v[3 - i - k] : r.w.v[3 - i - k]);
             alpha_x[i + 3 * k] = ((i == k ? diagonal : T{}) - 0.5 * L_ik) + h * (r.w.v[i] * r.w.v[k]);
+            delta_x[i + 3 * k] = L_ik;
         }
     }
     const double sign = axial_sign_;
@@ -191,7 +194,10 @@ void RealisationEvaluator::rotation_eval(const T* x3, const T* p3, T* alpha, T* 
                       a = sign != 0 ? axis_cross(j, sign, r.Lx) : cross(c, r.Lx), b = cross(r.w, Cx);
         const T w_c = sign != 0 ? sign * r.w.v[j] : (r.w.v[0] * c[0] + r.w.v[1] * c[1]) + r.w.v[2] * c[2];
         const T slope = dh * (2.0 * w_c);
-        for (int i = 0; i < 3; ++i) alpha_p[i + 3 * j] = (-0.5 * Cx.v[i] + h * (a.v[i] + b.v[i])) + slope * r.L2x.v[i];
+        for (int i = 0; i < 3; ++i) {
+            alpha_p[i + 3 * j] = (-0.5 * Cx.v[i] + h * (a.v[i] + b.v[i])) + slope * r.L2x.v[i];
+            delta_p[i + 3 * j] = Cx.v[i];
+        }
     }
 }
 
@@ -234,31 +240,32 @@ template <int N, class T>
 void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N, T>& v, LaneMapScratch<T>& s) const {
     if constexpr (N == 3) {
         if (form_ == Form::rotation) {
-            rotation_eval(x, p, v.alpha, v.delta, v.alpha_x, v.alpha_p);
+            rotation_eval(x, p, v.alpha, v.delta, v.alpha_x, v.alpha_p, v.delta_x, v.delta_p);
             return;
         }
     } else if constexpr (N > 3) {
         if (form_ == Form::rotation) {
-            T x3[3], p3[3], alpha[3], delta[3], alpha_x[9], alpha_p[9];
+            T x3[3], p3[3], alpha[3], delta[3], alpha_x[9], alpha_p[9], delta_x[9], delta_p[9];
             gather_block(block_, x, p, x3, p3);
-            rotation_eval(x3, p3, alpha, delta, alpha_x, alpha_p);
+            rotation_eval(x3, p3, alpha, delta, alpha_x, alpha_p, delta_x, delta_p);
             for (int i = 0; i < N; ++i) v.alpha[i] = x[i], v.delta[i] = T{};
-            for (auto& e : v.alpha_x) e = T{};
-            for (auto& e : v.alpha_p) e = T{};
+            for (auto* m : {v.alpha_x, v.alpha_p, v.delta_x, v.delta_p})
+                for (int e = 0; e < N * N; ++e) m[e] = T{};
             for (int i = 0; i < N; ++i) v.alpha_x[i + N * i] = lanes::splat<T>(1.0);
             for (int i = 0; i < 3; ++i) {
                 v.alpha[block_[i]] = alpha[i], v.delta[block_[i]] = delta[i];
                 for (int k = 0; k < 3; ++k) {
-                    v.alpha_x[block_[i] + N * block_[k]] = alpha_x[i + 3 * k];
-                    v.alpha_p[block_[i] + N * block_[k]] = alpha_p[i + 3 * k];
+                    const int e = block_[i] + N * block_[k];
+                    v.alpha_x[e] = alpha_x[i + 3 * k], v.alpha_p[e] = alpha_p[i + 3 * k];
+                    v.delta_x[e] = delta_x[i + 3 * k], v.delta_p[e] = delta_p[i + 3 * k];
                 }
             }
             return;
         }
     }
-    if (form_ == Form::log_canonical) {  // (poisson/log_canonical.ipp; delta's derivatives not kept)
-        for (auto& e : v.alpha_x) e = T{};
-        for (auto& e : v.alpha_p) e = T{};
+    for (auto* m : {v.alpha_x, v.alpha_p, v.delta_x, v.delta_p})
+        for (int e = 0; e < N * N; ++e) m[e] = T{};
+    if (form_ == Form::log_canonical) {  // (poisson/log_canonical.ipp)
         log_canonical_derivatives(x, p, v.alpha, v.delta, LanePut<N, T>{v}, v.exponent, v.em1, std::size_t(N));
         return;
     }
@@ -271,16 +278,18 @@ void RealisationEvaluator::eval_lanes(const T* x, const T* p, LaneRealisation<N,
     eval_map(lead ? leading_.map : map_, s.in.data(), s.out.data(), s.map);
     const T* o = s.out.data();
     for (int i = 0; i < N; ++i) v.alpha[i] = o[i], v.delta[i] = o[N + i];
-    for (auto& e : v.alpha_x) e = T{};
-    for (auto& e : v.alpha_p) e = T{};
-    const std::size_t nx = pattern_x.nonzeros();
+    const std::size_t nx = pattern_x.nonzeros(), np = pattern_p.nonzeros();
     const T* ax = o + 2 * N;
     const T* ap = ax + 2 * nx;
     for (std::size_t col = 0; col < std::size_t(N); ++col) {
-        for (int k = pattern_x.outer[col]; k < pattern_x.outer[col + 1]; ++k)
-            v.alpha_x[std::size_t(pattern_x.inner[std::size_t(k)]) + N * col] = ax[k];
-        for (int k = pattern_p.outer[col]; k < pattern_p.outer[col + 1]; ++k)
-            v.alpha_p[std::size_t(pattern_p.inner[std::size_t(k)]) + N * col] = ap[k];
+        for (int k = pattern_x.outer[col]; k < pattern_x.outer[col + 1]; ++k) {
+            const std::size_t e = std::size_t(pattern_x.inner[std::size_t(k)]) + N * col;
+            v.alpha_x[e] = ax[k], v.delta_x[e] = ax[std::size_t(k) + nx];
+        }
+        for (int k = pattern_p.outer[col]; k < pattern_p.outer[col + 1]; ++k) {
+            const std::size_t e = std::size_t(pattern_p.inner[std::size_t(k)]) + N * col;
+            v.alpha_p[e] = ap[k], v.delta_p[e] = ap[std::size_t(k) + np];
+        }
     }
 }
 
@@ -353,13 +362,13 @@ void RealisationEvaluator::delta_lanes(const T* x, const T* p, T* delta, LaneMap
     eval_map(std::size_t(N) < n_ ? leading_.delta : delta_map_, s.in.data(), delta, s.map);
 }
 
-#define PGI_REALISATION_LANES(T)                                                                     \
-    template void RealisationEvaluator::rotation_eval<T>(const T*, const T*, T*, T*, T*, T*) const;  \
-    template void RealisationEvaluator::rotation_check<T>(const T*, const T*, T*, T*, T*, T*) const; \
-    template void RealisationEvaluator::rotation_delta<T>(const T*, const T*, T*) const;             \
-    PGI_LANE_FORMS(2, T)                                                                             \
-    PGI_LANE_FORMS(3, T)                                                                             \
-    PGI_LANE_FORMS(4, T)                                                                             \
+#define PGI_REALISATION_LANES(T)                                                                            \
+    template void RealisationEvaluator::rotation_eval<T>(const T*, const T*, T*, T*, T*, T*, T*, T*) const; \
+    template void RealisationEvaluator::rotation_check<T>(const T*, const T*, T*, T*, T*, T*) const;        \
+    template void RealisationEvaluator::rotation_delta<T>(const T*, const T*, T*) const;                    \
+    PGI_LANE_FORMS(2, T)                                                                                    \
+    PGI_LANE_FORMS(3, T)                                                                                    \
+    PGI_LANE_FORMS(4, T)                                                                                    \
     PGI_LANE_FORMS(6, T)
 #define PGI_LANE_FORMS(N, T)                                                                                        \
     template void RealisationEvaluator::eval_lanes<N, T>(const T*, const T*, LaneRealisation<N, T>&,                \

@@ -617,7 +617,9 @@ void CompiledMap::group_outputs() {
         unions.push_back(std::move(u));
     }
     if (groups.empty()) return;
-    // the grouped terms, each group's in the order of its union (monomial numbers ascending)
+    // the grouped terms, each group's in the order of its union (monomial numbers ascending), then from the highest
+    // degree down
+    const std::vector<std::uint32_t> degree = monomial_degrees();
     group_start_.push_back(0);
     for (std::size_t n = 0; n < groups.size(); ++n) {
         const auto& g = groups[n];
@@ -634,6 +636,7 @@ void CompiledMap::group_outputs() {
                     term_coeff_[t];  // one term per monomial: FLINT's terms are distinct
             }
         }
+        order_from_highest_degree(first, degree);
         group_start_.push_back(static_cast<std::uint32_t>(group_monomial_.size()));
         group_output_.push_back(g);
     }
@@ -653,6 +656,36 @@ void CompiledMap::group_outputs() {
     row_start_ = std::move(start);
     term_monomial_ = std::move(monomial);
     term_coeff_ = std::move(coeff);
+}
+
+// The total degree of each monomial: 0 for the constant, 1 for an input, a product's its factors' sum.
+std::vector<std::uint32_t> CompiledMap::monomial_degrees() const {
+    std::vector<std::uint32_t> degree(num_monomials(), 1);
+    degree[0] = 0;
+    for (std::size_t m = 0; m < left_.size(); ++m) degree[1 + num_inputs_ + m] = degree[left_[m]] + degree[right_[m]];
+    return degree;
+}
+
+// The group terms from first to the end, reordered from the highest degree down (stably), as FLINT orders a row's
+// (ORD_DEGREVLEX): in the step's maps the high degrees are the small terms (powers of p), which summed after the large
+// ones each round to the large partial sum's ulps, all the same way where they share a sign: a bias, not round-off
+// (the Nambu-type scene's delta moved its Casimir by 8e-18 a step, docs/math.md 6).
+void CompiledMap::order_from_highest_degree(std::size_t first, const std::vector<std::uint32_t>& degree) {
+    const std::size_t L = group_monomial_.size() - first;
+    std::vector<std::size_t> order(L);
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return degree[group_monomial_[first + a]] > degree[group_monomial_[first + b]];
+    });
+    std::vector<std::uint32_t> monomial(L);
+    std::vector<double> coeff(L * group_width);
+    for (std::size_t q = 0; q < L; ++q) {
+        monomial[q] = group_monomial_[first + order[q]];
+        for (std::size_t i = 0; i < group_width; ++i)
+            coeff[q * group_width + i] = group_coeff_[(first + order[q]) * group_width + i];
+    }
+    std::copy(monomial.begin(), monomial.end(), group_monomial_.begin() + std::ptrdiff_t(first));
+    std::copy(coeff.begin(), coeff.end(), group_coeff_.begin() + std::ptrdiff_t(first * group_width));
 }
 
 template <class T>

@@ -220,6 +220,8 @@ private:
     };
     Code native_, machine_;
     void group_outputs();
+    std::vector<std::uint32_t> monomial_degrees() const;
+    void order_from_highest_degree(std::size_t first, const std::vector<std::uint32_t>& degree);
     void split_sums();
     // term_monomial_ holding target numbers: made[target] its monomial, left and right the products
     void finish(const std::vector<std::uint32_t>& made, std::vector<std::uint32_t> left,

@@ -22,21 +22,22 @@ namespace {
 // 1e5 steps take 0.1-2 s each in a Release build: not under the sanitizers (tools/test_sanitized.sh), ten times slower.
 using test::sanitized;
 
-constexpr std::size_t steps = 100000, tenth = steps / 10;
+constexpr std::size_t default_steps = 100000;
 const double u = unit_roundoff;
-// a random walk of N steps, each erring by a few u: 4 u sqrt(N) (1.4e-13 at 1e5); below u sqrt(N) the growth
-// ratio is noise and is not asked
-const double bound = 4 * u * std::sqrt(double(steps)), noise_floor = u * std::sqrt(double(steps));
 
 struct Drift {
     std::string what;
+    std::size_t steps = default_steps;
     bool ok = false;
     std::vector<double> at_tenth, at_end;  // max |C - C0| / sum |terms of C|(x0) over the first tenth and the whole run
 };
 
-Drift casimir_drift(const std::string& what, const Scheme& scheme, double dt, const Eigen::VectorXd& x0) {
+Drift casimir_drift(const std::string& what, const Scheme& scheme, double dt, const Eigen::VectorXd& x0,
+                    std::size_t steps = default_steps) {
     Drift d;
     d.what = what + " dt = " + std::to_string(dt);
+    d.steps = steps;
+    const std::size_t tenth = steps / 10;
     const PhaseSpace& M = scheme.phase_space();
     const std::vector<Poly>& C = scheme.casimirs();
     std::vector<double> c0, size;
@@ -63,13 +64,19 @@ Drift casimir_drift(const std::string& what, const Scheme& scheme, double dt, co
     return d;
 }
 
+// A random walk of N steps, each erring by a few u: within 4 u sqrt(N) (1.4e-13 at 1e5); below u sqrt(N) the growth
+// ratio is noise and is not asked.
 void check_drift(const Drift& d) {
     INFO(d.what);
     REQUIRE(d.ok);
+    const double N = double(d.steps), bound = 4 * u * std::sqrt(N), noise_floor = u * std::sqrt(N);
     for (std::size_t i = 0; i < d.at_end.size(); ++i) {
-        INFO("Casimir " << i << ": " << d.at_tenth[i] << " after 1e4 steps, " << d.at_end[i] << " after 1e5");
+        INFO("Casimir " << i << ": " << d.at_tenth[i] << " after " << d.steps / 10 << " steps, " << d.at_end[i]
+                        << " after " << d.steps);
         CHECK(d.at_end[i] <= bound);
-        if (d.at_end[i] > noise_floor) CHECK(d.at_end[i] <= 5 * d.at_tenth[i]);
+        // (a first tenth that happened to stay below a walk of u a step, u sqrt(N / 10), is read as that walk: a
+        // random walk's maximum over 1e4 steps is often half its typical size, and over 1e5 twice it)
+        if (d.at_end[i] > noise_floor) CHECK(d.at_end[i] <= 5 * std::max(d.at_tenth[i], u * std::sqrt(N / 10)));
     }
 }
 
@@ -128,4 +135,34 @@ TEST_CASE("Casimirs over 1e5 steps: a round-off random walk on every realisation
     four.order = 4;
     for (const double dt : {0.05, 0.1})
         check_drift(casimir_drift("four species", scheme_of(four), dt, Eigen::Vector4d(1.0, 0.7, 1.3, 0.6)));
+}
+
+// Two biases the acceptance test passed (docs/math.md 6), each ~0.03 u a step, 3e-13 and 9e-13 over 1e5 steps before
+// they were fixed: the polishing round's move, below the ulps of xb and p, which moving them lost (a log-canonical
+// system of five species runs on the dense path, three Newton iterations a step at dt = 1/2); and the high-degree
+// terms of a radial realisation's delta summed after its large ones, each rounding to their ulps (a Nambu-type
+// quadratic structure; its degree-11 realisation costs 0.16 ms a step, so 1e4 steps, where the bias was 8.6e-14 and
+// the bound is 4.4e-14).
+TEST_CASE("Casimirs over long runs: no bias from the polishing round's move or from the order of a sum's terms" *
+          doctest::skip(sanitized)) {
+    SchemeValues five;
+    five.coordinates = {"x1", "x2", "x3", "x4", "x5"};
+    five.brackets = {{"x1,x2", "x1*x2"},  {"x2,x3", "x2*x3"},  {"x3,x4", "x3*x4"},  {"x4,x5", "x4*x5"},
+                     {"x5,x1", "x5*x1"},  {"x1,x3", "-x1*x3"}, {"x2,x4", "-x2*x4"}, {"x3,x5", "-x3*x5"},
+                     {"x4,x1", "-x4*x1"}, {"x5,x2", "-x5*x2"}};
+    five.hamiltonian = "x1 + x2 + x3 + x4 + x5";
+    five.casimirs = {"x1*x2*x3*x4*x5"};
+    Eigen::VectorXd five_x0(5);
+    five_x0 << 1.0, 0.6, 1.3, 0.9, 1.1;
+    for (const long k : {4L, 6L}) {
+        five.order = k;
+        check_drift(casimir_drift("five species k = " + std::to_string(k), scheme_of(five), 0.5, five_x0));
+    }
+    SchemeValues nambu;
+    nambu.coordinates = {"x1", "x2", "x3"};
+    nambu.brackets = {{"x1,x2", "x3^2 + x1*x2"}, {"x2,x3", "2*x1*x2 + x2*x3"}, {"x3,x1", "x1^2 + x1*x3"}};
+    nambu.hamiltonian = "(x1^2 + 2*x2^2 + 3*x3^2)/2";
+    nambu.casimirs = {"x1^2*x2 + x3^3/3 + x1*x2*x3"};
+    nambu.order = 2;
+    check_drift(casimir_drift("Nambu-type quadratic", scheme_of(nambu), 0.05, Eigen::Vector3d(0.6, 0.8, 0.3), 10000));
 }
