@@ -1,9 +1,20 @@
 #include "poisson/dt_series.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace pgi {
+
+namespace {
+
+bool coefficients_are_doubles(const Poly& f) {
+    for (std::size_t t = 0; t < f.length(); ++t)
+        if (!std::isfinite(f.term_coeff(t).to_double())) return false;
+    return true;
+}
+
+}  // namespace
 
 DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs,
                                double planned_dt, std::size_t slow) {
@@ -27,8 +38,12 @@ DtSeriesMap DtSeriesMap::build(const std::vector<std::vector<Poly>>& terms, cons
             for (const auto& f : terms) c.push_back(f[o]);
             sums.push_back(sum_powers(c, dt, 1));
         }
-        m.planned_ = CompiledMap::build(sums, inputs, slow);
-        m.planned_dt_ = planned_dt;
+        // a dt whose powers put a coefficient past the double range is not planned: Horner then overflows at run
+        // time, and the step fails there with its step and time, instead of the build naming a coefficient
+        if (std::all_of(sums.begin(), sums.end(), coefficients_are_doubles)) {
+            m.planned_ = CompiledMap::build(sums, inputs, slow);
+            m.planned_dt_ = planned_dt;
+        }
     }
     m.stacked_.assign(stacked.size(), 0.0);
     m.factors_.assign(m.powers_.size(), 0.0);

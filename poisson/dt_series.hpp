@@ -23,7 +23,8 @@ public:
     DtSeriesMap() = default;
     /// terms[j - 1] = f_j, each a vector of the same number of polynomials (the width) in the ring
     /// variables inputs lists; the blocks that are identically zero are skipped (S_2 = S_4 = ... = 0).
-    /// planned_dt: the dt at which eval uses the exact sum sum_j dt^j f_j compiled at once (0: none). The last
+    /// planned_dt: the dt at which eval uses the exact sum sum_j dt^j f_j compiled at once (0: none; none either where
+    /// a coefficient of that sum is past the double range: eval overflows there as at any other dt). The last
     /// `slow` inputs (a scheme's parameters) are read through the coefficients (CompiledMap's two stages).
     static DtSeriesMap build(const std::vector<std::vector<Poly>>& terms, const std::vector<std::size_t>& inputs,
                              double planned_dt = 0, std::size_t slow = 0);

@@ -157,6 +157,16 @@ def test_a_non_finite_invariant_ends_the_run_as_on_the_command_line():
     assert r.status.tolist() == ["non_finite", "ok"] and r.steps.tolist() == [0, 10] and r.failed_step[0] == 0
 
 
+def test_a_dt_whose_powers_overflow_fails_as_a_step_on_every_surface():
+    # S_dt's coefficients at dt = 1e300 are past the double range: the step overflows, as at run time, and fails
+    # with its step, not with the build's message about a coefficient
+    s = pgi.Scheme.from_toml(SCENES / "rigid_body.toml")
+    with pytest.raises(pgi.StepFailure, match="step 1 "):
+        s.step([0.6, 0.8, 0.3], 1e300)
+    code, _, err = cli("integrate", SCENES / "henon_heiles.toml", "--dt", "1e200", "--t-end", "1e200", check=False)
+    assert code == 3 and "step 1 (from t = 0) failed" in err and "coefficient" not in err
+
+
 def test_trust_jacobi_skips_the_check_as_the_command_line_does_and_survives_pickling():
     # {x_i, x_j} = eps_ijk v_k with v = (-x2, x1, 1): Jacobi needs v . curl v = 0, here it is 2
     broken = dict(coordinates=["x1", "x2", "x3"], brackets={"x1,x2": "1", "x2,x3": "-x2", "x3,x1": "x1"},
