@@ -1,14 +1,22 @@
 #include "poisson/phase_space.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 
 namespace pgi {
 
 namespace {
 
+// The coordinates, then p_c for each coordinate c. A coordinate named as another's momentum is refused here, by
+// both names: the ring would only say that one name is repeated.
 std::vector<std::string> phase_space_names(const std::vector<std::string>& coordinates) {
     std::vector<std::string> names = coordinates;
-    for (const auto& c : coordinates) names.push_back("p_" + c);
+    for (const auto& c : coordinates) {
+        if (std::find(coordinates.begin(), coordinates.end(), "p_" + c) != coordinates.end())
+            throw std::invalid_argument("coordinate 'p_" + c + "' is the name of the momentum of coordinate '" + c +
+                                        "' on T*R^n: rename one of them");
+        names.push_back("p_" + c);
+    }
     return names;
 }
 
