@@ -323,16 +323,14 @@ typename LaneStep<N, T>::Mask LaneStep<N, T>::accept_check(const NewtonStepper& 
     return lanes::both(C, ratio <= 1.0);
 }
 
-// NewtonStepper::polish for the lanes of E: where the last correction was above round-off, the increment moved to
-// first order by one more simplified round from the accepted r_ (d = J^{-1} r_ with the kept factors, p moved by the
-// kept Hessian): by -(delta_x d + delta_p H d), delta's derivatives from the last Newton system.
+// NewtonStepper::polish for the lanes of E: the increment moved to first order by one more simplified round from the
+// accepted r_ (d = J^{-1} r_ with the kept factors, p moved by the kept Hessian): by -(delta_x d + delta_p H d),
+// delta's derivatives from the last Newton system.
 template <int N, class T>
 void LaneStep<N, T>::polish(Mask E, T* delta) const {
-    const Mask P = lanes::both(E, newton_rules::polishes(correction_, lanes::max(x_norm_, state_norm(xb_))));
-    if (!lanes::any(P)) return;
     T d[N], q[N];
     solve_kept(r_, d);
-    const Mask go = lanes::both(P, all_finite<N>(d));
+    const Mask go = lanes::both(E, all_finite<N>(d));
     for (int i = 0; i < N; ++i) {
         q[i] = T{};
         for (int k = 0; k < N; ++k) q[i] = q[i] + H_[i + N * k] * d[k];

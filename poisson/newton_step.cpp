@@ -343,19 +343,19 @@ StepStatus NewtonStepper::finish(double x_norm, Eigen::VectorXd& increment) {
         return StepStatus::ill_conditioned;
     in_->realisation_.delta(xb_, p_, in_->check_.delta);
     increment = in_->check_.delta;
-    polish(x_norm, increment);
+    polish(increment);
     if (!increment.allFinite()) return StepStatus::non_finite;
     return truncation_ > opt_.truncation_bound ? StepStatus::truncation_above_bound : StepStatus::ok;
 }
 
-// After the acceptance test, where the last correction was above round-off (newton_rules::polishes): the increment
-// moved to first order by one more simplified round from the accepted r_ (dx = J^{-1} r_ with the kept factors, p
-// moved by Hess S_dt dx): by -(delta_x dx + delta_p Hess S_dt dx), delta's derivatives from the last Newton system
-// (nearby). That round's move is mostly below the ulps of xb and p, which cannot hold it: moving them dropped it, and
-// the accepted residual's part along the leaf stayed, a bias of the Casimirs (docs/math.md 6). Not an iteration, and
-// not tested again: the accepted residual is what the step reports.
-void NewtonStepper::polish(double x_norm, Eigen::VectorXd& increment) {
-    if (!newton_rules::polishes(correction_, std::max(x_norm, state_norm(xb_)))) return;
+// After the acceptance test, always: the increment moved to first order by one more simplified round from the
+// accepted r_ (dx = J^{-1} r_ with the kept factors, p moved by Hess S_dt dx): by -(delta_x dx + delta_p Hess S_dt dx),
+// delta's derivatives from the last Newton system (nearby). That round's move is mostly below the ulps of xb and p,
+// which cannot hold it: moving them dropped it, and the accepted residual's part along the leaf stayed, a bias of the
+// Casimirs; and a residual left by a correction of a few ulps of xb is that correction's rounding, the same way at
+// every step, not round-off (docs/math.md 6). Not an iteration, and not tested again: the accepted residual is what
+// the step reports.
+void NewtonStepper::polish(Eigen::VectorXd& increment) {
     if (!solve(true) || !dx_.allFinite()) return;
     if (sparse_) {
         in_->gradient_.hessian.multiply(hessian_.data(), dx_, r_);

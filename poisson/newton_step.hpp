@@ -164,7 +164,7 @@ private:
     bool within_tolerance();
     void add_propagated_sizes();
     StepStatus finish(double x_norm, Eigen::VectorXd& increment);
-    void polish(double x_norm, Eigen::VectorXd& increment);
+    void polish(Eigen::VectorXd& increment);
     bool solve(bool again);
     void size_scratch(std::size_t n);
     std::vector<CompiledMap*> compiled_maps();  // every map the step evaluates, for native code (StepOptions::native)

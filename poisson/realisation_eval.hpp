@@ -182,11 +182,12 @@ private:
     // Lie-Poisson: B_m / m!, m = 0..D; rotation: b_2j = B_2j / (2j)!, j = 1..20, then -j b_2(j+1), j = 1..19 (the
     // derivative's coefficients of h(s) = sum_j b_2j (-s)^(j-1))
     std::vector<double> b_;
-    double axial_[3][3] = {};   // rotation: the axial vector c_j of each C_j (C_j v = c_j x v), read at every step
-    double axial_sign_ = 0;     // rotation: s where every c_j = s e_j (s = +-1: so(3) itself), else 0
-    int block_[3] = {0, 1, 2};  // rotation: the coordinates of its three non-zero rows, in order
-    std::vector<double> q_;     // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
-    double radius_ = 0;         // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off
+    std::vector<double> b_low_;  // Lie-Poisson: B_m / m! - b_m, each rounded (the acceptance test's series)
+    double axial_[3][3] = {};    // rotation: the axial vector c_j of each C_j (C_j v = c_j x v), read at every step
+    double axial_sign_ = 0;      // rotation: s where every c_j = s e_j (s = +-1: so(3) itself), else 0
+    int block_[3] = {0, 1, 2};   // rotation: the coordinates of its three non-zero rows, in order
+    std::vector<double> q_;      // Lie-Poisson: B_2j / (2j)!, j = 0..J, Q's series at |Z| <= 1
+    double radius_ = 0;          // Lie-Poisson: |L|_inf up to which the series b_ is exact to round-off
     CompiledMap map_;         // polynomial: alpha, delta, alpha_x, delta_x (pattern_x_), alpha_p, delta_p (pattern_p_)
     CompiledMap values_map_;  // polynomial: alpha - x, then the neglected parts
     CompiledMap size_map_;    // polynomial: alpha with every coefficient replaced by its absolute value

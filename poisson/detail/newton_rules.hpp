@@ -67,17 +67,6 @@ PGI_LANE_INLINE lanes::mask_t<T> stays_simplified(T correction, T last) {
     return correction <= last / 2;
 }
 
-/// An accepted step whose last correction c exceeded (u / 64) / simplified_from of max(|x|, |xb|): one more
-/// simplified round (the kept factors, p updated by the Hessian, the realisation's values anew) before its increment
-/// is taken. The error c leaves is c times the Newton matrix's relative error, which is below simplified_from (the
-/// correction it was factored for, and the Hessian's truncation, u / newton_tol): at most u / 64 below this bound,
-/// but above it up to ~u, and systematic, not random (a smooth function of the state): the Casimirs took it as a
-/// bias of ~dt u per step (docs/math.md 6, Casimirs).
-template <class T>
-PGI_LANE_INLINE lanes::mask_t<T> polishes(T correction, T scale) {
-    return correction > (unit_roundoff / 64 / simplified_from) * scale;
-}
-
 /// An accepted step whose residual's tolerance exceeds the noise: ill-conditioned.
 template <class T>
 PGI_LANE_INLINE lanes::mask_t<T> ill_conditioned(T tolerance, T noise) {
