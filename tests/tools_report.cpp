@@ -120,6 +120,17 @@ TEST_CASE("LaTeX reports of the Volterra lattice (k = 6) and Henon-Heiles (throu
     }
 }
 
+TEST_CASE("LaTeX reports: a scene name in any script compiles; what pdflatex cannot set is shown as its code point") {
+    Scene s = load_scene(test::scene_path("rigid_body"));
+    s.name =
+        "\xe5\x89\x9b\xe4\xbd\x93 \xe2\x80\x93 Euler\xe2\x80\x99s top \xc3\xa9 \xf0\x9f\x8c\x80 100% & x_1 ~\x01 \xff";
+    const std::string tex = report_latex(report_data(s, 2));
+    for (const std::string shown : {"\\texttt{U+525B}\\texttt{U+4F53}", "\xe2\x80\x93 Euler\xe2\x80\x99s top \xc3\xa9",
+                                    "\\texttt{U+1F300} 100\\% \\& x\\_1 \\~{}\\texttt{U+0001} \\texttt{U+FFFD}"})
+        CHECK_MESSAGE(tex.find(shown) != std::string::npos, shown);
+    if (!pdflatex_log(tex, "names")) MESSAGE("pdflatex is not installed: the report was not compiled");
+}
+
 TEST_CASE("RunSeries: at most the requested number of bins, and every bin keeps its largest error") {
     RunSeries s(10000, 1, {"H"}, {1.0}, 100);  // H(x0) = 1 made of terms of size 1
     double x = 0;

@@ -30,18 +30,46 @@ json poly_entries(const std::vector<Poly>& v) {
     return a;
 }
 
+// The UTF-8 sequence at s[i] (advancing i past it): its code point, or U+FFFD for a malformed one (one byte skipped).
+char32_t next_code_point(const std::string& s, std::size_t& i) {
+    const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(s[k]); };
+    const unsigned char b = byte(i);
+    const int extra = b < 0x80 ? 0 : (b >> 5) == 0x6 ? 1 : (b >> 4) == 0xE ? 2 : (b >> 3) == 0x1E ? 3 : -1;
+    if (extra < 0 || i + std::size_t(extra) >= s.size()) return ++i, U'\uFFFD';
+    char32_t c = extra == 0 ? b : b & (0x3F >> extra);
+    for (int k = 1; k <= extra; ++k) {
+        if ((byte(i + std::size_t(k)) & 0xC0) != 0x80) return ++i, U'\uFFFD';
+        c = (c << 6) | (byte(i + std::size_t(k)) & 0x3F);
+    }
+    i += std::size_t(extra) + 1;
+    return c;
+}
+
+// Text for LaTeX: its special characters escaped; a character outside ASCII as itself where pdflatex's default UTF-8
+// input sets it up for its default fonts (Latin-1's letters, dashes and quotes), else (a control character too) as its
+// code point, \texttt{U+525B}: pdflatex stops at the first character it has not set up, and a scene's name may hold
+// any.
 std::string latex_escape(const std::string& s) {
     std::string out;
-    for (char c : s) {
-        if (std::string("#$%&_{}").find(c) != std::string::npos) out += '\\';
-        if (c == '\\')
+    for (std::size_t i = 0; i < s.size();) {
+        const std::size_t start = i;
+        const char32_t c = next_code_point(s, i);
+        if (c >= 0x80 || c < 0x20 || c == 0x7F) {
+            const bool set_up = (c >= 0xC0 && c <= 0xFF && c != 0xD7 && c != 0xF7) || (c >= 0x2013 && c <= 0x2014) ||
+                                (c >= 0x2018 && c <= 0x201D);
+            out += set_up ? s.substr(start, i - start) : fmt::format("\\texttt{{U+{:04X}}}", std::uint32_t(c));
+            continue;
+        }
+        const char a = char(c);
+        if (std::string("#$%&_{}").find(a) != std::string::npos) out += '\\';
+        if (a == '\\')
             out += "\\textbackslash{}";
-        else if (c == '^')
+        else if (a == '^')
             out += "\\^{}";
-        else if (c == '~')
+        else if (a == '~')
             out += "\\~{}";
         else
-            out += c;
+            out += a;
     }
     return out;
 }
