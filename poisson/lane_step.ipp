@@ -151,6 +151,11 @@ LaneStep<N, T>::LaneStep(const NewtonStepper& s)
     for (auto& e : pivot_inverse_) e = T{};
     for (auto* v : {x_, xb_, good_, p_, r_, dx_})
         for (int i = 0; i < N; ++i) v[i] = T{};
+    // (a lane never evaluated, its x not finite, is still read by the masked products of accept_check and polish)
+    for (auto* v : {values_.alpha, values_.delta, values_.exponent, values_.em1})
+        for (int i = 0; i < N; ++i) v[i] = T{};
+    for (auto* v : {values_.alpha_x, values_.alpha_p, values_.delta_x, values_.delta_p})
+        for (int e = 0; e < N * N; ++e) v[e] = T{};
     for (auto& m : swaps_) m = lanes::none_mask<T>();
     // Hess S_dt's entries on the first N coordinates: with_hessian's outputs are grad S_dt (every coordinate's),
     // then the Hessian's pattern values

@@ -154,7 +154,7 @@ private:
     void eval_lie_poisson(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     void eval_rotation(const Eigen::VectorXd& x, const Eigen::VectorXd& p, RealisationValues& v) const;
     /// so(3) on its three coordinates (x3, p3: their values; the blocks 3 x 3, column-major): eval_lanes' alpha,
-    /// delta, alpha_x and alpha_p, check_lanes' values and delta_lanes' delta there (poisson/realisation_lanes.ipp).
+    /// delta and their derivatives, check_lanes' values and delta_lanes' delta there (poisson/realisation_lanes.ipp).
     template <class T>
     void rotation_eval(const T* x3, const T* p3, T* alpha, T* delta, T* alpha_x, T* alpha_p, T* delta_x,
                        T* delta_p) const;
