@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 using namespace pgi;
@@ -84,6 +85,14 @@ Scheme scheme_of(SchemeValues v) {
     return Scheme(v);
 }
 
+SchemeValues values_of(std::vector<std::string> coordinates, std::vector<std::pair<std::string, std::string>> brackets,
+                       std::string hamiltonian, std::vector<std::string> casimirs, long order) {
+    SchemeValues v;
+    v.coordinates = std::move(coordinates), v.brackets = std::move(brackets);
+    v.hamiltonian = std::move(hamiltonian), v.casimirs = std::move(casimirs), v.order = order;
+    return v;
+}
+
 }  // namespace
 
 TEST_CASE("Casimirs over 1e5 steps: a round-off random walk on every bundled scene at 1, 2 and 4 times its dt" *
@@ -146,31 +155,29 @@ TEST_CASE("Casimirs over 1e5 steps: a round-off random walk on every realisation
 // so 1e4 steps, where the bias was 8.6e-14 and the bound is 4.4e-14).
 TEST_CASE("Casimirs over long runs: no bias from the polishing round, the residual's rounding or a sum's order" *
           doctest::skip(sanitized)) {
-    SchemeValues five;
-    five.coordinates = {"x1", "x2", "x3", "x4", "x5"};
-    five.brackets = {{"x1,x2", "x1*x2"},  {"x2,x3", "x2*x3"},  {"x3,x4", "x3*x4"},  {"x4,x5", "x4*x5"},
-                     {"x5,x1", "x5*x1"},  {"x1,x3", "-x1*x3"}, {"x2,x4", "-x2*x4"}, {"x3,x5", "-x3*x5"},
-                     {"x4,x1", "-x4*x1"}, {"x5,x2", "-x5*x2"}};
-    five.hamiltonian = "x1 + x2 + x3 + x4 + x5";
-    five.casimirs = {"x1*x2*x3*x4*x5"};
+    SchemeValues five = values_of({"x1", "x2", "x3", "x4", "x5"},
+                                  {{"x1,x2", "x1*x2"},
+                                   {"x2,x3", "x2*x3"},
+                                   {"x3,x4", "x3*x4"},
+                                   {"x4,x5", "x4*x5"},
+                                   {"x5,x1", "x5*x1"},
+                                   {"x1,x3", "-x1*x3"},
+                                   {"x2,x4", "-x2*x4"},
+                                   {"x3,x5", "-x3*x5"},
+                                   {"x4,x1", "-x4*x1"},
+                                   {"x5,x2", "-x5*x2"}},
+                                  "x1 + x2 + x3 + x4 + x5", {"x1*x2*x3*x4*x5"}, 4);
     Eigen::VectorXd five_x0(5);
     five_x0 << 1.0, 0.6, 1.3, 0.9, 1.1;
     for (const long k : {4L, 6L}) {
         five.order = k;
         check_drift(casimir_drift("five species k = " + std::to_string(k), scheme_of(five), 0.5, five_x0));
     }
-    SchemeValues sl2;
-    sl2.coordinates = {"x1", "x2", "x3"};
-    sl2.brackets = {{"x1,x2", "-x3"}, {"x2,x3", "x1"}, {"x3,x1", "x2"}};
-    sl2.hamiltonian = "x1^2/2 + x2^2/3 + x3^2/5";
-    sl2.casimirs = {"x1^2 + x2^2 - x3^2"};
-    sl2.order = 4;
+    const SchemeValues sl2 = values_of({"x1", "x2", "x3"}, {{"x1,x2", "-x3"}, {"x2,x3", "x1"}, {"x3,x1", "x2"}},
+                                       "x1^2/2 + x2^2/3 + x3^2/5", {"x1^2 + x2^2 - x3^2"}, 4);
     check_drift(casimir_drift("sl(2)* k = 4", scheme_of(sl2), 0.2, Eigen::Vector3d(0.3, 0.5, 0.9), 1000000));
-    SchemeValues nambu;
-    nambu.coordinates = {"x1", "x2", "x3"};
-    nambu.brackets = {{"x1,x2", "x3^2 + x1*x2"}, {"x2,x3", "2*x1*x2 + x2*x3"}, {"x3,x1", "x1^2 + x1*x3"}};
-    nambu.hamiltonian = "(x1^2 + 2*x2^2 + 3*x3^2)/2";
-    nambu.casimirs = {"x1^2*x2 + x3^3/3 + x1*x2*x3"};
-    nambu.order = 2;
+    const SchemeValues nambu = values_of(
+        {"x1", "x2", "x3"}, {{"x1,x2", "x3^2 + x1*x2"}, {"x2,x3", "2*x1*x2 + x2*x3"}, {"x3,x1", "x1^2 + x1*x3"}},
+        "(x1^2 + 2*x2^2 + 3*x3^2)/2", {"x1^2*x2 + x3^3/3 + x1*x2*x3"}, 2);
     check_drift(casimir_drift("Nambu-type quadratic", scheme_of(nambu), 0.05, Eigen::Vector3d(0.6, 0.8, 0.3), 10000));
 }
