@@ -1,4 +1,5 @@
 #include "scheme/input.hpp"
+#include "poisson/phase_space.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -38,7 +39,7 @@ void check_coordinates(const std::vector<std::string>& names) {
             if (names[j] == names[i]) throw InputError(key, "duplicate coordinate '" + names[i] + "'");
     }
     try {
-        Ring check(names);  // identifier syntax
+        PhaseSpace check(names);  // identifier syntax, and no coordinate named as another's momentum (p_x)
     } catch (const std::exception& e) {
         throw InputError("coordinates", e.what());
     }

@@ -217,6 +217,14 @@ def test_every_exact_method_and_run_refuses_an_invalid_scheme_as_the_command_lin
             assert str(e.value) in err  # the command line's message, word for word
 
 
+def test_a_coordinate_named_as_a_momentum_is_refused_as_the_command_line_refuses_it():
+    code, _, err = cli("check", BAD_SCENES / "coordinate_named_as_a_momentum.toml", check=False)
+    with pytest.raises(pgi.InputError, match=r"coordinates: coordinate 'p_x' is the name of the momentum of coordinate 'x'"
+                       ) as e:
+        pgi.Scheme(coordinates=["x", "p_x"], brackets={"x,p_x": "1"}, hamiltonian="x^2/2 + p_x^2/2")
+    assert code == 2 and str(e.value) in err
+
+
 def test_a_bracket_failing_jacobi_from_values_is_refused_unless_trusted():
     broken = dict(coordinates=["x1", "x2", "x3"], brackets={"x1,x2": "1", "x2,x3": "-x2", "x3,x1": "x1"},
                   hamiltonian="x1^2/2 + x2^2/2 + x3^2/2", dt=0.1, x0=[0.6, 0.8, 0.3], t_end=1)
